@@ -1,0 +1,42 @@
+# One entry point for people and CI. Every target sets up what it needs on a fresh machine.
+VENV      ?= .venv
+PY        := $(VENV)/bin/python
+STAMP     := $(VENV)/.installed
+PEERS     ?= .venv-peers
+ARGS      ?=
+
+.PHONY: run test bench chromium snapshots lint clean
+
+run: $(STAMP)          ## set up and start the interactive planner
+	$(PY) -m app $(ARGS)
+
+test: $(STAMP) chromium  ## set up (venv + Chromium) and run the whole test suite
+	$(PY) -m pytest -q $(ARGS)
+
+snapshots: $(STAMP) chromium  ## re-render the golden PNGs after an intended visual change
+	UPDATE_SNAPSHOTS=1 $(PY) -m pytest -q tests/test_snapshots.py
+
+bench: $(STAMP) $(PEERS)/.installed  ## benchmarks against pyvisgraph and extremitypathfinder
+	$(PY) tests/benchmarks/run.py --peers-python $(PEERS)/bin/python $(ARGS)
+
+lint: $(STAMP)
+	$(VENV)/bin/pip install -q ruff pyright
+	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
+
+chromium:
+	@bash tools/ensure-chromium.sh
+
+$(STAMP): pyproject.toml
+	python3 -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	touch $@
+
+# The peers pin numpy<2, so they live in their own environment; the project never imports them.
+$(PEERS)/.installed:
+	python3 -m venv $(PEERS)
+	$(PEERS)/bin/pip install -q pyvisgraph extremitypathfinder "numpy<2" shapely
+	touch $@
+
+clean:
+	rm -rf $(VENV) $(PEERS)

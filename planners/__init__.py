@@ -1,0 +1,52 @@
+"""Path planners for a disk robot among polygon obstacles (Chapter 9, sections 9.3-9.6).
+
+Pure functions on plain data: no viser, no drawing, no clocks inside the algorithms.
+
+>>> import planners
+>>> scene = planners.load_scene({"format": 1, "obstacles": [], "start": [0, 0], "goal": [3, 4]})
+>>> planners.plan_all(scene)["vg"].length
+5.0
+"""
+
+from __future__ import annotations
+
+from planners import api, expansion, scene, visibility
+from planners.api import PLANNERS, PlanOptions, plan_all, result_to_json
+from planners.expansion import ConfigurationSpace, configuration_space, expand_disk, expand_polygon, expand_square
+from planners.scene import Robot, ScenarioError, Scene, load_scene, save_scene, scene_problems
+from planners.visibility import (
+    VisibilityResult,
+    plan_visibility,
+    segments_free,
+    shortest_path,
+    simplified_visibility_graph,
+    visibility_graph,
+)
+
+__all__ = [
+    "PLANNERS",
+    "ConfigurationSpace",
+    "PlanOptions",
+    "Robot",
+    "ScenarioError",
+    "Scene",
+    "VisibilityResult",
+    "api",
+    "configuration_space",
+    "expand_disk",
+    "expand_polygon",
+    "expand_square",
+    "expansion",
+    "load_scene",
+    "plan_all",
+    "plan_visibility",
+    "result_to_json",
+    "save_scene",
+    "scene",
+    "scene_problems",
+    "segments_free",
+    "shortest_path",
+    "simplified_visibility_graph",
+    "visibility",
+    "visibility_graph",
+]

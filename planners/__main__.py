@@ -1,0 +1,71 @@
+"""Command line: ``python -m planners plan FILE [FILE ...] [--planners vg,svg,dsb] [--sensor-range R]``.
+
+With one file, prints one JSON object (DESIGN.md); with several, one JSON object per line
+in input order. An unreadable or invalid file: exit 2 with one line on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+
+from planners.api import PLANNERS, PlanOptions, plan_all, result_to_json
+from planners.scene import ScenarioError, load_scene
+
+DEFAULT_PLANNERS = tuple(PLANNERS)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line and exit 2, like a bad file
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _planner_list(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    unknown = [n for n in names if n not in PLANNERS]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(f"unknown planner {unknown[0] if unknown else text!r}; known: {','.join(PLANNERS)}")
+    return names
+
+
+def _sensor_range(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not value > 0 or math.isnan(value):
+        raise argparse.ArgumentTypeError(f"must be positive (inf for unlimited), got {text!r}")
+    return value
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit code."""
+    parser = _Parser(prog="python -m planners", description="Plan paths for scenario files.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    plan = sub.add_parser("plan", help="plan every file and print JSON")
+    plan.add_argument("files", nargs="+", metavar="FILE")
+    plan.add_argument("--planners", type=_planner_list, default=DEFAULT_PLANNERS, help=f"comma-separated subset of {','.join(PLANNERS)}")
+    plan.add_argument("--sensor-range", type=_sensor_range, default=None, metavar="R", help="DSB sensor range [m] (inf: unlimited); default: the scenario's")
+    args = parser.parse_args(argv)
+
+    scenes = []
+    for path in args.files:
+        try:
+            scenes.append(load_scene(path))
+        except ScenarioError as error:
+            print(f"error: {error}", file=sys.stderr)
+            return 2
+    options = PlanOptions(sensor_range=args.sensor_range)
+    for path, scene in zip(args.files, scenes, strict=True):
+        results = plan_all(scene, args.planners, options)
+        out = {"scene": scene.name or path}
+        out.update({name: result_to_json(name, results[name]) for name in args.planners})
+        print(json.dumps(out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

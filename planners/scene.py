@@ -1,0 +1,525 @@
+"""Scene value, pure edits and scenario files.
+
+A :class:`Scene` is an immutable value: every edit returns a new scene, so a scene can be
+cached, compared, undone and shared between threads without locks. Scenario files are the
+JSON format of ``DESIGN.md``; :func:`load_scene` validates every field and names the file
+and the field in its error, :func:`save_scene` writes atomically.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "EXPANSION_MODES",
+    "ROBOT_KINDS",
+    "Robot",
+    "Scenario",
+    "ScenarioError",
+    "Scene",
+    "add_obstacle",
+    "delete_obstacle",
+    "delete_vertex",
+    "insert_vertex",
+    "load_scene",
+    "move_goal",
+    "move_obstacle",
+    "move_start",
+    "move_vertex",
+    "replace_robot",
+    "save_scene",
+    "scene_from_dict",
+    "scene_problems",
+    "scene_to_dict",
+]
+
+import dataclasses
+import json
+import math
+import os
+import tempfile
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import shapely
+from shapely import Polygon
+
+ROBOT_KINDS = ("holonomic", "differential")
+EXPANSION_MODES = ("disk", "square")
+FORMAT_VERSION = 1
+
+Point = tuple[float, float]
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be read: the message names the file and the field."""
+
+    def __init__(self, source: str, field: str, problem: str) -> None:
+        self.source = source
+        self.field = field
+        self.problem = problem
+        super().__init__(f"{source}: {field}: {problem}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Robot:
+    """The robot: its disk radius and its wheels (Fig. 9.4 and 9.7 of the chapter)."""
+
+    kind: str = "holonomic"
+    """``"holonomic"`` (three omni-wheels) or ``"differential"`` (two wheels and a caster)."""
+    radius: float = 0.3
+    """Radius of the robot's disk [m]; obstacles are expanded by it. 0 is a point robot."""
+    wheel_radius: float = 0.05
+    """Wheel radius r [m]."""
+    wheel_distance: float = 0.25
+    """Distance L from the robot's centre to each wheel [m]."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+    """A planning problem: obstacles, start, goal, robot and the planners' settings.
+
+    Polygons are kept exactly as given (any orientation, first vertex not repeated); a
+    scene may hold a polygon that an edit made self-intersecting, which
+    :func:`scene_problems` reports and the planners answer with status ``"invalid"``.
+    """
+
+    obstacles: tuple[Polygon, ...]
+    """Obstacle polygons in the floor plane [m]."""
+    start: Point
+    """Start of the robot's centre (x, y) [m]."""
+    goal: Point
+    """Goal of the robot's centre (x, y) [m]."""
+    boundary: Polygon | None = None
+    """Walls of the environment, or None for an unbounded floor [m]."""
+    robot: Robot = dataclasses.field(default_factory=Robot)
+    """The robot; its radius drives the obstacle expansion."""
+    expansion: str = "disk"
+    """``"disk"`` (exact model, Fig. 9.7) or ``"square"`` (enclosing square, Fig. 9.8)."""
+    sensor_range: float = 2.0
+    """Range R of the 360-degree distance sensor used by the DSB planner [m]."""
+    name: str = ""
+    """Short title shown in the app."""
+    description: str = ""
+    """A sentence or two a lecturer can read aloud."""
+
+
+Scenario = Scene  # the file format's name for the same value
+
+
+# --------------------------------------------------------------------------- validation
+
+
+_TOP_KEYS = {
+    "format",
+    "name",
+    "description",
+    "boundary",
+    "obstacles",
+    "start",
+    "goal",
+    "robot",
+    "expansion",
+    "sensor_range",
+}
+_REQUIRED_KEYS = ("format", "obstacles", "start", "goal")
+_ROBOT_KEYS = {"kind", "radius", "wheel_radius", "wheel_distance"}
+
+
+def _number(source: str, field: str, value: Any) -> float:
+    # bool is an int in Python; a scenario that says `true` for a coordinate is wrong.
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ScenarioError(source, field, f"expected a number, got {_describe(value)}")
+    number = float(value)
+    if not math.isfinite(number):
+        raise ScenarioError(source, field, f"expected a finite number, got {value!r}")
+    return number
+
+
+def _describe(value: Any) -> str:
+    text = json.dumps(value) if not isinstance(value, float) else repr(value)
+    if len(text) > 40:
+        text = text[:37] + "..."
+    return f"{type(value).__name__} {text}"
+
+
+def _point(source: str, field: str, value: Any) -> Point:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ScenarioError(source, field, f"expected a point [x, y], got {_describe(value)}")
+    return (_number(source, f"{field}[0]", value[0]), _number(source, f"{field}[1]", value[1]))
+
+
+def _polygon(source: str, field: str, value: Any) -> Polygon:
+    if not isinstance(value, (list, tuple)):
+        raise ScenarioError(
+            source, field, f"expected a list of [x, y] vertices, got {_describe(value)}"
+        )
+    points = [_point(source, f"{field}[{k}]", v) for k, v in enumerate(value)]
+    return _polygon_from_points(source, field, points)
+
+
+def _polygon_from_points(source: str, field: str, points: list[Point]) -> Polygon:
+    # A ring given closed (first point repeated at the end) is accepted; so are repeated
+    # consecutive vertices, which carry no geometry.
+    ring: list[Point] = []
+    for p in points:
+        if not ring or p != ring[-1]:
+            ring.append(p)
+    if len(ring) > 1 and ring[0] == ring[-1]:
+        ring.pop()
+    if len(set(ring)) < 3:
+        raise ScenarioError(
+            source, field, f"a polygon needs at least 3 distinct vertices, got {len(set(ring))}"
+        )
+    polygon = Polygon(ring)
+    if not polygon.is_valid:
+        raise ScenarioError(source, field, _polygon_problem(polygon))
+    return polygon
+
+
+def _polygon_problem(polygon: Polygon) -> str:
+    reason = shapely.is_valid_reason(polygon)
+    if polygon.convex_hull.area == 0.0:
+        return "polygon has zero area (all vertices on one line)"
+    if reason.startswith(("Self-intersection", "Ring Self-intersection")):
+        where = reason[reason.find("[") :] if "[" in reason else ""
+        return f"polygon intersects itself {where}".rstrip()
+    return f"invalid polygon ({reason})"
+
+
+def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
+    """Validate a scenario mapping (the JSON format of DESIGN.md) and build a Scene.
+
+    Parameters
+    ----------
+    data
+        The parsed JSON object.
+    source
+        What to call the scenario in error messages, usually its file path.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    ScenarioError
+        For unknown keys, wrong types, NaN or infinite numbers, fewer than 3 distinct
+        vertices, self-intersecting polygons, a negative radius or range, or an unknown
+        robot kind or expansion mode. The message names ``source`` and the field.
+
+    Examples
+    --------
+    >>> scene = scene_from_dict({"format": 1, "obstacles": [[[0, 0], [1, 0], [0, 1]]],
+    ...                          "start": [-1, -1], "goal": [2, 2]})
+    >>> scene.start, len(scene.obstacles), scene.robot.kind
+    ((-1.0, -1.0), 1, 'holonomic')
+    """
+    if not isinstance(data, Mapping):
+        raise ScenarioError(source, "(top level)", f"expected a JSON object, got {_describe(data)}")
+    unknown = sorted(set(data) - _TOP_KEYS)
+    if unknown:
+        raise ScenarioError(source, unknown[0], f"unknown key (allowed: {', '.join(sorted(_TOP_KEYS))})")
+    for key in _REQUIRED_KEYS:
+        if key not in data:
+            raise ScenarioError(source, key, "missing required key")
+    if data["format"] != FORMAT_VERSION or isinstance(data["format"], bool):
+        raise ScenarioError(source, "format", f"expected {FORMAT_VERSION}, got {_describe(data['format'])}")
+
+    name = data.get("name", "")
+    description = data.get("description", "")
+    for key, value in (("name", name), ("description", description)):
+        if not isinstance(value, str):
+            raise ScenarioError(source, key, f"expected a string, got {_describe(value)}")
+
+    boundary = None
+    if data.get("boundary") is not None:
+        boundary = _polygon(source, "boundary", data["boundary"])
+
+    obstacles_data = data["obstacles"]
+    if not isinstance(obstacles_data, (list, tuple)):
+        raise ScenarioError(source, "obstacles", f"expected a list of polygons, got {_describe(obstacles_data)}")
+    obstacles = tuple(_polygon(source, f"obstacles[{i}]", o) for i, o in enumerate(obstacles_data))
+
+    start = _point(source, "start", data["start"])
+    goal = _point(source, "goal", data["goal"])
+
+    robot = _robot(source, data.get("robot", {}))
+
+    expansion = data.get("expansion", "disk")
+    if expansion not in EXPANSION_MODES:
+        raise ScenarioError(
+            source, "expansion", f"expected one of {', '.join(EXPANSION_MODES)}, got {_describe(expansion)}"
+        )
+    sensor_range = _number(source, "sensor_range", data.get("sensor_range", 2.0))
+    if sensor_range <= 0:
+        raise ScenarioError(source, "sensor_range", f"must be positive, got {sensor_range!r}")
+
+    return Scene(
+        obstacles=obstacles,
+        start=start,
+        goal=goal,
+        boundary=boundary,
+        robot=robot,
+        expansion=expansion,
+        sensor_range=sensor_range,
+        name=name,
+        description=description,
+    )
+
+
+def _robot(source: str, data: Any) -> Robot:
+    if not isinstance(data, Mapping):
+        raise ScenarioError(source, "robot", f"expected an object, got {_describe(data)}")
+    unknown = sorted(set(data) - _ROBOT_KEYS)
+    if unknown:
+        raise ScenarioError(
+            source, f"robot.{unknown[0]}", f"unknown key (allowed: {', '.join(sorted(_ROBOT_KEYS))})"
+        )
+    defaults = Robot()
+    kind = data.get("kind", defaults.kind)
+    if kind not in ROBOT_KINDS:
+        raise ScenarioError(source, "robot.kind", f"expected one of {', '.join(ROBOT_KINDS)}, got {_describe(kind)}")
+    values = {}
+    for key in ("radius", "wheel_radius", "wheel_distance"):
+        value = _number(source, f"robot.{key}", data.get(key, getattr(defaults, key)))
+        if value < 0 or (key != "radius" and value == 0):
+            bound = "non-negative" if key == "radius" else "positive"
+            raise ScenarioError(source, f"robot.{key}", f"must be {bound}, got {value!r}")
+        values[key] = value
+    return Robot(kind=kind, **values)
+
+
+def load_scene(path_or_dict: str | os.PathLike[str] | Mapping[str, Any]) -> Scene:
+    """Load a scenario from a JSON file (or an already parsed mapping) and validate it.
+
+    Parameters
+    ----------
+    path_or_dict
+        A path to a ``.json`` scenario file, or the parsed mapping itself.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    ScenarioError
+        If the file cannot be read, is not JSON, or any field is wrong; the message names
+        the file and the field.
+    """
+    if isinstance(path_or_dict, Mapping):
+        return scene_from_dict(path_or_dict)
+    path = Path(path_or_dict)
+    source = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise ScenarioError(source, "(file)", f"cannot read: {error.strerror or error}") from None
+    except UnicodeDecodeError:
+        raise ScenarioError(source, "(file)", "not UTF-8 text") from None
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as error:
+        raise ScenarioError(source, f"(line {error.lineno})", f"not valid JSON: {error.msg}") from None
+    except ValueError as error:
+        raise ScenarioError(source, "(file)", str(error)) from None
+    return scene_from_dict(data, source)
+
+
+def _reject_constant(name: str) -> float:
+    # Python's json accepts NaN and Infinity; the format does not.
+    raise ValueError(f"{name} is not a number the format accepts")
+
+
+def scene_to_dict(scene: Scene) -> dict[str, Any]:
+    """Return the scenario mapping for ``scene`` (inverse of :func:`scene_from_dict`)."""
+    data: dict[str, Any] = {
+        "format": FORMAT_VERSION,
+        "name": scene.name,
+        "description": scene.description,
+    }
+    if scene.boundary is not None:
+        data["boundary"] = _ring_list(scene.boundary)
+    data["obstacles"] = [_ring_list(o) for o in scene.obstacles]
+    data["start"] = list(scene.start)
+    data["goal"] = list(scene.goal)
+    data["robot"] = dataclasses.asdict(scene.robot)
+    data["expansion"] = scene.expansion
+    data["sensor_range"] = scene.sensor_range
+    return data
+
+
+def _ring_list(polygon: Polygon) -> list[list[float]]:
+    return [[float(x), float(y)] for x, y in polygon.exterior.coords[:-1]]
+
+
+def save_scene(scene: Scene, path: str | os.PathLike[str]) -> Path:
+    """Write ``scene`` to ``path`` as a scenario file, atomically.
+
+    The JSON goes to a temporary file in the same folder, is flushed to disk, and then
+    renamed over ``path``: a crash leaves either the old file or the new one, never half.
+    A scene that :func:`scene_problems` rejects is refused, so a saved file always loads.
+
+    Raises
+    ------
+    ScenarioError
+        If the scene has a problem (the file is then left untouched) or cannot be written.
+    """
+    path = Path(path)
+    problems = scene_problems(scene)
+    if problems:
+        raise ScenarioError(str(path), "(scene)", "not saved: " + "; ".join(problems))
+    text = json.dumps(scene_to_dict(scene), indent=2) + "\n"
+    folder = path.parent if str(path.parent) else Path()
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as handle:
+                handle.write(text)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    except OSError as error:
+        raise ScenarioError(str(path), "(file)", f"cannot write: {error.strerror or error}") from None
+    return path
+
+
+def scene_problems(scene: Scene) -> list[str]:
+    """List what makes ``scene`` unplannable, in words a student understands.
+
+    Edits may leave a polygon self-intersecting or with too few vertices; the app shows
+    these messages and the planners answer ``"invalid"`` until the user fixes them.
+
+    Examples
+    --------
+    >>> bowtie = Polygon([(0, 0), (1, 1), (1, 0), (0, 1)])
+    >>> scene_problems(Scene(obstacles=(bowtie,), start=(2, 2), goal=(3, 3)))
+    ['obstacle 1: polygon intersects itself [0.5 0.5]']
+    """
+    problems = []
+    named = [(f"obstacle {i + 1}", o) for i, o in enumerate(scene.obstacles)]
+    if scene.boundary is not None:
+        named.append(("boundary", scene.boundary))
+    for label, polygon in named:
+        coords = polygon.exterior.coords[:-1] if not polygon.is_empty else []
+        if len(set(coords)) < 3:
+            problems.append(f"{label}: needs at least 3 distinct vertices")
+        elif not polygon.is_valid:
+            problems.append(f"{label}: {_polygon_problem(polygon)}")
+    for label, point in (("start", scene.start), ("goal", scene.goal)):
+        if not all(math.isfinite(c) for c in point):
+            problems.append(f"{label}: coordinates must be finite")
+    if not (scene.robot.radius >= 0 and math.isfinite(scene.robot.radius)):
+        problems.append("robot radius must be a non-negative number")
+    if not scene.sensor_range > 0:
+        problems.append("sensor range must be positive")
+    return problems
+
+
+# --------------------------------------------------------------------------- pure edits
+
+
+def _coords(polygon: Polygon) -> list[Point]:
+    return [(float(x), float(y)) for x, y in polygon.exterior.coords[:-1]]
+
+
+def _xy(xy: Iterable[float]) -> Point:
+    x, y = (float(v) for v in xy)
+    return (x, y)
+
+
+def _replace_obstacle(scene: Scene, i: int, coords: Sequence[Point]) -> Scene:
+    obstacles = list(scene.obstacles)
+    obstacles[i] = Polygon(coords)
+    return dataclasses.replace(scene, obstacles=tuple(obstacles))
+
+
+def move_start(scene: Scene, xy: Iterable[float]) -> Scene:
+    """Return ``scene`` with the start moved to ``xy``."""
+    return dataclasses.replace(scene, start=_xy(xy))
+
+
+def move_goal(scene: Scene, xy: Iterable[float]) -> Scene:
+    """Return ``scene`` with the goal moved to ``xy``."""
+    return dataclasses.replace(scene, goal=_xy(xy))
+
+
+def move_vertex(scene: Scene, i: int, j: int, xy: Iterable[float]) -> Scene:
+    """Return ``scene`` with vertex ``j`` of obstacle ``i`` moved to ``xy``.
+
+    The result may be self-intersecting; :func:`scene_problems` says so.
+
+    Examples
+    --------
+    >>> s = Scene(obstacles=(Polygon([(0, 0), (1, 0), (0, 1)]),), start=(2, 2), goal=(3, 3))
+    >>> list(move_vertex(s, 0, 1, (2, 0)).obstacles[0].exterior.coords)
+    [(0.0, 0.0), (2.0, 0.0), (0.0, 1.0), (0.0, 0.0)]
+    """
+    coords = _coords(scene.obstacles[i])
+    coords[j] = _xy(xy)
+    return _replace_obstacle(scene, i, coords)
+
+
+def insert_vertex(scene: Scene, i: int, j: int, xy: Iterable[float] | None = None) -> Scene:
+    """Return ``scene`` with a new vertex after vertex ``j`` of obstacle ``i``.
+
+    Without ``xy`` the vertex goes to the middle of the edge from ``j`` to ``j + 1``.
+    """
+    coords = _coords(scene.obstacles[i])
+    if xy is None:
+        (x0, y0), (x1, y1) = coords[j], coords[(j + 1) % len(coords)]
+        point = ((x0 + x1) / 2.0, (y0 + y1) / 2.0)
+    else:
+        point = _xy(xy)
+    coords.insert(j + 1, point)
+    return _replace_obstacle(scene, i, coords)
+
+
+def delete_vertex(scene: Scene, i: int, j: int) -> Scene:
+    """Return ``scene`` without vertex ``j`` of obstacle ``i``.
+
+    Raises
+    ------
+    ValueError
+        If the obstacle would be left with fewer than 3 vertices.
+    """
+    coords = _coords(scene.obstacles[i])
+    if len(coords) <= 3:
+        raise ValueError(f"obstacle {i + 1} has only 3 vertices; delete the obstacle instead")
+    del coords[j]
+    return _replace_obstacle(scene, i, coords)
+
+
+def add_obstacle(scene: Scene, coords: Sequence[Iterable[float]]) -> Scene:
+    """Return ``scene`` with a new obstacle polygon appended.
+
+    Raises
+    ------
+    ScenarioError
+        If the polygon has fewer than 3 distinct vertices or intersects itself.
+    """
+    points = [_xy(c) for c in coords]
+    polygon = _polygon_from_points("new obstacle", "vertices", points)
+    return dataclasses.replace(scene, obstacles=(*scene.obstacles, polygon))
+
+
+def delete_obstacle(scene: Scene, i: int) -> Scene:
+    """Return ``scene`` without obstacle ``i``."""
+    obstacles = list(scene.obstacles)
+    del obstacles[i]
+    return dataclasses.replace(scene, obstacles=tuple(obstacles))
+
+
+def move_obstacle(scene: Scene, i: int, delta: Iterable[float]) -> Scene:
+    """Return ``scene`` with obstacle ``i`` translated by ``delta`` = (dx, dy)."""
+    dx, dy = _xy(delta)
+    coords = [(x + dx, y + dy) for x, y in _coords(scene.obstacles[i])]
+    return _replace_obstacle(scene, i, coords)
+
+
+def replace_robot(scene: Scene, **changes: Any) -> Scene:
+    """Return ``scene`` with robot fields changed, e.g. ``replace_robot(s, radius=0.2)``."""
+    return dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, **changes))

@@ -1,0 +1,506 @@
+"""Visibility graphs (section 9.4) and simplified visibility graphs (section 9.5).
+
+Both graphs live in the configuration space of :mod:`planners.expansion`: the robot is a
+point, obstacles are expanded, and free space is closed (a segment may run along an
+expanded edge or touch a vertex, never cross an interior).
+
+Full visibility graph (VG)
+    Nodes are every vertex of the free space's border (expanded obstacles and shrunk
+    walls) plus start and goal; an edge joins every pair that sees each other.
+Simplified visibility graph (SVG)
+    Only the segments a shortest path can use: those *tangent* to the blocked region at
+    each obstacle end (the line through the segment does not enter the obstacle next to
+    that vertex). Between two obstacles these are the chapter's common tangents
+    (step 1); from start and goal they go to the tangent hull vertices (step 2a); along an
+    obstacle they are the edges joining two convex vertices (hull edges, or obstacle
+    edges in a pocket, steps 2a and 2b). The chapter's rule for a start inside a convex
+    hull (2b) keeps only vertices on the hull; the tangent rule also keeps a convex
+    vertex inside a pocket when a path must wrap around it, which the chapter's wording
+    would miss. Every shortest path of the VG is a path of the SVG, so both give the
+    same length.
+
+How a segment is tested. It is blocked when it properly crosses an edge of the border.
+Otherwise the border's vertices that lie on it (within a tolerance ``eps``) cut it into
+pieces, each of which is entirely free, entirely blocked or runs along an edge; the
+middle of each piece decides. This is exact for collinear vertices, paths grazing a
+vertex, start or goal on an edge, and obstacles touching at a point.
+
+References
+----------
+T. Lozano-Perez and M. A. Wesley, "An algorithm for planning collision-free paths among
+polyhedral obstacles", Communications of the ACM 22(10), 1979.
+J. O'Rourke, Computational Geometry in C, 2nd ed., Cambridge University Press, 1999.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "VisibilityResult",
+    "plan_visibility",
+    "segments_free",
+    "shortest_path",
+    "simplified_visibility_graph",
+    "visibility_graph",
+]
+
+import dataclasses
+import functools
+import math
+
+import networkx as nx
+import numpy as np
+import numpy.typing as npt
+import shapely
+
+from planners.expansion import ConfigurationSpace
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.intp]
+
+# Segment/edge pairs tested at once; bounds memory to a few hundred MB in the worst case.
+_CHUNK_PAIRS = 2_000_000
+# Below this many segment x edge pairs, testing all of them beats a spatial index.
+_DENSE_LIMIT = 200_000
+# Directions closer than this (as a sine) to an edge count as running along it.
+_ANGLE_TOL = 1e-12
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class VisibilityResult:
+    """What the VG or SVG planner found, with everything the lesson shows."""
+
+    planner: str
+    """``"vg"`` or ``"svg"``."""
+    status: str
+    """``"ok"``, ``"unreachable"`` or ``"invalid"``."""
+    path: FloatArray
+    """Shortest path from start to goal, shape (N, 2) [m]; shape (0, 2) when none."""
+    length: float | None
+    """Length of ``path`` [m], or None when there is none."""
+    graph: nx.Graph
+    """Nodes are (x, y) tuples with attribute ``kind`` (start, goal, vertex); edges have
+    ``weight``, the Euclidean length [m]."""
+    reason: str | None = None
+    """Why there is no path, in words; None when there is one."""
+    cspace: ConfigurationSpace | None = None
+    """The configuration space the graph was built in."""
+    ms: float = 0.0
+    """Compute time [ms], set by :func:`planners.plan_all` (shared expansion included)."""
+
+    @property
+    def nodes(self) -> int:
+        """Number of graph nodes."""
+        return self.graph.number_of_nodes()
+
+    @property
+    def edges(self) -> int:
+        """Number of graph edges."""
+        return self.graph.number_of_edges()
+
+
+# --------------------------------------------------------------------------- the border
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Border:
+    """The free space's border as flat arrays, built once per configuration space."""
+
+    points: FloatArray  # (n, 2) unique vertices
+    edge_a: FloatArray  # (m, 2) edge starts; blocked space on the left of a -> b
+    edge_b: FloatArray  # (m, 2)
+    occ_node: IntArray  # (o,) node of each ring vertex occurrence
+    occ_next: FloatArray  # (o, 2) unit direction to the next ring vertex
+    occ_prev: FloatArray  # (o, 2) unit direction to the previous ring vertex
+    occ_convex: BoolArray  # (o,) blocked wedge narrower than pi: a path can wrap here
+
+    @functools.cached_property
+    def edge_tree(self) -> shapely.STRtree:
+        return shapely.STRtree(shapely.linestrings(np.stack([self.edge_a, self.edge_b], axis=1)))
+
+    @functools.cached_property
+    def first_occurrence(self) -> IntArray:
+        first = np.full(len(self.points), -1, dtype=np.intp)
+        first[self.occ_node[::-1]] = np.arange(len(self.occ_node))[::-1]
+        return first
+
+    @functools.cached_property
+    def extra_occurrences(self) -> IntArray:
+        """Occurrences of vertices that appear more than once (obstacles touching there)."""
+        seen = np.zeros(len(self.points), dtype=bool)
+        extra = []
+        for o, node in enumerate(self.occ_node):
+            if seen[node]:
+                extra.append(o)
+            seen[node] = True
+        return np.asarray(extra, dtype=np.intp)
+
+    @functools.cached_property
+    def convex_nodes(self) -> BoolArray:
+        convex = np.zeros(len(self.points), dtype=bool)
+        convex[self.occ_node[self.occ_convex]] = True
+        return convex
+
+
+@functools.lru_cache(maxsize=64)
+def _border(cspace: ConfigurationSpace) -> _Border:
+    rings = [r for r in cspace.rings if len(r) >= 3]
+    if not rings:
+        empty = np.zeros((0, 2))
+        none = np.zeros(0, dtype=np.intp)
+        return _Border(empty, empty, empty, none, empty, empty, np.zeros(0, dtype=bool))
+    allv = np.vstack(rings)
+    # Vertices shared by several rings (obstacles touching at a point) become one node.
+    points, occ_node = np.unique(allv, axis=0, return_inverse=True)
+    occ_node = occ_node.reshape(-1)
+    nxt = np.vstack([np.roll(r, -1, axis=0) for r in rings])
+    prv = np.vstack([np.roll(r, 1, axis=0) for r in rings])
+    to_next = _unit(nxt - allv)
+    to_prev = _unit(prv - allv)
+    # Blocked space is on the left of each ring: the blocked wedge at a vertex turns
+    # counter-clockwise from the next edge to the previous one.
+    convex = _cross(to_next, to_prev) > _ANGLE_TOL
+    return _Border(points, allv, nxt, occ_node, to_next, to_prev, convex)
+
+
+def _unit(v: FloatArray) -> FloatArray:
+    n = np.hypot(v[:, 0], v[:, 1])
+    return v / np.where(n > 0, n, 1.0)[:, None]
+
+
+def _cross(u: FloatArray, v: FloatArray) -> FloatArray:
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+def _strictly_inside_wedge(nxt: FloatArray, prv: FloatArray, d: FloatArray) -> BoolArray:
+    """Tell if unit direction ``d`` points strictly into the blocked wedge at a vertex."""
+    narrow = _cross(nxt, prv) > _ANGLE_TOL
+    inside_narrow = (_cross(nxt, d) > _ANGLE_TOL) & (_cross(d, prv) > _ANGLE_TOL)
+    # A wedge of pi or more: inside unless in the closed free wedge from prv to nxt.
+    in_free = (_cross(prv, d) >= -_ANGLE_TOL) & (_cross(d, nxt) >= -_ANGLE_TOL)
+    return np.where(narrow, inside_narrow, ~in_free)
+
+
+def _into_blocked(border: _Border, node: IntArray, d: FloatArray) -> BoolArray:
+    """For each (node, unit direction): does stepping from the vertex along d enter blocked space?"""
+    result = np.zeros(len(node), dtype=bool)
+    is_vertex = node >= 0
+    if not is_vertex.any():
+        return result
+    occ = border.first_occurrence[node[is_vertex]]
+    result[is_vertex] = _strictly_inside_wedge(border.occ_next[occ], border.occ_prev[occ], d[is_vertex])
+    for o in border.extra_occurrences:
+        hit = node == border.occ_node[o]
+        if hit.any():
+            result[hit] |= _strictly_inside_wedge(
+                border.occ_next[o][None, :], border.occ_prev[o][None, :], d[hit]
+            )
+    return result
+
+
+# --------------------------------------------------------------------------- segment test
+
+
+def segments_free(cspace: ConfigurationSpace, a: npt.ArrayLike, b: npt.ArrayLike) -> BoolArray:
+    """Tell, for each segment a[k] -> b[k], whether it lies in the closed free space.
+
+    Parameters
+    ----------
+    cspace
+        The configuration space.
+    a, b
+        Segment end points, shape (S, 2) [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean array of shape (S,).
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
+    >>> segments_free(space, [[-1, 0], [-1, -1], [0, 0]], [[2, 0], [2, 2], [1, 1]])
+    array([ True, False, False])
+    """
+    a = np.atleast_2d(np.asarray(a, dtype=np.float64))
+    b = np.atleast_2d(np.asarray(b, dtype=np.float64))
+    return _segments_free(cspace, _border(cspace), a, b)
+
+
+def _segments_free(cspace: ConfigurationSpace, border: _Border, a: FloatArray, b: FloatArray) -> BoolArray:
+    s, m = len(a), len(border.edge_a)
+    if s == 0:
+        return np.zeros(0, dtype=bool)
+    if m == 0:
+        # No obstacles and no walls: only the (unbounded) plane.
+        return np.ones(s, dtype=bool)
+    free = np.ones(s, dtype=bool)
+    touch_seg: list[IntArray] = []
+    touch_t: list[FloatArray] = []
+    if s * m <= _DENSE_LIMIT:
+        chunks = [(np.repeat(np.arange(s), m), np.tile(np.arange(m), s))]
+    else:
+        chunks = _index_chunks(border, a, b)
+    for seg, edge in chunks:
+        blocked, t_seg, t_val = _crossings(a, b, border.edge_a, border.edge_b, seg, edge, cspace.eps)
+        free[blocked] = False
+        touch_seg.append(t_seg)
+        touch_t.append(t_val)
+    survivors = np.flatnonzero(free)
+    if len(survivors) == 0:
+        return free
+    # Each survivor is cut at the border vertices lying on it; every piece is free,
+    # blocked or along an edge, and its middle tells which.
+    t_seg = np.concatenate(touch_seg) if touch_seg else np.zeros(0, dtype=np.intp)
+    t_val = np.concatenate(touch_t) if touch_t else np.zeros(0)
+    keep = free[t_seg]
+    t_seg, t_val = t_seg[keep], t_val[keep]
+    seg_ids = np.concatenate([survivors, survivors, t_seg])
+    ts = np.concatenate([np.zeros(len(survivors)), np.ones(len(survivors)), t_val])
+    order = np.lexsort((ts, seg_ids))
+    seg_ids, ts = seg_ids[order], ts[order]
+    same = seg_ids[1:] == seg_ids[:-1]
+    piece_seg = seg_ids[:-1][same]
+    mid_t = 0.5 * (ts[:-1][same] + ts[1:][same])
+    mids = a[piece_seg] + mid_t[:, None] * (b[piece_seg] - a[piece_seg])
+    blocked_piece = cspace.contains_blocked(mids)
+    free[piece_seg[blocked_piece]] = False
+    return free
+
+
+def _index_chunks(border: _Border, a: FloatArray, b: FloatArray):
+    """Yield (segment, edge) index pairs whose bounding boxes overlap, in bounded chunks."""
+    tree = border.edge_tree
+    lines = shapely.linestrings(np.stack([a, b], axis=1))
+    step = max(1, _CHUNK_PAIRS // max(1, min(len(border.edge_a), 400)))
+    for lo in range(0, len(a), step):
+        seg, edge = tree.query(lines[lo : lo + step])
+        yield seg.astype(np.intp) + lo, edge.astype(np.intp)
+
+
+def _crossings(
+    a: FloatArray,
+    b: FloatArray,
+    ea: FloatArray,
+    eb: FloatArray,
+    seg: IntArray,
+    edge: IntArray,
+    eps: float,
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """Proper crossings and touching vertices for (segment, edge) index pairs.
+
+    Returns the pair indices whose segment is blocked by a proper crossing, and for each
+    border vertex (the edge's start) lying inside a segment: the segment and the
+    parameter t in (0, 1) where it lies.
+    """
+    p, q = a[seg], b[seg]
+    c, d = ea[edge], eb[edge]
+    pq = q - p
+    cd = d - c
+    len_pq = np.hypot(pq[:, 0], pq[:, 1])
+    len_cd = np.hypot(cd[:, 0], cd[:, 1])
+    oc = _cross(pq, c - p)
+    od = _cross(pq, d - p)
+    op = _cross(cd, p - c)
+    oq = _cross(cd, q - c)
+    # |cross| / length is the distance to the line; within eps counts as on it.
+    tol_pq = eps * len_pq
+    tol_cd = eps * len_cd
+    split_cd = ((oc > tol_pq) & (od < -tol_pq)) | ((oc < -tol_pq) & (od > tol_pq))
+    split_pq = ((op > tol_cd) & (oq < -tol_cd)) | ((op < -tol_cd) & (oq > tol_cd))
+    blocked = np.flatnonzero(split_cd & split_pq)
+    # Border vertex c on the open segment p -> q.
+    t = np.einsum("ij,ij->i", c - p, pq) / np.where(len_pq > 0, len_pq * len_pq, 1.0)
+    along = t * len_pq
+    on = (np.abs(oc) <= tol_pq) & (along > eps) & (along < len_pq - eps)
+    return seg[blocked], seg[on], t[on]
+
+
+# --------------------------------------------------------------------------- graphs
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Query:
+    points: FloatArray  # (n, 2): border vertices, then start and goal if new
+    node: IntArray  # (n,) border vertex id, or -1 for start/goal
+    start: int
+    goal: int
+
+
+def _query(border: _Border, start: FloatArray, goal: FloatArray, eps: float) -> _Query:
+    points = border.points
+    node = np.arange(len(points), dtype=np.intp)
+    ends = []
+    for p in (start, goal):
+        hit = np.flatnonzero(np.hypot(*(points - p).T) <= eps) if len(points) else []
+        if len(hit):
+            ends.append(int(hit[0]))
+            # Start and goal are free to leave in any direction, even from a vertex.
+            node[hit[0]] = -1
+        else:
+            points = np.vstack([points, p[None, :]])
+            node = np.append(node, -1)
+            ends.append(len(points) - 1)
+    return _Query(points, node, ends[0], ends[1])
+
+
+def _build_graph(q: _Query, i: IntArray, j: IntArray) -> nx.Graph:
+    graph = nx.Graph()
+    keys = [(float(x), float(y)) for x, y in q.points]
+    for k, key in enumerate(keys):
+        kind = "start" if k == q.start else "goal" if k == q.goal else "vertex"
+        graph.add_node(key, kind=kind)
+    lengths = np.hypot(*(q.points[j] - q.points[i]).T)
+    graph.add_weighted_edges_from(
+        (keys[u], keys[v], w) for u, v, w in zip(i.tolist(), j.tolist(), lengths.tolist(), strict=True)
+    )
+    return graph
+
+
+def _visible(cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray, j: IntArray) -> BoolArray:
+    d = _unit(q.points[j] - q.points[i])
+    # Cheap first: a segment that leaves a vertex straight into its obstacle is blocked.
+    ok = ~_into_blocked(border, q.node[i], d) & ~_into_blocked(border, q.node[j], -d)
+    idx = np.flatnonzero(ok)
+    ok[idx] = _segments_free(cspace, border, q.points[i[idx]], q.points[j[idx]])
+    return ok
+
+
+def visibility_graph(cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike) -> nx.Graph:
+    """Build the full visibility graph of section 9.4.
+
+    Parameters
+    ----------
+    cspace
+        Configuration space (expanded obstacles, shrunk walls).
+    start, goal
+        Points of shape (2,) [m], in free space.
+
+    Returns
+    -------
+    networkx.Graph
+        Every pair of nodes that see each other, with ``weight`` = length.
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
+    >>> g = visibility_graph(space, (-1, 0.5), (2, 0.5))
+    >>> g.number_of_nodes(), g.number_of_edges()
+    (6, 8)
+    """
+    border = _border(cspace)
+    q = _query(border, np.asarray(start, dtype=np.float64), np.asarray(goal, dtype=np.float64), cspace.eps)
+    i, j = np.triu_indices(len(q.points), 1)
+    ok = _visible(cspace, border, q, i, j)
+    return _build_graph(q, i[ok], j[ok])
+
+
+def simplified_visibility_graph(
+    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
+) -> nx.Graph:
+    """Build the simplified visibility graph of section 9.5 (the tangent segments).
+
+    A segment is kept when it is visible and, at each end that is an obstacle vertex,
+    the line through it does not enter the blocked region next to that vertex (so the
+    vertex is convex and the line is tangent there). See the module docstring for how
+    this realises the chapter's procedure.
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
+    >>> g = simplified_visibility_graph(space, (-1, 0.5), (2, 0.5))
+    >>> g.number_of_nodes(), g.number_of_edges()
+    (6, 8)
+    """
+    border = _border(cspace)
+    q = _query(border, np.asarray(start, dtype=np.float64), np.asarray(goal, dtype=np.float64), cspace.eps)
+    convex = np.append(border.convex_nodes, False)  # index -1 (start, goal) reads False
+    candidate = np.flatnonzero((q.node < 0) | convex[q.node])
+    ii, jj = np.triu_indices(len(candidate), 1)
+    i, j = candidate[ii], candidate[jj]
+    d = _unit(q.points[j] - q.points[i])
+    # Tangent at both ends: neither the segment nor its extension beyond an obstacle
+    # vertex enters the blocked wedge there.
+    tangent = ~(_into_blocked(border, q.node[i], -d) | _into_blocked(border, q.node[j], d))
+    i, j = i[tangent], j[tangent]
+    ok = _visible(cspace, border, q, i, j)
+    graph = _build_graph(q, i[ok], j[ok])
+    # Reflex vertices cannot be on a shortest path: leave them out of the picture.
+    graph.remove_nodes_from([n for n, deg in list(graph.degree) if deg == 0 and graph.nodes[n]["kind"] == "vertex"])
+    return graph
+
+
+def shortest_path(graph: nx.Graph, start: npt.ArrayLike, goal: npt.ArrayLike) -> tuple[FloatArray, float] | None:
+    """Return the shortest (path, length) from start to goal in ``graph``, or None.
+
+    A* with the straight-line distance as heuristic (admissible, so the path is optimal).
+    """
+    s = _node_key(graph, start, "start")
+    g = _node_key(graph, goal, "goal")
+    if s == g:
+        return np.asarray([s], dtype=np.float64), 0.0
+    try:
+        nodes = nx.astar_path(graph, s, g, heuristic=lambda u, v: math.dist(u, v), weight="weight")
+    except nx.NetworkXNoPath:
+        return None
+    path = np.asarray(nodes, dtype=np.float64)
+    return path, float(np.hypot(*np.diff(path, axis=0).T).sum())
+
+
+def _node_key(graph: nx.Graph, point: npt.ArrayLike, kind: str) -> tuple[float, float]:
+    for node, data in graph.nodes(data=True):
+        if data.get("kind") == kind:
+            return node
+    x, y = np.asarray(point, dtype=np.float64)
+    return (float(x), float(y))
+
+
+def plan_visibility(
+    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike, *, simplified: bool = False
+) -> VisibilityResult:
+    """Build the VG (or SVG) and search it for the shortest path.
+
+    Start and goal must be free (the caller checks and reports ``invalid``).
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
+    >>> result = plan_visibility(space, (-1, 1), (3, 1))
+    >>> result.status, round(result.length, 6)  # around a corner: 2 * sqrt(2) + 2
+    ('ok', 4.828427)
+    """
+    start = np.asarray(start, dtype=np.float64)
+    goal = np.asarray(goal, dtype=np.float64)
+    build = simplified_visibility_graph if simplified else visibility_graph
+    graph = build(cspace, start, goal)
+    name = "svg" if simplified else "vg"
+    found = shortest_path(graph, start, goal)
+    if found is None:
+        return VisibilityResult(
+            name, "unreachable", np.zeros((0, 2)), None, graph, _unreachable_reason(cspace, start, goal), cspace
+        )
+    path, length = found
+    return VisibilityResult(name, "ok", path, length, graph, None, cspace)
+
+
+def _unreachable_reason(cspace: ConfigurationSpace, start: FloatArray, goal: FloatArray) -> str:
+    """Say which obstacles cut the goal off from the start."""
+    s, g = shapely.Point(start), shapely.Point(goal)
+    for label, p in (("goal", g), ("start", s)):
+        for merged in cspace.merged.geoms:
+            outline = shapely.Polygon(merged.exterior)
+            if outline.buffer(-cspace.eps).contains(p) and not outline.buffer(-cspace.eps).contains(
+                s if label == "goal" else g
+            ):
+                names = [f"{k + 1}" for k, e in enumerate(cspace.expanded) if e.intersects(merged)]
+                which = "obstacle " + names[0] if len(names) == 1 else "obstacles " + ", ".join(names)
+                return f"the {label} is enclosed by {which} (merged after expansion)"
+    return "start and goal lie in separate parts of the free space"

@@ -1,0 +1,414 @@
+"""The control panel: every GUI callback calls exactly one controller method.
+
+The panel is also a view: :meth:`Panels.render` shows a frame (results table, messages,
+the scene's settings after an undo or a load) and :meth:`Panels.render_robot` the robot's
+time and wheel rates. Values the panel sets itself fire viser's callbacks with no client;
+those are ignored, so the panel never feeds its own updates back into the controller.
+"""
+
+from __future__ import annotations
+
+__all__ = ["Panels", "legend_html", "results_markdown", "wheel_rate_plot_data"]
+
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import viser
+
+from app.controller import LAYERS, TOOLS, Controller, Frame, RobotPose
+from app.style import COLORS, hex_color
+
+PLANNER_NAMES = {
+    "vg": "Visibility graph (VG)",
+    "svg": "Simplified VG (SVG)",
+    "dsb": "Distance sensor (DSB)",
+}
+_WHEEL_COLORS = ("#0072b2", "#d55e00", "#009e73")
+
+
+def _swatch(color: tuple[int, int, int], kind: str = "line") -> str:
+    style = {
+        "line": "display:inline-block;width:22px;height:5px;vertical-align:middle;",
+        "thin": "display:inline-block;width:22px;height:2px;vertical-align:middle;",
+        "box": "display:inline-block;width:14px;height:14px;vertical-align:middle;border:1px solid #222;",
+    }[kind]
+    return f'<span style="{style}background:{hex_color(color)}"></span>'
+
+
+def legend_html() -> str:
+    """Return the legend: one coloured swatch per thing drawn, in words a student knows."""
+    rows = [
+        (_swatch(COLORS["obstacle"], "box"), "obstacle (numbered)"),
+        (
+            _swatch(COLORS["expanded"], "box"),
+            "expanded obstacle (robot shrunk to a point)",
+        ),
+        (_swatch(COLORS["other_expansion"], "thin"), "other expansion model (outline)"),
+        (
+            _swatch(COLORS["vg_edges"], "thin") + _swatch(COLORS["vg"]),
+            "VG edges / shortest path",
+        ),
+        (
+            _swatch(COLORS["svg_edges"], "thin") + _swatch(COLORS["svg"]),
+            "SVG edges / shortest path",
+        ),
+        (
+            _swatch(COLORS["dsb_seek"]) + _swatch(COLORS["dsb_follow"]),
+            "DSB path: goal seeking / boundary following",
+        ),
+        (
+            _swatch(COLORS["sensing"], "thin"),
+            "DSB sensor range R and local tangent graph",
+        ),
+        (
+            _swatch(COLORS["start"], "box") + _swatch(COLORS["goal"], "box"),
+            "start / goal (robot footprint)",
+        ),
+    ]
+    body = "".join(
+        f'<div style="margin:2px 0;font-size:0.85em">{sw}&nbsp;&nbsp;{text}</div>'
+        for sw, text in rows
+    )
+    return f'<div style="padding:2px 4px">{body}<div style="font-size:0.8em;color:#555">Events: H hit, L leave, M local minimum.</div></div>'
+
+
+def results_markdown(plans: Mapping[str, Any]) -> str:
+    """Return a markdown table of each planner's status, length, graph size and time.
+
+    Examples
+    --------
+    >>> print(results_markdown({}).splitlines()[0])
+    | Planner | Status | Length [m] | Nodes | Edges | ms |
+    """
+    lines = [
+        "| Planner | Status | Length [m] | Nodes | Edges | ms |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, result in plans.items():
+        if name == "cspace":
+            continue
+        length = getattr(result, "length", None)
+        graph = getattr(result, "graph", None)
+        nodes = graph.number_of_nodes() if graph is not None else None
+        edges = graph.number_of_edges() if graph is not None else None
+        status = str(getattr(result, "status", "?"))
+        mark = {"ok": "ok", "reached": "reached"}.get(status, f"**{status}**")
+        lines.append(
+            f"| {name.upper()} | {mark} | "
+            f"{'-' if length is None or not math.isfinite(length) else f'{length:.2f}'} | "
+            f"{'-' if nodes is None else nodes} | {'-' if edges is None else edges} | "
+            f"{float(getattr(result, 'ms', 0.0)):.1f} |"
+        )
+    return "\n".join(lines)
+
+
+def wheel_rate_plot_data(
+    trajectory: Any, max_points: int = 400
+) -> tuple[npt.NDArray[np.float64], ...] | None:
+    """(t, rate_1, ..., rate_k) arrays of a trajectory for the wheel-rate plot, or None."""
+    if trajectory is None:
+        return None
+    t = np.asarray(getattr(trajectory, "t", ()), dtype=np.float64)
+    rates = np.asarray(getattr(trajectory, "wheel_rates", ()), dtype=np.float64)
+    if t.ndim != 1 or len(t) < 2 or rates.ndim != 2 or len(rates) != len(t):
+        return None
+    step = max(1, math.ceil(len(t) / max_points))
+    idx = np.r_[np.arange(0, len(t), step), len(t) - 1]
+    idx = np.unique(idx)
+    return (t[idx], *(rates[idx, k] for k in range(rates.shape[1])))
+
+
+class Panels:
+    """The GUI panel on a viser server; a view for the controller.
+
+    Parameters
+    ----------
+    server
+        The viser server (the panel is shared by every browser).
+    scenarios
+        Scenario key -> title, for the dropdown.
+    planners
+        Planner names, in the order the controller reports them.
+    """
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        scenarios: Mapping[str, str],
+        planners: tuple[str, ...],
+    ) -> None:
+        self.server = server
+        self.controller: Controller | None = None
+        self._latest_version: Callable[[], int] = lambda: -1
+        self._scenario_titles = dict(scenarios)
+        self._planners = planners
+        self._plot_key: Any = None
+        self._last_robot_text = ""
+        gui = server.gui
+
+        self.title = gui.add_markdown("### Mobile-robot planner")
+        self.description = gui.add_markdown("")
+        self.status = gui.add_markdown("")
+
+        with gui.add_folder("Scenario"):
+            options = list(scenarios) or [""]
+            self.scenario = gui.add_dropdown(
+                "Scenario", options, initial_value=options[0]
+            )
+            self.history = gui.add_button_group("Edits", ["Undo", "Redo"])
+            self.path = gui.add_text(
+                "File",
+                "my_scene.json",
+                hint="Path on the server's disk, e.g. my_scene.json",
+            )
+            self.file_buttons = gui.add_button_group("File", ["Save", "Load"])
+            self.upload = gui.add_upload_button(
+                "Upload a scenario (.json)", mime_type="application/json"
+            )
+
+        with gui.add_folder("Results"):
+            self.results = gui.add_markdown(results_markdown({}))
+
+        with gui.add_folder("Edit"):
+            self.tool = gui.add_dropdown(
+                "Mouse", list(TOOLS.values()), initial_value=TOOLS["drag"]
+            )
+            self.selection = gui.add_markdown("*Nothing selected.*")
+            self.edit_buttons = gui.add_button_group(
+                "Selected", ["Insert vertex", "Delete", "Delete obstacle"]
+            )
+            self.polygon_buttons = gui.add_button_group(
+                "New obstacle", ["Finish", "Cancel"]
+            )
+
+        with gui.add_folder("Robot and planning"):
+            self.kind = gui.add_dropdown("Robot", ["holonomic", "differential"])
+            self.radius = gui.add_slider("Radius [m]", 0.0, 1.0, 0.01, 0.3)
+            self.wheel_radius = gui.add_number(
+                "Wheel r [m]", 0.05, min=0.005, max=1.0, step=0.005
+            )
+            self.wheel_distance = gui.add_number(
+                "Wheel L [m]", 0.25, min=0.01, max=2.0, step=0.01
+            )
+            self.expansion = gui.add_dropdown("Expansion", ["disk", "square"])
+            self.sensor_range = gui.add_slider("Sensor R [m]", 0.2, 15.0, 0.1, 2.0)
+
+        with gui.add_folder("Layers"):
+            self.layers = {
+                key: gui.add_checkbox(text, True) for key, text in LAYERS.items()
+            }
+            self.legend = gui.add_html(legend_html())
+
+        with gui.add_folder("Robot motion"):
+            follow = list(planners) or ["vg"]
+            self.follow = gui.add_dropdown(
+                "Follow", [PLANNER_NAMES.get(p, p.upper()) for p in follow]
+            )
+            self._follow_keys = {PLANNER_NAMES.get(p, p.upper()): p for p in follow}
+            self.playback = gui.add_button_group("Motion", ["Play", "Pause", "Restart"])
+            self.speed = gui.add_slider("Speed", 0.1, 4.0, 0.1, 1.0)
+            self.time = gui.add_slider("Time [s]", 0.0, 1.0, 0.01, 0.0)
+            self.rates = gui.add_markdown("")
+            self.plot = gui.add_uplot(
+                (np.zeros(2), np.zeros(2)),
+                (
+                    {"label": "t [s]"},
+                    {"label": "wheel 1", "stroke": _WHEEL_COLORS[0], "width": 2},
+                ),
+                title="Wheel rates [rad/s]",
+                scales={"x": {"time": False}},
+                aspect=1.6,
+            )
+        self._bind()
+
+    # ------------------------------------------------------------------ wiring
+
+    def attach(self, controller: Controller) -> None:
+        """Send this panel's callbacks to ``controller``."""
+        self.controller = controller
+        self._latest_version = lambda: controller.version
+
+    def _on(self, handle: Any, action: Callable[[Any, Controller], None]) -> None:
+        @handle.on_update
+        def _(event: Any) -> None:
+            # Values the panel sets itself arrive without a client: not a user action.
+            if event.client is None or self.controller is None:
+                return
+            action(event.target.value, self.controller)
+
+    def _on_click(self, handle: Any, action: Callable[[Any, Controller], None]) -> None:
+        @handle.on_click
+        def _(event: Any) -> None:
+            if self.controller is None:
+                return
+            action(event.target.value, self.controller)
+
+    def _bind(self) -> None:
+        # Each callback calls exactly one controller method.
+        self._on(self.scenario, lambda v, c: c.load_scenario(v))
+        self._on_click(self.history, lambda v, c: {"Undo": c.undo, "Redo": c.redo}[v]())
+        self._on_click(
+            self.file_buttons,
+            lambda v, c: (c.save if v == "Save" else c.load_file)(self.path.value),
+        )
+
+        @self.upload.on_upload
+        def _(event: Any) -> None:
+            if self.controller is not None:
+                file = event.target.value
+                self.controller.load_text(
+                    file.content.decode("utf-8", errors="replace"),
+                    file.name or "uploaded file",
+                )
+
+        tool_keys = {text: key for key, text in TOOLS.items()}
+        self._on(self.tool, lambda v, c: c.set_tool(tool_keys[v]))
+        self._on_click(
+            self.edit_buttons,
+            lambda v, c: {
+                "Insert vertex": c.insert_vertex_at_selection,
+                "Delete": c.delete_selected,
+                "Delete obstacle": c.delete_selected_obstacle,
+            }[v](),
+        )
+        self._on_click(
+            self.polygon_buttons,
+            lambda v, c: (c.finish_polygon if v == "Finish" else c.cancel_polygon)(),
+        )
+        self._on(self.kind, lambda v, c: c.set_robot(kind=v))
+        self._on(self.radius, lambda v, c: c.set_robot(radius=float(v)))
+        self._on(self.wheel_radius, lambda v, c: c.set_robot(wheel_radius=float(v)))
+        self._on(self.wheel_distance, lambda v, c: c.set_robot(wheel_distance=float(v)))
+        self._on(self.expansion, lambda v, c: c.set_expansion(v))
+        self._on(self.sensor_range, lambda v, c: c.set_sensor_range(float(v)))
+        for key, box in self.layers.items():
+            self._on(box, lambda v, c, key=key: c.set_layer(key, bool(v)))
+        self._on(self.follow, lambda v, c: c.set_follow(self._follow_keys[v]))
+        self._on_click(
+            self.playback,
+            lambda v, c: {"Play": c.play, "Pause": c.pause, "Restart": c.restart}[v](),
+        )
+        self._on(self.speed, lambda v, c: c.set_speed(float(v)))
+        self._on(self.time, lambda v, c: c.set_robot_time(float(v)))
+
+        @self.server.scene.on_click()
+        def _(event: Any) -> None:
+            xy = floor_point(event.ray_origin, event.ray_direction)
+            if xy is not None and self.controller is not None:
+                self.controller.click_floor(xy)
+
+    # ------------------------------------------------------------------ views
+
+    def render(self, frame: Frame) -> None:
+        """Show ``frame``'s results, messages and settings."""
+        scene = frame.scene
+        title = scene.name or "Untitled scene"
+        self.title.content = f"### {title}"
+        self.description.content = scene.description or ""
+        self.status.content = status_markdown(frame)
+        self.results.content = results_markdown(frame.plans)
+
+        # Settings are pushed only from the newest frame: while a slider is being dragged
+        # the frames lag behind it, and pushing an older value would make it jump back.
+        if frame.version >= self._latest_version():
+            if frame.scenario in self._scenario_titles:
+                self.scenario.value = frame.scenario
+            self.kind.value = scene.robot.kind
+            self.radius.value = round(scene.robot.radius, 2)
+            self.wheel_radius.value = scene.robot.wheel_radius
+            self.wheel_distance.value = scene.robot.wheel_distance
+            self.expansion.value = scene.expansion
+            self.sensor_range.value = round(min(max(scene.sensor_range, 0.2), 15.0), 1)
+        self.tool.value = TOOLS[frame.tool]
+        for key, box in self.layers.items():
+            box.value = bool(frame.layers.get(key, True))
+        for name, key in self._follow_keys.items():
+            if key == frame.follow:
+                self.follow.value = name
+        self.selection.content = (
+            f"Selected: **{frame.selection.describe()}**"
+            if frame.selection is not None
+            else "*Nothing selected.*"
+        )
+        self.polygon_buttons.visible = frame.tool == "polygon"
+        self.edit_buttons.visible = frame.tool == "edit"
+        self._render_plot(frame)
+
+    def _render_plot(self, frame: Frame) -> None:
+        trajectory = frame.trajectory
+        if trajectory is self._plot_key:
+            return
+        self._plot_key = trajectory
+        data = wheel_rate_plot_data(trajectory)
+        if data is None:
+            self.plot.visible = False
+            self.time.max = 1.0
+            return
+        series = [{"label": "t [s]"}] + [
+            {
+                "label": f"wheel {k + 1}",
+                "stroke": _WHEEL_COLORS[k % len(_WHEEL_COLORS)],
+                "width": 2,
+            }
+            for k in range(len(data) - 1)
+        ]
+        self.plot.series = tuple(series)  # type: ignore[assignment]
+        self.plot.data = data
+        self.plot.visible = True
+        duration = float(data[0][-1])
+        self.time.max = max(round(duration, 2), 0.01)
+
+    def render_robot(self, pose: RobotPose | None) -> None:
+        """Show the robot's time and wheel rates."""
+        if pose is None:
+            text = "*No path to follow.*"
+        else:
+            if not math.isclose(self.time.value, round(pose.t, 2)):
+                self.time.value = min(round(pose.t, 2), self.time.max)
+            rates = ", ".join(f"{r:+.1f}" for r in pose.wheel_rates)
+            speed = math.hypot(pose.velocity[0], pose.velocity[1])
+            state = "playing" if pose.playing else "paused"
+            text = (
+                f"t = {pose.t:.2f} / {pose.duration:.2f} s ({state})  \n"
+                f"wheel rates [rad/s]: {rates}  \n"
+                f"speed {speed:.2f} m/s, turn {math.degrees(pose.velocity[2]):+.0f} deg/s"
+            )
+        if text != self._last_robot_text:
+            self._last_robot_text = text
+            self.rates.content = text
+
+
+def status_markdown(frame: Frame) -> str:
+    """Return what the user needs to know now: the answer to the last action, then problems."""
+    parts = []
+    if frame.message:
+        parts.append(f"**{frame.message}**")
+    for problem in frame.problems:
+        parts.append(f"- {problem}")
+    if not parts:
+        return ""
+    return "\n".join(parts)
+
+
+def floor_point(origin: Any, direction: Any) -> tuple[float, float] | None:
+    """Intersect a click ray with the floor z = 0; None if it misses (looking up or sideways).
+
+    Examples
+    --------
+    >>> floor_point((1.0, 2.0, 10.0), (0.0, 0.0, -1.0))
+    (1.0, 2.0)
+    >>> floor_point((0.0, 0.0, 1.0), (1.0, 0.0, 0.0)) is None
+    True
+    """
+    o = np.asarray(origin, dtype=np.float64)
+    d = np.asarray(direction, dtype=np.float64)
+    if d[2] >= -1e-9:
+        return None
+    s = -o[2] / d[2]
+    if s < 0:
+        return None
+    p = o + s * d
+    return (float(p[0]), float(p[1]))

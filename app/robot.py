@@ -1,0 +1,219 @@
+"""Glue between the scene's robot and :mod:`kinematics`: trajectories, samples, meshes.
+
+The controller calls :func:`trajectory` when a path changes and :func:`sample` for every
+animation frame; the view calls :func:`robot_model` when the robot changes. Nothing here
+imports viser.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "MeshPiece",
+    "RobotModel",
+    "robot_model",
+    "robot_params",
+    "sample",
+    "trajectory",
+]
+
+import dataclasses
+import functools
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+import kinematics
+from kinematics import RobotParams
+from planners.scene import Robot, Scene
+
+FloatArray = npt.NDArray[np.float64]
+MeshPiece = tuple[tuple[FloatArray, npt.NDArray[np.uint32]], tuple[int, int, int]]
+"""((vertices (V, 3), faces (F, 3)), colour)."""
+
+# The body is built once at this radius and scaled to the robot's: building the
+# holonomic robot's rollers takes ~80 ms, too slow to redo for every step of a slider.
+_REFERENCE_RADIUS = 1.0
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class RobotModel:
+    """The robot's meshes, ready for the view."""
+
+    body: tuple[MeshPiece, ...]
+    """Body, heading marker and caster, in the robot frame, drawn at :attr:`body_scale`."""
+    body_scale: float
+    """Scale of the body pieces in x and y (1 at the reference radius)."""
+    wheels: tuple[tuple[FloatArray, FloatArray, tuple[MeshPiece, ...]], ...]
+    """(hub (3,), axle (3,), pieces in the wheel-local frame) for each driven wheel."""
+
+
+def robot_params(robot: Robot) -> RobotParams:
+    """Convert the scene's robot to :class:`kinematics.RobotParams`."""
+    return RobotParams(
+        kind=robot.kind,  # type: ignore[arg-type]
+        wheel_radius=robot.wheel_radius,
+        wheel_distance=robot.wheel_distance,
+        radius=robot.radius,
+    )
+
+
+def trajectory(scene: Scene, path: npt.ArrayLike) -> kinematics.Trajectory:
+    """Plan the timed motion of the scene's robot along ``path`` (section 9.7).
+
+    Examples
+    --------
+    >>> import planners
+    >>> s = planners.load_scene({"format": 1, "obstacles": [], "start": [0, 0], "goal": [1, 0]})
+    >>> round(trajectory(s, [[0, 0], [1, 0]]).pose[-1, 0], 9)
+    1.0
+    """
+    return kinematics.plan_trajectory(
+        np.asarray(path, dtype=np.float64), robot_params(scene.robot)
+    )
+
+
+def sample(
+    traj: kinematics.Trajectory, t: float, scene: Scene, result: Any
+) -> Mapping[str, Any]:
+    """Return the robot's pose, wheel angles and rates at time ``t`` [s] of ``traj``.
+
+    Wheel rates and the velocity are linear between samples, as in the trajectory.
+    For a DSB result that can say what the robot senses, ``sensing`` carries it.
+    """
+    duration = traj.duration
+    tt = min(max(float(t), 0.0), duration)
+    pose, angles = traj.sample(tt)
+    if len(traj.t) > 1:
+        k = min(int(tt / traj.dt), len(traj.t) - 2)
+        w = (tt - traj.t[k]) / traj.dt
+        rates = (1 - w) * traj.wheel_rates[k] + w * traj.wheel_rates[k + 1]
+        velocity = (1 - w) * traj.velocity[k] + w * traj.velocity[k + 1]
+    else:
+        rates, velocity = traj.wheel_rates[0], traj.velocity[0]
+    xy = (float(pose[0]), float(pose[1]))
+    return {
+        "duration": duration,
+        "xy": xy,
+        "phi": float(pose[2]),
+        "wheel_angles": tuple(float(a) for a in angles),
+        "wheel_rates": tuple(float(r) for r in rates),
+        "velocity": (float(velocity[0]), float(velocity[1]), float(velocity[2])),
+        "sensing": sensing_at(result, xy, scene),
+    }
+
+
+def sensing_at(
+    result: Any, xy: tuple[float, float], scene: Scene
+) -> Mapping[str, Any] | None:
+    """Describe what a DSB robot senses at ``xy``: sensor disk, borders, local tangent graph.
+
+    Returns None for results that cannot tell (VG, SVG). The DSB result's own ``sense``
+    method is used (see :mod:`planners.tangent_bug`).
+    """
+    sense = getattr(result, "sense", None) or getattr(result, "sensing_at", None)
+    if sense is None:
+        return None
+    try:
+        seen = sense(xy)
+    except Exception:
+        return None
+    return _sensing_mapping(seen, xy, scene)
+
+
+def _sensing_mapping(
+    seen: Any, xy: tuple[float, float], scene: Scene
+) -> Mapping[str, Any]:
+    get = (
+        seen.get if isinstance(seen, Mapping) else lambda k, d=None: getattr(seen, k, d)
+    )
+    radius = get("radius", None) or get("sensor_range", None) or scene.sensor_range
+    segments = get("segments", None)
+    if segments is None:
+        segments = get("visible", None)
+    if segments is None:
+        segments = get("seen", np.zeros((0, 2, 2)))
+    points = get("points", None)
+    if points is None:
+        points = get("endpoints", None)
+    if points is None:
+        points = get("tangent_points", np.zeros((0, 2)))
+    center = np.asarray(xy, dtype=np.float64)
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    tangents = (
+        np.stack([np.broadcast_to(center, points.shape), points], axis=1)
+        if len(points)
+        else np.zeros((0, 2, 2))
+    )
+    goal = np.asarray(scene.goal, dtype=np.float64)
+    # The local tangent graph of Fig. 9.16: robot -> O_i -> goal.
+    to_goal = (
+        np.stack([points, np.broadcast_to(goal, points.shape)], axis=1)
+        if len(points)
+        else np.zeros((0, 2, 2))
+    )
+    return {
+        "center": (float(xy[0]), float(xy[1])),
+        "radius": float(radius)
+        if radius is not None and math.isfinite(float(radius))
+        else math.inf,
+        "seen": np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2),
+        "tangents": tangents,
+        "to_goal": to_goal,
+        "points": points,
+    }
+
+
+@functools.lru_cache(maxsize=16)
+def _geometry(
+    kind: str, wheel_radius: float, wheel_distance: float
+) -> kinematics.RobotGeometry:
+    params = RobotParams(
+        kind=kind,
+        wheel_radius=wheel_radius,
+        wheel_distance=wheel_distance,
+        radius=_REFERENCE_RADIUS,
+    )  # type: ignore[arg-type]
+    return kinematics.robot_geometry(params)
+
+
+def _piece(mesh: Any, color: Sequence[int]) -> MeshPiece:
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.uint32)
+    return ((vertices, faces), (int(color[0]), int(color[1]), int(color[2])))
+
+
+@functools.lru_cache(maxsize=16)
+def _model(
+    kind: str, wheel_radius: float, wheel_distance: float
+) -> tuple[tuple[MeshPiece, ...], tuple[Any, ...]]:
+    g = _geometry(kind, wheel_radius, wheel_distance)
+    body = [_piece(g.body, g.body_color), _piece(g.heading, g.heading_color)]
+    if g.caster is not None:
+        body.append(_piece(g.caster, g.caster_color))
+    wheels = tuple(
+        (
+            np.asarray(w.hub, dtype=np.float64),
+            np.asarray(w.axle, dtype=np.float64),
+            (_piece(w.mesh, w.color), _piece(w.marking, w.marking_color)),
+        )
+        for w in g.wheels
+    )
+    return tuple(body), wheels
+
+
+def robot_model(robot: Robot) -> tuple[Any, RobotModel]:
+    """Return (key, model) of the robot's meshes; the key changes only when the meshes do.
+
+    A point robot (radius 0) is drawn with a body just around its wheels.
+    """
+    body, wheels = _model(robot.kind, robot.wheel_radius, robot.wheel_distance)
+    radius = (
+        robot.radius if robot.radius > 0 else robot.wheel_distance + robot.wheel_radius
+    )
+    key = (robot.kind, robot.wheel_radius, robot.wheel_distance)
+    return key, RobotModel(
+        body=body, body_scale=radius / _REFERENCE_RADIUS, wheels=wheels
+    )

@@ -1,0 +1,246 @@
+"""Start the planner: a viser server with the 3-D view, the panel and the controller.
+
+``start_app`` is what ``python -m app``, the headless snapshot tool and the tests call.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "DEFAULT_SCENARIO",
+    "SCENARIO_DIR",
+    "PlannerApp",
+    "list_scenarios",
+    "resolve_scenario",
+    "start_app",
+]
+
+import contextlib
+import dataclasses
+import io
+import math
+import os
+import re
+from pathlib import Path
+
+import viser
+
+import planners
+from app import robot as robot_model
+from app.controller import Controller
+from app.panels import Panels
+from app.view import PlannerView, scene_bounds
+from planners.scene import ScenarioError, Scene
+
+SCENARIO_DIR = Path(__file__).resolve().parent.parent / "static_scenarios"
+"""Folder of the shipped lecture scenarios."""
+DEFAULT_SCENARIO = "01_two_convex"
+"""Scenario the app opens on."""
+
+
+def list_scenarios(folder: Path = SCENARIO_DIR) -> dict[str, Path]:
+    """Return scenario key (file stem, e.g. ``01_two_convex``) -> file, sorted by name."""
+    if not folder.is_dir():
+        return {}
+    return {p.stem: p for p in sorted(folder.glob("*.json"))}
+
+
+def resolve_scenario(
+    name: str | os.PathLike[str], folder: Path = SCENARIO_DIR
+) -> tuple[str, Path]:
+    """Find a scenario by path, by key (``01_two_convex``), or by a unique part of its name.
+
+    ``two_convex``, ``two-convex`` and ``01`` all find ``01_two_convex``.
+
+    Returns
+    -------
+    (key, path)
+        ``key`` is the scenario's file stem if it is a shipped scenario, else ''.
+
+    Raises
+    ------
+    ScenarioError
+        When nothing or more than one scenario matches; the message lists the choices.
+    """
+    text = str(name)
+    path = Path(text).expanduser()
+    scenarios = list_scenarios(folder)
+    if path.suffix == ".json" or os.sep in text or "/" in text:
+        if path.is_file():
+            key = path.stem if scenarios.get(path.stem) == path.resolve() else ""
+            return key, path
+        raise ScenarioError(text, "(file)", "no such file")
+    if text in scenarios:
+        return text, scenarios[text]
+    wanted = _normalise(text)
+    exact = [
+        k
+        for k in scenarios
+        if _normalise(_strip_number(k)) == wanted or _normalise(k) == wanted
+    ]
+    matches = exact or [k for k in scenarios if wanted and (wanted in _normalise(k))]
+    if len(matches) == 1:
+        return matches[0], scenarios[matches[0]]
+    choices = ", ".join(scenarios) or f"none in {folder}"
+    if not matches:
+        raise ScenarioError(
+            text, "(scenario)", f"no such scenario (choose from: {choices})"
+        )
+    raise ScenarioError(text, "(scenario)", f"ambiguous, matches {', '.join(matches)}")
+
+
+def _normalise(text: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")
+
+
+def _strip_number(key: str) -> str:
+    return re.sub(r"^\d+_", "", key)
+
+
+@dataclasses.dataclass
+class PlannerApp:
+    """A running planner app (see :func:`start_app`)."""
+
+    server: viser.ViserServer
+    """The viser server."""
+    controller: Controller
+    """The controller that owns the scene."""
+    view: PlannerView
+    """The 3-D view."""
+    panels: Panels
+    """The control panel."""
+    host: str
+    """Host the server listens on."""
+
+    @property
+    def port(self) -> int:
+        """Port the server listens on (viser picks another if the asked one is busy)."""
+        return self.server.get_port()
+
+    @property
+    def url(self) -> str:
+        """Address to open in a browser."""
+        host = "127.0.0.1" if self.host in ("0.0.0.0", "") else self.host
+        if ":" in host and not host.startswith("["):
+            host = f"[{host}]"
+        return f"http://{host}:{self.port}/"
+
+    def set_robot_time(self, t: float | None) -> None:
+        """Pause the robot at trajectory time ``t`` [s] (None: play from where it is)."""
+        self.controller.set_robot_time(t)
+
+    def wait_idle(self, timeout: float = 10.0) -> bool:
+        """Block until every edit is planned and drawn, and the messages are sent."""
+        ok = self.controller.wait_idle(timeout)
+        self.server.flush()
+        return ok
+
+    def stop(self) -> None:
+        """Stop the controller's threads and the server."""
+        self.controller.close()
+        self.server.stop()
+
+
+def start_app(
+    scenario: str | os.PathLike[str] | Scene | None = None,
+    *,
+    host: str = "127.0.0.1",
+    port: int = 0,
+    print_url: bool = True,
+) -> PlannerApp:
+    """Start the planner's viser server with the full scene drawn.
+
+    Parameters
+    ----------
+    scenario
+        A scenario key or name (``"01_two_convex"``, ``"two_convex"``), a path to a
+        scenario file, a :class:`planners.Scene`, or None for :data:`DEFAULT_SCENARIO`.
+    host
+        Interface to listen on; loopback unless you want to share on a network.
+    port
+        Port; 0 picks a free one (read :attr:`PlannerApp.port`).
+    print_url
+        Print the URL to open.
+
+    Returns
+    -------
+    PlannerApp
+        With ``.server``, ``.port``, ``.url``, ``.controller``, ``.set_robot_time(t)``,
+        ``.wait_idle(timeout)`` and ``.stop()``. The first frame is drawn on return.
+
+    Raises
+    ------
+    ScenarioError
+        If the scenario cannot be found or read (before any server is started).
+    """
+    scenarios = list_scenarios()
+    if isinstance(scenario, Scene):
+        scene, key = scenario, ""
+    else:
+        key, path = resolve_scenario(DEFAULT_SCENARIO if scenario is None else scenario)
+        scene = planners.load_scene(path)
+
+    # viser prints its own banner with rich; ours (below) is one line with the real URL.
+    with contextlib.redirect_stdout(io.StringIO()):
+        server = viser.ViserServer(host=host, port=port, verbose=False)
+    try:
+        server.gui.configure_theme(
+            control_width="medium", show_share_button=False, brand_color=(0, 114, 178)
+        )
+        server.scene.set_up_direction("+z")
+        # No HDRI: it costs ~10 s of CPU on first render and changes the light mid-way;
+        # plain lights give the same picture every time (notes/viser-headless.md).
+        server.scene.configure_environment_map(hdri=None)
+        server.scene.configure_default_lights(enabled=True, cast_shadow=False)
+        server.scene.add_light_hemisphere("/lights/sky", intensity=1.2)
+        _frame_camera(server, scene)
+
+        titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
+        panels = Panels(server, titles, tuple(planners.PLANNERS))
+        controller_box: list[Controller] = []
+
+        def on_drag(handle: tuple, xy: tuple[float, float], phase: str) -> None:
+            controller_box[0].drag_handle(handle, xy, phase)
+
+        view = PlannerView(server, on_drag=on_drag)
+        view.robot_model_fn = robot_model.robot_model
+        controller = Controller(
+            [view, panels],
+            scene,
+            trajectory=robot_model.trajectory,
+            sample=robot_model.sample,
+            scenarios=scenarios,
+            scenario=key,
+        )
+        controller_box.append(controller)
+        panels.attach(controller)
+        app = PlannerApp(
+            server=server, controller=controller, view=view, panels=panels, host=host
+        )
+        if not app.wait_idle(60.0):
+            raise RuntimeError("the first frame was not drawn within 60 s")
+    except BaseException:
+        server.stop()
+        raise
+    if print_url:
+        print(
+            f"Mobile-robot planner: open {app.url} in a browser (Ctrl+C to stop).",
+            flush=True,
+        )
+    return app
+
+
+def _frame_camera(server: viser.ViserServer, scene: Scene) -> None:
+    """Point new browsers' cameras at the whole floor, slightly tilted so it reads as 3-D.
+
+    The floor is framed left of centre: the control panel floats over the right side.
+    """
+    x0, y0, x1, y1 = scene_bounds(scene)
+    w, h = max(x1 - x0, 1.0), max(y1 - y0, 1.0)
+    fov = math.radians(50.0)
+    distance = max(1.2 * w, 1.55 * h)
+    cx, cy = (x0 + x1) / 2 + 0.12 * w, (y0 + y1) / 2
+    server.initial_camera.fov = fov
+    server.initial_camera.look_at = (cx, cy, 0.0)
+    # About 20 degrees from straight down, seen from the -y side.
+    server.initial_camera.position = (cx, cy - 0.36 * distance, 0.94 * distance)
+    server.initial_camera.up = (0.0, 0.0, 1.0)

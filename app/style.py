@@ -1,0 +1,113 @@
+"""Colours, sizes and heights shared by the 3-D view and the panel's legend.
+
+The palette is Okabe and Ito's (2008) colour-universal design: eight colours that stay
+distinct for the common forms of colour blindness and on a washed-out projector. Each
+planner owns one hue; its graph edges are a pale tint of that hue, its path the full hue.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "BLUE",
+    "COLORS",
+    "GREEN",
+    "HEIGHTS",
+    "ORANGE",
+    "PURPLE",
+    "SKY",
+    "VERMILLION",
+    "YELLOW",
+    "hex_color",
+    "tint",
+]
+
+RGB = tuple[int, int, int]
+
+# Okabe-Ito palette.
+BLACK: RGB = (0, 0, 0)
+ORANGE: RGB = (230, 159, 0)
+SKY: RGB = (86, 180, 233)
+GREEN: RGB = (0, 158, 115)
+YELLOW: RGB = (240, 228, 66)
+BLUE: RGB = (0, 114, 178)
+VERMILLION: RGB = (213, 94, 0)
+PURPLE: RGB = (204, 121, 167)
+
+
+def tint(color: RGB, amount: float) -> RGB:
+    """Mix ``color`` with white; ``amount`` 0 keeps the colour, 1 gives white.
+
+    Examples
+    --------
+    >>> tint((0, 114, 178), 0.5)
+    (128, 184, 216)
+    """
+    return tuple(round(c + (255 - c) * amount) for c in color)  # type: ignore[return-value]
+
+
+def hex_color(color: RGB) -> str:
+    """Return ``#rrggbb`` for the panel's HTML legend.
+
+    Examples
+    --------
+    >>> hex_color((0, 114, 178))
+    '#0072b2'
+    """
+    return "#{:02x}{:02x}{:02x}".format(*color)
+
+
+COLORS: dict[str, RGB] = {
+    "obstacle": (72, 72, 72),
+    "obstacle_edge": (25, 25, 25),
+    "wall": (150, 150, 150),
+    "expanded": ORANGE,
+    "expanded_edge": (200, 120, 0),
+    "other_expansion": (90, 90, 90),
+    "vg": BLUE,
+    "vg_edges": tint(BLUE, 0.55),
+    "svg": GREEN,
+    "svg_edges": tint(GREEN, 0.45),
+    "dsb": PURPLE,
+    "dsb_seek": PURPLE,
+    "dsb_follow": VERMILLION,
+    "start": SKY,
+    "goal": YELLOW,
+    "marker_edge": (30, 30, 30),
+    "selection": BLACK,
+    "draft": BLACK,
+    "robot_body": (225, 225, 225),
+    "robot_wheel": (40, 40, 40),
+    "robot_mark": ORANGE,
+    "robot_heading": BLUE,
+    "sensing": PURPLE,
+    "sensed": VERMILLION,
+}
+"""Colour of each thing drawn, by role."""
+
+HEIGHTS: dict[str, float] = {
+    "expanded_fill": 0.004,
+    "expanded_edge": 0.008,
+    "vg_edges": 0.012,
+    "svg_edges": 0.016,
+    "vg_path": 0.020,
+    "svg_path": 0.024,
+    "dsb_path": 0.028,
+    "marker": 0.032,
+    "sensing": 0.036,
+    "obstacle": 0.4,
+    "wall": 0.3,
+}
+"""Height [m] of each flat layer above the floor, so overlapping layers never flicker,
+and of the obstacle prisms and walls."""
+
+WIDTHS: dict[str, float] = {
+    "graph": 0.022,
+    "vg_path": 0.2,
+    "svg_path": 0.11,
+    "dsb_path": 0.06,
+    "outline": 0.03,
+    "selection": 0.07,
+    "sensing": 0.025,
+}
+"""Line thickness [m, world units]: the paths nest (VG widest, DSB narrowest) so that
+identical VG and SVG paths both stay visible."""

@@ -1,0 +1,1018 @@
+"""The 3-D scene: every node is created once, then :meth:`PlannerView.render` assigns properties.
+
+Following viser's ``ViserUrdf.update_cfg`` and its performance notes, one layer is one
+node: all edges of the visibility graph are one ``add_line_segments`` of shape (N, 2, 3),
+all obstacle prisms are one mesh, and so on, so that a redraw during a drag is a handful
+of property assignments inside one ``atomic()`` batch. Pools (vertex handles, labels)
+only grow; unused members are hidden.
+
+The functions at the top are pure (numpy and shapely only) and are tested as arrays.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "PlannerView",
+    "circle_segments",
+    "disk_mesh",
+    "graph_to_segments",
+    "lift",
+    "path_to_segments",
+    "polygon_to_mesh",
+    "polygons_of",
+    "prism_mesh",
+    "rings_to_segments",
+    "scene_bounds",
+    "wall_mesh",
+    "yaw_quaternion",
+]
+
+import contextlib
+import math
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import Any
+
+import networkx as nx
+import numpy as np
+import numpy.typing as npt
+import shapely
+import viser
+from shapely import MultiPolygon, Polygon
+from shapely.geometry.base import BaseGeometry
+
+from app.controller import Frame, Handle, RobotPose
+from app.robot import RobotModel
+from app.style import COLORS, HEIGHTS, WIDTHS
+
+FloatArray = npt.NDArray[np.float64]
+IndexArray = npt.NDArray[np.uint32]
+Mesh = tuple[FloatArray, IndexArray]
+
+# One degenerate segment / triangle: viser nodes keep a valid shape while hidden.
+_NO_SEGMENTS = np.zeros((1, 2, 3))
+_NO_MESH: Mesh = (np.zeros((3, 3)), np.array([[0, 1, 2]], dtype=np.uint32))
+
+
+# --------------------------------------------------------------------------- pure helpers
+
+
+def lift(points: npt.ArrayLike, z: float = 0.0) -> FloatArray:
+    """Lift (N, 2) floor points to (N, 3) at height ``z`` [m].
+
+    Examples
+    --------
+    >>> lift([[1, 2], [3, 4]], 0.5)
+    array([[1. , 2. , 0.5],
+           [3. , 4. , 0.5]])
+    """
+    xy = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    return np.column_stack([xy, np.full(len(xy), float(z))])
+
+
+def graph_to_segments(graph: nx.Graph | None, z: float = 0.0) -> FloatArray:
+    """Turn every edge of a graph with (x, y) nodes into one segment, shape (N, 2, 3).
+
+    Examples
+    --------
+    >>> g = nx.Graph([((0.0, 0.0), (1.0, 0.0)), ((1.0, 0.0), (1.0, 2.0))])
+    >>> graph_to_segments(g, 0.1).shape
+    (2, 2, 3)
+    """
+    if graph is None or graph.number_of_edges() == 0:
+        return np.zeros((0, 2, 3))
+    ends = np.asarray(list(graph.edges()), dtype=np.float64).reshape(-1, 2, 2)
+    out = np.empty((len(ends), 2, 3))
+    out[:, :, :2] = ends
+    out[:, :, 2] = z
+    return out
+
+
+def path_to_segments(path: npt.ArrayLike | None, z: float = 0.0) -> FloatArray:
+    """Turn an (N, 2) path into its N - 1 segments, shape (N - 1, 2, 3).
+
+    Examples
+    --------
+    >>> path_to_segments([[0, 0], [1, 0], [1, 1]]).tolist()
+    [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0]]]
+    """
+    if path is None:
+        return np.zeros((0, 2, 3))
+    p = lift(path, z)
+    if len(p) < 2:
+        return np.zeros((0, 2, 3))
+    return np.stack([p[:-1], p[1:]], axis=1)
+
+
+def polygons_of(
+    geometry: BaseGeometry | Iterable[BaseGeometry] | None,
+) -> list[Polygon]:
+    """Flatten polygons, multipolygons and collections into a list of non-empty polygons."""
+    if geometry is None:
+        return []
+    if isinstance(geometry, BaseGeometry):
+        if isinstance(geometry, Polygon):
+            return [] if geometry.is_empty else [geometry]
+        return [p for g in getattr(geometry, "geoms", []) for p in polygons_of(g)]
+    return [p for g in geometry for p in polygons_of(g)]
+
+
+def rings_to_segments(
+    polygons: Iterable[Polygon], z: float = 0.0, holes: bool = True
+) -> FloatArray:
+    """Outline every ring (exterior and, with ``holes``, interiors) as segments (N, 2, 3).
+
+    Works on invalid (self-intersecting) polygons too: the ring is drawn as given, so a
+    student sees where it crosses itself.
+
+    Examples
+    --------
+    >>> rings_to_segments([Polygon([(0, 0), (1, 0), (0, 1)])]).shape
+    (3, 2, 3)
+    """
+    parts = []
+    for polygon in polygons:
+        rings = [polygon.exterior, *(polygon.interiors if holes else [])]
+        for ring in rings:
+            coords = np.asarray(ring.coords, dtype=np.float64)
+            if len(coords) >= 2:
+                parts.append(path_to_segments(coords[:, :2], z))
+    return np.concatenate(parts) if parts else np.zeros((0, 2, 3))
+
+
+def _triangles(polygon: Polygon) -> FloatArray:
+    """Triangles (T, 3, 2) covering a valid polygon (holes respected)."""
+    if hasattr(shapely, "constrained_delaunay_triangles"):
+        tris = shapely.constrained_delaunay_triangles(polygon)
+        parts = shapely.get_parts(tris)
+    else:  # shapely < 2.1: Delaunay of the vertices, keeping triangles inside
+        parts = [
+            t
+            for t in shapely.get_parts(shapely.delaunay_triangles(polygon))
+            if polygon.covers(t.centroid)
+        ]
+    if len(parts) == 0:
+        return np.zeros((0, 3, 2))
+    coords = shapely.get_coordinates(np.asarray(parts, dtype=object)).reshape(
+        len(parts), 4, 2
+    )[:, :3]
+    # Counter-clockwise seen from above, so the faces' normals point up (+z).
+    a, b, c = coords[:, 0], coords[:, 1], coords[:, 2]
+    cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (
+        c[:, 0] - a[:, 0]
+    ) < 0
+    coords[cw] = coords[cw][:, ::-1]
+    return coords
+
+
+def _valid_parts(polygon: Polygon) -> list[Polygon]:
+    # An edit may leave a polygon self-intersecting; fill what make_valid makes of it.
+    if polygon.is_valid:
+        return [polygon]
+    return polygons_of(shapely.make_valid(polygon))
+
+
+def polygon_to_mesh(
+    polygons: Iterable[Polygon] | Polygon | MultiPolygon, z: float = 0.0
+) -> Mesh:
+    """Triangulate flat polygons at height ``z``: vertices (V, 3) and faces (F, 3).
+
+    Examples
+    --------
+    >>> v, f = polygon_to_mesh(Polygon([(0, 0), (2, 0), (2, 1), (0, 1)]), 0.1)
+    >>> v.shape, f.shape, float(v[:, 2].max())
+    ((6, 3), (2, 3), 0.1)
+    """
+    tris = [_triangles(p) for g in polygons_of(polygons) for p in _valid_parts(g)]
+    if not tris or sum(len(t) for t in tris) == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
+    all_tris = np.concatenate(tris)
+    vertices = lift(all_tris.reshape(-1, 2), z)
+    faces = np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3)
+    return vertices, faces
+
+
+def prism_mesh(polygons: Iterable[Polygon] | Polygon, height: float) -> Mesh:
+    """Extrude floor polygons into solid prisms of ``height`` [m] (top and sides, no bottom).
+
+    Examples
+    --------
+    >>> v, f = prism_mesh([Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])], 0.5)
+    >>> len(f)  # 2 top triangles + 4 sides x 2
+    10
+    """
+    top_v, top_f = polygon_to_mesh(polygons, height)
+    side_v = []
+    for g in polygons_of(polygons):
+        for part in _valid_parts(g):
+            oriented = shapely.geometry.polygon.orient(part, sign=1.0)
+            for ring in [oriented.exterior, *oriented.interiors]:
+                c = np.asarray(ring.coords, dtype=np.float64)[:, :2]
+                a, b = c[:-1], c[1:]
+                # Each side is a quad a0 b0 b1 a1 (outward normal for a CCW exterior).
+                quad = np.stack(
+                    [
+                        lift(a, 0.0),
+                        lift(b, 0.0),
+                        lift(b, height),
+                        lift(a, 0.0),
+                        lift(b, height),
+                        lift(a, height),
+                    ],
+                    axis=1,
+                )
+                side_v.append(quad.reshape(-1, 3))
+    if not side_v:
+        return top_v, top_f
+    sides = np.concatenate(side_v)
+    vertices = np.concatenate([top_v, sides])
+    faces = np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3)
+    return vertices, faces
+
+
+def wall_mesh(
+    boundary: Polygon | None, thickness: float = 0.12, height: float = 0.3
+) -> Mesh:
+    """Walls standing just outside ``boundary``: a prism of the ring ``thickness`` [m] wide.
+
+    Examples
+    --------
+    >>> v, f = wall_mesh(Polygon([(0, 0), (4, 0), (4, 3), (0, 3)]))
+    >>> bool(v[:, 0].min() < 0 and v[:, 0].max() > 4)
+    True
+    """
+    if boundary is None or boundary.is_empty:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
+    outer = boundary.buffer(thickness, join_style="mitre")
+    return prism_mesh(polygons_of(outer.difference(boundary)), height)
+
+
+def circle_segments(
+    center: npt.ArrayLike, radius: float, z: float = 0.0, n: int = 96
+) -> FloatArray:
+    """Draw a circle of ``radius`` [m] around ``center`` as ``n`` segments (n, 2, 3).
+
+    Examples
+    --------
+    >>> s = circle_segments((1, 1), 2.0, n=8)
+    >>> s.shape, bool(np.allclose(np.hypot(s[..., 0] - 1, s[..., 1] - 1), 2.0))
+    ((8, 2, 3), True)
+    """
+    angles = np.linspace(0.0, 2.0 * np.pi, n + 1)
+    c = np.asarray(center, dtype=np.float64)
+    ring = c + radius * np.column_stack([np.cos(angles), np.sin(angles)])
+    return path_to_segments(ring, z)
+
+
+def disk_mesh(radius: float, z: float = 0.0, n: int = 48) -> Mesh:
+    """Make a flat disk of ``radius`` [m] around the origin at height ``z``: (V, 3), (F, 3)."""
+    angles = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    rim = np.column_stack(
+        [radius * np.cos(angles), radius * np.sin(angles), np.full(n, z)]
+    )
+    vertices = np.vstack([[0.0, 0.0, z], rim])
+    k = np.arange(n)
+    faces = np.column_stack([np.zeros(n), 1 + k, 1 + (k + 1) % n]).astype(np.uint32)
+    return vertices, faces
+
+
+def yaw_quaternion(angle: float) -> tuple[float, float, float, float]:
+    """Quaternion (w, x, y, z) of a rotation by ``angle`` [rad] about +z.
+
+    Examples
+    --------
+    >>> [round(v, 6) for v in yaw_quaternion(math.pi)]
+    [0.0, 0.0, 0.0, 1.0]
+    """
+    return (math.cos(angle / 2.0), 0.0, 0.0, math.sin(angle / 2.0))
+
+
+def _axis_quaternion(
+    axis: npt.ArrayLike, angle: float
+) -> tuple[float, float, float, float]:
+    a = np.asarray(axis, dtype=np.float64)
+    a = a / np.linalg.norm(a)
+    s = math.sin(angle / 2.0)
+    return (math.cos(angle / 2.0), float(a[0] * s), float(a[1] * s), float(a[2] * s))
+
+
+# --------------------------------------------------------------------------- the view
+
+
+class _Segments:
+    """One line-segment layer whose number of segments changes from frame to frame."""
+
+    def __init__(
+        self,
+        scene: viser.SceneApi,
+        name: str,
+        color: tuple[int, int, int],
+        thickness: float,
+    ) -> None:
+        self.handle = scene.add_line_segments(
+            name, _NO_SEGMENTS, color, thickness=thickness, visible=False
+        )
+        self.color = np.asarray(color, dtype=np.uint8)
+
+    def set(
+        self,
+        segments: FloatArray,
+        visible: bool = True,
+        colors: npt.NDArray[np.uint8] | None = None,
+    ) -> None:
+        if len(segments) == 0:
+            self.handle.visible = False
+            return
+        # A layer keeps its single colour, shape (3,), unless given one per segment end.
+        if colors is not None:
+            self.handle.colors = colors
+        self.handle.points = segments.astype(np.float32)
+        self.handle.visible = visible
+
+
+class _Mesh:
+    """One mesh layer whose triangles change from frame to frame."""
+
+    def __init__(
+        self,
+        scene: viser.SceneApi,
+        name: str,
+        color: tuple[int, int, int],
+        **kwargs: Any,
+    ) -> None:
+        self.handle = scene.add_mesh_simple(
+            name, _NO_MESH[0], _NO_MESH[1], color=color, visible=False, **kwargs
+        )
+
+    def set(self, mesh: Mesh, visible: bool = True) -> None:
+        vertices, faces = mesh
+        if len(faces) == 0:
+            self.handle.visible = False
+            return
+        self.handle.vertices = vertices.astype(np.float32)
+        self.handle.faces = faces.astype(np.uint32)
+        self.handle.visible = visible
+
+
+class _Labels:
+    """A pool of labels; only grows, hides what it does not need."""
+
+    def __init__(
+        self,
+        scene: viser.SceneApi,
+        prefix: str,
+        scale: float = 1.0,
+        anchor: str = "bottom-left",
+    ) -> None:
+        self.scene = scene
+        self.prefix = prefix
+        self.scale = scale
+        self.anchor = anchor
+        self.handles: list[viser.LabelHandle] = []
+
+    def set(
+        self, items: Sequence[tuple[str, npt.ArrayLike]], visible: bool = True
+    ) -> None:
+        while len(self.handles) < len(items):
+            self.handles.append(
+                self.scene.add_label(
+                    f"{self.prefix}/{len(self.handles)}",
+                    "",
+                    font_screen_scale=self.scale,
+                    anchor=self.anchor,  # type: ignore[arg-type]
+                    visible=False,
+                )
+            )
+        for k, handle in enumerate(self.handles):
+            if k < len(items) and visible:
+                text, position = items[k]
+                handle.text = text
+                handle.position = tuple(float(v) for v in position)  # type: ignore[assignment]
+                handle.visible = True
+            else:
+                handle.visible = False
+
+
+HandleCallback = Callable[[Handle, tuple[float, float], str], None]
+
+
+class PlannerView:
+    """The planner's 3-D scene on a viser server (or on one client).
+
+    Parameters
+    ----------
+    target
+        A :class:`viser.ViserServer` (every browser sees the same scene) or a
+        :class:`viser.ClientHandle`.
+    on_drag
+        Called as ``on_drag(handle, (x, y), phase)`` when a user drags a gizmo; the app
+        passes :meth:`app.controller.Controller.drag_handle`.
+    """
+
+    def __init__(
+        self,
+        target: viser.ViserServer | viser.ClientHandle,
+        on_drag: HandleCallback | None = None,
+    ) -> None:
+        self.target = target
+        self.scene = target.scene
+        self._on_drag = on_drag
+        s = self.scene
+        self.grid = s.add_grid(
+            "/floor",
+            width=10.0,
+            height=8.0,
+            cell_size=0.5,
+            section_size=1.0,
+            cell_color=(215, 215, 215),
+            section_color=(170, 170, 170),
+            position=(5.0, 4.0, 0.0),
+            shadow_opacity=0.0,
+        )
+        self.walls = _Mesh(
+            s, "/walls", COLORS["wall"], flat_shading=True, side="double"
+        )
+        self.obstacles = _Mesh(
+            s, "/obstacles/body", COLORS["obstacle"], flat_shading=True, side="double"
+        )
+        self.obstacle_edges = _Segments(
+            s, "/obstacles/edges", COLORS["obstacle_edge"], WIDTHS["outline"]
+        )
+        self.obstacle_labels = _Labels(s, "/obstacles/labels", 0.9, "center-center")
+        self.expanded_fill = _Mesh(
+            s,
+            "/expanded/fill",
+            COLORS["expanded"],
+            opacity=0.4,
+            side="double",
+            cast_shadow=False,
+            receive_shadow=False,
+        )
+        self.expanded_edges = _Segments(
+            s, "/expanded/edges", COLORS["expanded_edge"], WIDTHS["outline"]
+        )
+        self.other_edges = _Segments(
+            s, "/expanded/other", COLORS["other_expansion"], WIDTHS["outline"] * 0.8
+        )
+        self.vg_edges = _Segments(s, "/vg/edges", COLORS["vg_edges"], WIDTHS["graph"])
+        self.svg_edges = _Segments(
+            s, "/svg/edges", COLORS["svg_edges"], WIDTHS["graph"] * 1.3
+        )
+        self.vg_path = _Segments(s, "/vg/path", COLORS["vg"], WIDTHS["vg_path"])
+        self.svg_path = _Segments(s, "/svg/path", COLORS["svg"], WIDTHS["svg_path"])
+        self.dsb_path = _Segments(s, "/dsb/path", COLORS["dsb"], WIDTHS["dsb_path"])
+        self.dsb_marks = _Segments(
+            s, "/dsb/marks", COLORS["marker_edge"], WIDTHS["outline"]
+        )
+        self.dsb_labels = _Labels(s, "/dsb/labels", 1.0, "bottom-left")
+        self.selection = _Segments(
+            s, "/selection", COLORS["selection"], WIDTHS["selection"]
+        )
+        self.draft = _Segments(s, "/draft", COLORS["draft"], WIDTHS["outline"] * 1.5)
+
+        # Start and goal: a gizmo each, with the marker and its label as children so they
+        # follow the mouse in the browser even before the server has replanned.
+        self.handles: dict[str, viser.TransformControlsHandle] = {}
+        self.markers: dict[str, viser.MeshHandle] = {}
+        self.marker_rims: dict[str, viser.LineSegmentsHandle] = {}
+        self.marker_labels: dict[str, viser.LabelHandle] = {}
+        for name in ("start", "goal"):
+            gizmo = s.add_transform_controls(
+                f"/handles/{name}",
+                scale=0.9,
+                active_axes=(True, True, False),
+                disable_rotations=True,
+                depth_test=False,
+            )
+            gizmo.on_update(self._drag_callback((name,)))
+            self.handles[name] = gizmo
+            v, f = disk_mesh(1.0, HEIGHTS["marker"])
+            self.markers[name] = s.add_mesh_simple(
+                f"/handles/{name}/marker",
+                v,
+                f,
+                color=COLORS[name],
+                side="double",
+                cast_shadow=False,
+            )
+            self.marker_rims[name] = s.add_line_segments(
+                f"/handles/{name}/rim",
+                circle_segments((0, 0), 1.0, HEIGHTS["marker"] + 0.002, n=48),
+                COLORS["marker_edge"],
+                thickness=0.03,
+            )
+            self.marker_labels[name] = s.add_label(
+                f"/handles/{name}/label",
+                name,
+                position=(0.0, 0.0, 0.05),
+                font_screen_scale=1.3,
+                anchor="bottom-center",
+            )
+        self.vertex_handles: list[viser.TransformControlsHandle] = []
+        self.vertex_slots: list[tuple[int, int]] = []
+        self.obstacle_handles: list[viser.TransformControlsHandle] = []
+
+        # The robot: a frame moved each animation step; body and wheels are children.
+        self.robot = s.add_frame("/robot", show_axes=False, visible=False)
+        self.robot_parts: list[Any] = []
+        self.body_parts: list[viser.MeshHandle] = []
+        self.wheel_spins: list[tuple[viser.FrameHandle, FloatArray]] = []
+        self._robot_key: Any = None
+        self.sensing_circle = _Segments(
+            s, "/sensing/range", COLORS["sensing"], WIDTHS["sensing"]
+        )
+        self.sensing_graph = _Segments(
+            s, "/sensing/tangents", COLORS["sensing"], WIDTHS["sensing"] * 1.5
+        )
+        self.sensing_seen = _Segments(
+            s, "/sensing/seen", COLORS["sensed"], WIDTHS["sensing"] * 3
+        )
+
+        self._last: dict[str, Any] = {}
+        self.rendered_version = -1
+        self.robot_model_fn: Callable[[Any], tuple[Any, RobotModel]] | None = None
+
+    # ------------------------------------------------------------------ helpers
+
+    def _atomic(self) -> contextlib.AbstractContextManager[None]:
+        atomic = getattr(self.target, "atomic", None)
+        return atomic() if atomic is not None else contextlib.nullcontext()
+
+    def _drag_callback(self, handle: Handle) -> Callable[[Any], Any]:
+        async def callback(event: Any) -> None:
+            # async: viser runs these on its event loop in order, so "start", "update"
+            # and "end" of one drag reach the controller in order (def callbacks may not).
+            if self._on_drag is not None:
+                x, y = float(event.target.position[0]), float(event.target.position[1])
+                self._on_drag(handle, (x, y), event.phase)
+
+        return callback
+
+    def _vertex_callback(self, slot: int) -> Callable[[Any], Any]:
+        async def callback(event: Any) -> None:
+            if self._on_drag is None or slot >= len(self.vertex_slots):
+                return
+            i, j = self.vertex_slots[slot]
+            x, y = float(event.target.position[0]), float(event.target.position[1])
+            self._on_drag(("vertex", i, j), (x, y), event.phase)
+
+        return callback
+
+    def _obstacle_callback(self, slot: int) -> Callable[[Any], Any]:
+        async def callback(event: Any) -> None:
+            if self._on_drag is None:
+                return
+            x, y = float(event.target.position[0]), float(event.target.position[1])
+            self._on_drag(("obstacle", slot), (x, y), event.phase)
+
+        return callback
+
+    def _changed(self, key: str, value: Any) -> bool:
+        """Tell whether ``value`` differs from the last one drawn for ``key`` (and remember it)."""
+        old = self._last.get(key, _MISSING)
+        try:
+            same = old is not _MISSING and (old is value or bool(old == value))
+        except (TypeError, ValueError):
+            same = False
+        if same:
+            return False
+        self._last[key] = value
+        return True
+
+    # ------------------------------------------------------------------ render
+
+    def render(self, frame: Frame) -> None:
+        """Draw ``frame``: property assignments only, in one atomic batch."""
+        with self._atomic():
+            self._render(frame)
+        self.rendered_version = frame.version
+
+    def _render(self, frame: Frame) -> None:
+        scene = frame.scene
+        layers = frame.layers
+        cspace = frame.plans.get("cspace")
+        radius = scene.robot.radius
+        self.set_layer_flags(layers.get("robot", True), layers.get("sensing", True))
+        if self.robot_model_fn is not None and self._changed(
+            "robot_model", scene.robot
+        ):
+            self.set_robot_model(*self.robot_model_fn(scene.robot))
+
+        if self._changed("bounds", scene_bounds(scene)):
+            x0, y0, x1, y1 = self._last["bounds"]
+            self.grid.width, self.grid.height = x1 - x0, y1 - y0
+            self.grid.position = ((x0 + x1) / 2, (y0 + y1) / 2, -0.001)
+        if self._changed("boundary", scene.boundary):
+            self.walls.set(wall_mesh(scene.boundary, height=HEIGHTS["wall"]))
+
+        show_obstacles = layers.get("obstacles", True)
+        if self._changed("obstacles", (scene.obstacles, show_obstacles)):
+            self.obstacles.set(
+                prism_mesh(scene.obstacles, HEIGHTS["obstacle"]), show_obstacles
+            )
+            self.obstacle_edges.set(
+                rings_to_segments(scene.obstacles, HEIGHTS["obstacle"] + 0.002),
+                show_obstacles,
+            )
+            self.obstacle_labels.set(
+                [
+                    (str(i + 1), _label_point(o, HEIGHTS["obstacle"] + 0.05))
+                    for i, o in enumerate(scene.obstacles)
+                ],
+                show_obstacles,
+            )
+
+        show_expanded = layers.get("expanded", True)
+        # The key holds the object itself (compared by identity), never its id(): an id
+        # can be reused once the old configuration space is freed.
+        expanded_key = (cspace, show_expanded)
+        if self._changed("expanded", expanded_key):
+            if cspace is not None and show_expanded:
+                self.expanded_fill.set(
+                    polygon_to_mesh(cspace.merged, HEIGHTS["expanded_fill"])
+                )
+                outlines = list(cspace.expanded)
+                if cspace.boundary is not None:
+                    outlines += polygons_of(cspace.boundary)
+                self.expanded_edges.set(
+                    rings_to_segments(outlines, HEIGHTS["expanded_edge"])
+                )
+            else:
+                self.expanded_fill.set(_NO_MESH, False)
+                self.expanded_edges.set(_NO_SEGMENTS, False)
+        other = frame.other_expanded if layers.get("other_expansion", False) else None
+        if self._changed("other", other):
+            self.other_edges.set(
+                rings_to_segments(other or [], HEIGHTS["expanded_edge"] + 0.001),
+                other is not None,
+            )
+
+        for name, edges, path in (
+            ("vg", self.vg_edges, self.vg_path),
+            ("svg", self.svg_edges, self.svg_path),
+        ):
+            result = frame.plans.get(name)
+            graph = getattr(result, "graph", None)
+            show_edges = layers.get(f"{name}_edges", True) and getattr(
+                result, "status", ""
+            ) in ("ok", "unreachable")
+            edges.set(
+                graph_to_segments(graph, HEIGHTS[f"{name}_edges"])
+                if show_edges
+                else _NO_SEGMENTS,
+                show_edges,
+            )
+            path_xy = getattr(result, "path", None)
+            show_path = layers.get(f"{name}_path", True)
+            path.set(
+                path_to_segments(path_xy, HEIGHTS[f"{name}_path"])
+                if show_path
+                else _NO_SEGMENTS,
+                show_path,
+            )
+
+        self._render_dsb(frame)
+        self._render_markers(frame, radius)
+        self._render_handles(frame)
+        self._render_selection(frame)
+
+    def _render_dsb(self, frame: Frame) -> None:
+        result = frame.plans.get("dsb")
+        show = frame.layers.get("dsb_path", True) and result is not None
+        path = np.asarray(
+            getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
+        ).reshape(-1, 2)
+        segments = path_to_segments(path, HEIGHTS["dsb_path"]) if show else _NO_SEGMENTS
+        modes = dsb_segment_modes(result, len(segments)) if show else None
+        colors = None
+        if len(segments):
+            palette = {"seek": COLORS["dsb_seek"], "follow": COLORS["dsb_follow"]}
+            names = modes if modes is not None else ["seek"] * len(segments)
+            rgb = np.array(
+                [palette.get(m, COLORS["dsb"]) for m in names], dtype=np.uint8
+            )
+            colors = np.repeat(rgb[:, None, :], 2, axis=1)
+        self.dsb_path.set(segments, show, colors)
+        events = dsb_events(result) if show else []
+        self.dsb_labels.set(
+            [(label, (*at, HEIGHTS["dsb_path"] + 0.05)) for label, _, at in events],
+            show,
+        )
+        crosses = [_cross(at, 0.12, HEIGHTS["dsb_path"] + 0.004) for _, _, at in events]
+        self.dsb_marks.set(
+            np.concatenate(crosses) if crosses else _NO_SEGMENTS, show and bool(crosses)
+        )
+
+    def _render_markers(self, frame: Frame, radius: float) -> None:
+        # The start and goal markers are the robot's footprint (a point robot gets a dot).
+        size = max(radius, 0.12)
+        if self._changed("marker_size", size):
+            for name in ("start", "goal"):
+                self.markers[name].scale = (size, size, 1.0)
+                self.marker_rims[name].scale = (size, size, 1.0)
+                # Above the marker on screen, so the label never hides the footprint.
+                self.marker_labels[name].position = (0.0, size + 0.05, 0.05)
+
+    def _render_handles(self, frame: Frame) -> None:
+        scene = frame.scene
+        for name, xy in (("start", scene.start), ("goal", scene.goal)):
+            if (name,) not in frame.dragging:
+                self.handles[name].position = (xy[0], xy[1], 0.0)
+        editing = frame.tool == "edit"
+        slots = [
+            (i, j)
+            for i, o in enumerate(scene.obstacles)
+            for j in range(len(o.exterior.coords) - 1)
+        ]
+        top = HEIGHTS["obstacle"] + 0.01
+        while len(self.vertex_handles) < len(slots):
+            k = len(self.vertex_handles)
+            gizmo = self.scene.add_transform_controls(
+                f"/handles/vertex/{k}",
+                scale=0.45,
+                active_axes=(True, True, False),
+                disable_axes=True,
+                disable_rotations=True,
+                depth_test=False,
+                visible=False,
+            )
+            gizmo.on_update(self._vertex_callback(k))
+            self.vertex_handles.append(gizmo)
+        self.vertex_slots = slots
+        for k, gizmo in enumerate(self.vertex_handles):
+            if k < len(slots) and editing:
+                i, j = slots[k]
+                if ("vertex", i, j) not in frame.dragging:
+                    x, y = scene.obstacles[i].exterior.coords[j]
+                    gizmo.position = (x, y, top)
+                gizmo.visible = True
+            else:
+                gizmo.visible = False
+        n = len(scene.obstacles)
+        while len(self.obstacle_handles) < n:
+            k = len(self.obstacle_handles)
+            gizmo = self.scene.add_transform_controls(
+                f"/handles/obstacle/{k}",
+                scale=0.8,
+                active_axes=(True, True, False),
+                disable_rotations=True,
+                depth_test=False,
+                visible=False,
+            )
+            gizmo.on_update(self._obstacle_callback(k))
+            self.obstacle_handles.append(gizmo)
+        for k, gizmo in enumerate(self.obstacle_handles):
+            if k < n and editing:
+                if ("obstacle", k) not in frame.dragging:
+                    c = _label_point(scene.obstacles[k], top + 0.01)
+                    gizmo.position = c
+                gizmo.visible = True
+            else:
+                gizmo.visible = False
+
+    def _render_selection(self, frame: Frame) -> None:
+        scene = frame.scene
+        sel = frame.selection
+        segments: list[FloatArray] = []
+        z = HEIGHTS["obstacle"] + 0.02
+        if sel is not None and sel.obstacle < len(scene.obstacles):
+            polygon = scene.obstacles[sel.obstacle]
+            ring = np.asarray(polygon.exterior.coords, dtype=np.float64)
+            if sel.vertex is not None:
+                segments.append(circle_segments(ring[sel.vertex], 0.18, z, n=24))
+            elif sel.edge is not None:
+                segments.append(path_to_segments(ring[sel.edge : sel.edge + 2], z))
+            else:
+                segments.append(rings_to_segments([polygon], z))
+        self.selection.set(
+            np.concatenate(segments) if segments else _NO_SEGMENTS, bool(segments)
+        )
+        draft = np.asarray(frame.draft, dtype=np.float64).reshape(-1, 2)
+        parts = [path_to_segments(draft, 0.05)] + [_cross(p, 0.1, 0.05) for p in draft]
+        self.draft.set(
+            np.concatenate(parts) if len(draft) else _NO_SEGMENTS, len(draft) > 0
+        )
+
+    # ------------------------------------------------------------------ robot
+
+    def render_robot(self, pose: RobotPose | None) -> None:
+        """Move the robot to ``pose`` and spin its wheels; None hides it."""
+        with self._atomic():
+            self._render_robot(pose)
+
+    def _render_robot(self, pose: RobotPose | None) -> None:
+        visible = pose is not None and self._last.get("robot_layer", True)
+        if pose is None or not visible:
+            self.robot.visible = False
+            self.sensing_circle.set(_NO_SEGMENTS, False)
+            self.sensing_graph.set(_NO_SEGMENTS, False)
+            self.sensing_seen.set(_NO_SEGMENTS, False)
+            return
+        self.robot.position = (pose.xy[0], pose.xy[1], 0.0)
+        # Robot frame: x_m right, y_m forward; phi is the world angle of y_m.
+        self.robot.wxyz = yaw_quaternion(pose.phi - math.pi / 2)
+        for (spin, axis), angle in zip(
+            self.wheel_spins, pose.wheel_angles, strict=False
+        ):
+            spin.wxyz = _axis_quaternion(axis, angle)
+        self.robot.visible = True
+        sensing = pose.sensing
+        show = sensing is not None and self._last.get("sensing_layer", True)
+        if show:
+            center, radius, seen, tangents = sensing_geometry(sensing, pose)
+            z = HEIGHTS["sensing"]
+            self.sensing_circle.set(
+                circle_segments(center, radius, z)
+                if math.isfinite(radius)
+                else _NO_SEGMENTS
+            )
+            self.sensing_seen.set(_segments_2d(seen, z + 0.002))
+            self.sensing_graph.set(_segments_2d(tangents, z + 0.004))
+        else:
+            self.sensing_circle.set(_NO_SEGMENTS, False)
+            self.sensing_graph.set(_NO_SEGMENTS, False)
+            self.sensing_seen.set(_NO_SEGMENTS, False)
+
+    def set_robot_model(self, key: Any, model: RobotModel) -> None:
+        """Show the robot's meshes (see :func:`app.robot.robot_model`).
+
+        The meshes are sent again only when ``key`` changes; a new radius only rescales
+        the body.
+        """
+        if key != self._robot_key:
+            self._robot_key = key
+            with self._atomic():
+                for part in self.robot_parts:
+                    part.remove()
+                self.robot_parts = []
+                self.body_parts = []
+                self.wheel_spins = []
+                for k, ((vertices, faces), color) in enumerate(model.body):
+                    node = self.scene.add_mesh_simple(
+                        f"/robot/body{k}",
+                        vertices,
+                        faces,
+                        color=color,
+                        flat_shading=True,
+                        cast_shadow=False,
+                    )
+                    self.robot_parts.append(node)
+                    self.body_parts.append(node)
+                for w, (hub, axle, pieces) in enumerate(model.wheels):
+                    # The wheel-local frame is parallel to the robot frame, origin at the hub.
+                    mount = self.scene.add_frame(
+                        f"/robot/wheel{w}",
+                        show_axes=False,
+                        position=tuple(float(v) for v in hub),
+                    )  # type: ignore[arg-type]
+                    spin = self.scene.add_frame(
+                        f"/robot/wheel{w}/spin", show_axes=False
+                    )
+                    self.robot_parts.append(mount)
+                    for k, ((vertices, faces), color) in enumerate(pieces):
+                        self.scene.add_mesh_simple(
+                            f"/robot/wheel{w}/spin/part{k}",
+                            vertices,
+                            faces,
+                            color=color,
+                            flat_shading=True,
+                            cast_shadow=False,
+                        )
+                    self.wheel_spins.append((spin, np.asarray(axle, dtype=np.float64)))
+        for node in self.body_parts:
+            node.scale = (model.body_scale, model.body_scale, 1.0)
+
+    def set_layer_flags(self, robot: bool, sensing: bool) -> None:
+        """Remember the robot and sensing layer toggles for :meth:`render_robot`."""
+        self._last["robot_layer"] = robot
+        self._last["sensing_layer"] = sensing
+
+
+# --------------------------------------------------------------------------- DSB adapters
+
+
+def dsb_segment_modes(result: Any, n_segments: int) -> list[str] | None:
+    """Mode ("seek" or "follow") of each segment of a DSB path, when the result says.
+
+    Accepts a result with ``segment_modes`` (one per segment) or ``modes`` (one per
+    segment, or one per path point, in which case a segment takes its start's mode).
+    """
+    if result is None or n_segments == 0:
+        return None
+    for attr in ("segment_modes", "modes"):
+        modes = getattr(result, attr, None)
+        if modes is None:
+            continue
+        modes = [str(getattr(m, "value", m)) for m in modes]
+        if len(modes) == n_segments:
+            return modes
+        if len(modes) == n_segments + 1:
+            return modes[:-1]
+    return None
+
+
+def dsb_events(result: Any) -> list[tuple[str, str, tuple[float, float]]]:
+    """(label, kind, (x, y)) of each event of a DSB run (H1, L1, M1, ...)."""
+    events = getattr(result, "events", None) or ()
+    out = []
+    counts: dict[str, int] = {}
+    for event in events:
+        if isinstance(event, dict):
+            kind, at, label = event.get("kind", ""), event.get("at"), event.get("label")
+        else:
+            kind, at, label = (
+                getattr(event, "kind", ""),
+                getattr(event, "at", None),
+                getattr(event, "label", None),
+            )
+        if at is None:
+            continue
+        kind = str(getattr(kind, "value", kind))
+        if not label:
+            letter = {"hit": "H", "leave": "L", "local_min": "M"}.get(kind, "E")
+            counts[letter] = counts.get(letter, 0) + 1
+            label = f"{letter}{counts[letter]}"
+        out.append((str(label), kind, (float(at[0]), float(at[1]))))
+    return out
+
+
+def sensing_geometry(
+    sensing: Any, pose: RobotPose
+) -> tuple[tuple[float, float], float, FloatArray, FloatArray]:
+    """(centre, R, sensed border segments (N, 2, 2), local tangent graph segments (M, 2, 2)).
+
+    ``sensing`` is what the app's sampler attached to the pose: a mapping with ``center``,
+    ``radius``, ``seen`` and ``tangents``.
+    """
+    get = (
+        sensing.get
+        if isinstance(sensing, dict)
+        else lambda k, d=None: getattr(sensing, k, d)
+    )
+    center = tuple(get("center", pose.xy))
+    radius = float(get("radius", math.inf))
+    seen = np.asarray(get("seen", np.zeros((0, 2, 2))), dtype=np.float64).reshape(
+        -1, 2, 2
+    )
+    tangents = np.asarray(
+        get("tangents", np.zeros((0, 2, 2))), dtype=np.float64
+    ).reshape(-1, 2, 2)
+    return (float(center[0]), float(center[1])), radius, seen, tangents
+
+
+# --------------------------------------------------------------------------- small helpers
+
+
+class _Missing:
+    pass
+
+
+_MISSING = _Missing()
+
+
+def _segments_2d(segments: FloatArray, z: float) -> FloatArray:
+    if len(segments) == 0:
+        return np.zeros((0, 2, 3))
+    out = np.empty((len(segments), 2, 3))
+    out[:, :, :2] = segments
+    out[:, :, 2] = z
+    return out
+
+
+def _cross(at: Sequence[float], size: float, z: float) -> FloatArray:
+    x, y = float(at[0]), float(at[1])
+    return np.array(
+        [
+            [[x - size, y - size, z], [x + size, y + size, z]],
+            [[x - size, y + size, z], [x + size, y - size, z]],
+        ]
+    )
+
+
+def _label_point(polygon: Polygon, z: float) -> tuple[float, float, float]:
+    try:
+        p = polygon.representative_point() if polygon.is_valid else polygon.centroid
+        return (float(p.x), float(p.y), z)
+    except Exception:  # a degenerate ring has no centroid
+        x, y = np.asarray(polygon.exterior.coords)[0]
+        return (float(x), float(y), z)
+
+
+def scene_bounds(scene: Any) -> tuple[float, float, float, float]:
+    """Floor area to draw the grid on: the boundary, or everything in the scene plus a margin."""
+    if scene.boundary is not None:
+        x0, y0, x1, y1 = scene.boundary.bounds
+        return (math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1))
+    pts = [np.asarray(o.exterior.coords) for o in scene.obstacles] + [
+        np.array([scene.start, scene.goal])
+    ]
+    allp = np.vstack(pts)
+    x0, y0 = allp.min(axis=0) - 2.0
+    x1, y1 = allp.max(axis=0) + 2.0
+    return (math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1))
+
+
+def iter_scene_segments(view: PlannerView) -> Iterator[tuple[str, FloatArray]]:
+    """(node name, points) of every visible line-segment layer: what a test can inspect."""
+    for attr, layer in vars(view).items():
+        if isinstance(layer, _Segments) and layer.handle.visible:
+            yield attr, np.asarray(layer.handle.points)

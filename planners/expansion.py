@@ -250,22 +250,26 @@ def _scale(points: FloatArray) -> float:
 
 
 def _drop_collinear(geometry: BaseGeometry) -> BaseGeometry:
-    """Remove vertices that lie on the straight line through their neighbours.
+    """Remove vertices on the straight line through their neighbours, and sliver holes.
 
-    Unions of offset pieces leave such vertices where pieces meet; they would become
-    useless visibility-graph nodes. The tolerance is relative (1e-12 of the coordinate
-    scale), far below anything a user can see or a test measures.
+    Unions of offset pieces leave such vertices where pieces meet, and sometimes holes of
+    area ~1e-17 from rounding; both would become useless visibility-graph nodes. The
+    tolerance is relative (1e-12 of the coordinate scale), far below anything a user can
+    see or a test measures. A cleaning that would make a polygon invalid is not applied.
     """
     polygons = list(getattr(geometry, "geoms", [geometry]))
     cleaned = []
     for polygon in polygons:
         if not isinstance(polygon, Polygon) or polygon.is_empty:
             continue
-        rings = [_clean_ring(np.asarray(polygon.exterior.coords))]
-        rings += [_clean_ring(np.asarray(r.coords)) for r in polygon.interiors]
+        scale = _scale(np.asarray(polygon.exterior.coords))
+        holes = [np.asarray(r.coords) for r in polygon.interiors if Polygon(r).area > 1e-12 * scale * scale]
+        original = Polygon(polygon.exterior, holes)
+        rings = [_clean_ring(np.asarray(polygon.exterior.coords))] + [_clean_ring(h) for h in holes]
         if len(rings[0]) < 3:
             continue
-        cleaned.append(Polygon(rings[0], [r for r in rings[1:] if len(r) >= 3]))
+        candidate = Polygon(rings[0], [r for r in rings[1:] if len(r) >= 3])
+        cleaned.append(candidate if candidate.is_valid else original)
     if len(cleaned) == 1:
         return cleaned[0]
     return MultiPolygon(cleaned)

@@ -136,10 +136,34 @@ class _Border:
         return np.asarray(extra, dtype=np.intp)
 
     @functools.cached_property
+    def touching_sectors(self) -> dict[int, tuple[FloatArray, BoolArray]]:
+        """Sorted edge directions at each vertex that appears in several rings.
+
+        Where obstacles touch at a vertex, or a hole touches the outer ring, no single
+        wedge describes the blocked directions; the sectors between all the edges do.
+        """
+        sectors = {}
+        for vertex in np.unique(self.occ_node[self.extra_occurrences]):
+            occ = np.flatnonzero(self.occ_node == vertex)
+            dirs = np.vstack([self.occ_next[occ], self.occ_prev[occ]])
+            opens = np.concatenate([np.ones(len(occ), dtype=bool), np.zeros(len(occ), dtype=bool)])
+            angles = np.arctan2(dirs[:, 1], dirs[:, 0]) % (2 * np.pi)
+            order = np.argsort(angles)
+            sectors[int(vertex)] = (angles[order], opens[order])
+        return sectors
+
+    @functools.cached_property
     def convex_nodes(self) -> BoolArray:
         convex = np.zeros(len(self.points), dtype=bool)
         convex[self.occ_node[self.occ_convex]] = True
         return convex
+
+    @functools.cached_property
+    def pinch_nodes(self) -> BoolArray:
+        """Vertices where obstacles touch: a path through them may bend either way."""
+        pinch = np.zeros(len(self.points), dtype=bool)
+        pinch[self.occ_node[self.extra_occurrences]] = True
+        return pinch
 
 
 @functools.lru_cache(maxsize=64)
@@ -189,13 +213,26 @@ def _into_blocked(border: _Border, node: IntArray, d: FloatArray) -> BoolArray:
         return result
     occ = border.first_occurrence[node[is_vertex]]
     result[is_vertex] = _strictly_inside_wedge(border.occ_next[occ], border.occ_prev[occ], d[is_vertex])
-    for o in border.extra_occurrences:
-        hit = node == border.occ_node[o]
-        if hit.any():
-            result[hit] |= _strictly_inside_wedge(
-                border.occ_next[o][None, :], border.occ_prev[o][None, :], d[hit]
-            )
+    for vertex, (angles, opens_blocked) in border.touching_sectors.items():
+        hit = np.flatnonzero(node == vertex)
+        if len(hit):
+            result[hit] = _in_blocked_sector(angles, opens_blocked, d[hit])
     return result
+
+
+def _in_blocked_sector(angles: FloatArray, opens_blocked: BoolArray, d: FloatArray) -> BoolArray:
+    """Classify directions at a vertex where the border touches itself.
+
+    ``angles`` are the sorted directions of every border edge at the vertex; the sector
+    from ``angles[k]`` counter-clockwise to the next one is blocked iff the edge at
+    ``angles[k]`` has blocked space on its counter-clockwise side (an outgoing edge).
+    A direction along an edge runs on the border, which is free.
+    """
+    a = np.arctan2(d[:, 1], d[:, 0]) % (2 * np.pi)
+    k = np.searchsorted(angles, a, side="right") - 1  # -1 wraps to the last sector
+    gap = np.minimum(np.abs(a[:, None] - angles[None, :]), 2 * np.pi - np.abs(a[:, None] - angles[None, :]))
+    on_edge = gap.min(axis=1) <= _ANGLE_TOL
+    return opens_blocked[k] & ~on_edge
 
 
 # --------------------------------------------------------------------------- segment test
@@ -406,8 +443,9 @@ def simplified_visibility_graph(
 
     A segment is kept when it is visible and, at each end that is an obstacle vertex,
     the line through it does not enter the blocked region next to that vertex (so the
-    vertex is convex and the line is tangent there). See the module docstring for how
-    this realises the chapter's procedure.
+    vertex is convex and the line is tangent there). Vertices where two obstacles touch
+    keep all their visible segments. See the module docstring for how this realises the
+    chapter's procedure.
 
     Examples
     --------
@@ -420,14 +458,21 @@ def simplified_visibility_graph(
     """
     border = _border(cspace)
     q = _query(border, np.asarray(start, dtype=np.float64), np.asarray(goal, dtype=np.float64), cspace.eps)
-    convex = np.append(border.convex_nodes, False)  # index -1 (start, goal) reads False
-    candidate = np.flatnonzero((q.node < 0) | convex[q.node])
+    # Index -1 (start, goal) reads the appended False.
+    convex = np.append(border.convex_nodes, False)
+    pinch = np.append(border.pinch_nodes, False)
+    candidate = np.flatnonzero((q.node < 0) | convex[q.node] | pinch[q.node])
     ii, jj = np.triu_indices(len(candidate), 1)
     i, j = candidate[ii], candidate[jj]
     d = _unit(q.points[j] - q.points[i])
-    # Tangent at both ends: neither the segment nor its extension beyond an obstacle
-    # vertex enters the blocked wedge there.
-    tangent = ~(_into_blocked(border, q.node[i], -d) | _into_blocked(border, q.node[j], d))
+    # Tangent at both ends: the segment's extension beyond an obstacle vertex does not
+    # enter the blocked wedge there. Where obstacles touch at a vertex (a pinch), the path
+    # may bend around one obstacle while the extension points into the other, so no
+    # per-segment condition holds there and every visible segment is kept.
+    tangent = ~(
+        (_into_blocked(border, q.node[i], -d) & ~pinch[q.node[i]])
+        | (_into_blocked(border, q.node[j], d) & ~pinch[q.node[j]])
+    )
     i, j = i[tangent], j[tangent]
     ok = _visible(cspace, border, q, i, j)
     graph = _build_graph(q, i[ok], j[ok])
@@ -482,6 +527,10 @@ def plan_visibility(
     build = simplified_visibility_graph if simplified else visibility_graph
     graph = build(cspace, start, goal)
     name = "svg" if simplified else "vg"
+    if math.dist(start, goal) <= cspace.eps:
+        # Already there (the graph merged the two into one node).
+        path = start[None, :] if np.array_equal(start, goal) else np.stack([start, goal])
+        return VisibilityResult(name, "ok", path, math.dist(start, goal), graph, None, cspace)
     found = shortest_path(graph, start, goal)
     if found is None:
         return VisibilityResult(

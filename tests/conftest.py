@@ -1,0 +1,102 @@
+"""Canonical geometries and the slow, obviously-correct references the planners are checked against."""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pytest
+import shapely
+from shapely import LineString, Polygon
+
+from planners.expansion import ConfigurationSpace
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = sorted((ROOT / "static_scenarios").glob("*.json"))
+
+
+def square(x0: float, y0: float, x1: float, y1: float) -> Polygon:
+    """Axis-aligned rectangle [x0, x1] x [y0, y1]."""
+    return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+
+
+def scene_dict(obstacles, start, goal, *, radius=0.0, boundary=None, expansion="disk", **extra) -> dict:
+    """A scenario mapping with a point robot unless told otherwise."""
+    data = {
+        "format": 1,
+        "obstacles": [list(map(list, o)) for o in obstacles],
+        "start": list(start),
+        "goal": list(goal),
+        "robot": {"radius": radius},
+        "expansion": expansion,
+    }
+    if boundary is not None:
+        data["boundary"] = [list(p) for p in boundary]
+    data.update(extra)
+    return data
+
+
+def reference_segment_free(cspace: ConfigurationSpace, a, b) -> bool:
+    """Is segment a-b in the closed free space? Decided by shapely's predicates alone.
+
+    Touching within the planners' tolerance ``cspace.eps`` counts as touching, as the
+    planners document: the segment may not enter blocked space shrunk by eps.
+    """
+    if tuple(a) == tuple(b):
+        return not cspace.contains_blocked(np.asarray(a))[0]
+    return not shapely.intersects(_eroded_blocked(cspace), LineString([a, b]))
+
+
+_ERODED: dict[int, tuple[ConfigurationSpace, object]] = {}
+
+
+def _eroded_blocked(cspace: ConfigurationSpace):
+    """Blocked space shrunk by eps (cached per configuration space)."""
+    key = id(cspace)
+    if key not in _ERODED or _ERODED[key][0] is not cspace:
+        if cspace.free is not None:
+            minx, miny, maxx, maxy = cspace.free.bounds if not cspace.free.is_empty else (0, 0, 1, 1)
+            frame = shapely.box(minx - 10, miny - 10, maxx + 10, maxy + 10)
+            blocked = frame.difference(cspace.free.buffer(cspace.eps, quad_segs=2))
+        else:
+            blocked = cspace.merged.buffer(-cspace.eps, quad_segs=2)
+        shapely.prepare(blocked)
+        _ERODED.clear()
+        _ERODED[key] = (cspace, blocked)
+    return _ERODED[key][1]
+
+
+def reference_shortest_length(cspace: ConfigurationSpace, start, goal) -> float | None:
+    """Shortest path length by checking every vertex pair with shapely (the slow reference)."""
+    nodes = {tuple(map(float, p)) for ring in cspace.rings for p in ring}
+    nodes |= {tuple(map(float, start)), tuple(map(float, goal))}
+    nodes = sorted(nodes)
+    graph = nx.Graph()
+    graph.add_nodes_from(nodes)
+    for i, a in enumerate(nodes):
+        for b in nodes[i + 1 :]:
+            if reference_segment_free(cspace, a, b):
+                graph.add_edge(a, b, weight=math.dist(a, b))
+    try:
+        return nx.dijkstra_path_length(graph, tuple(map(float, start)), tuple(map(float, goal)))
+    except nx.NetworkXNoPath:
+        return None
+
+
+@pytest.fixture(params=SCENARIOS, ids=[p.stem for p in SCENARIOS])
+def scenario_path(request) -> Path:
+    """Each shipped scenario file."""
+    return request.param
+
+
+# `HYPOTHESIS_PROFILE=thorough pytest ...` hunts for counterexamples far longer than CI does.
+from hypothesis import HealthCheck as _HealthCheck  # noqa: E402
+from hypothesis import settings as _settings  # noqa: E402
+
+_QUIET = [_HealthCheck.too_slow, _HealthCheck.filter_too_much]
+_settings.register_profile("default", max_examples=100, deadline=None, suppress_health_check=_QUIET)
+_settings.register_profile("thorough", max_examples=3000, deadline=None, suppress_health_check=_QUIET)
+_settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))

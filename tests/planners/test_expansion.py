@@ -1,0 +1,223 @@
+import math
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+from shapely import Polygon
+
+from planners.expansion import (
+    DEFAULT_ARC_STEP,
+    configuration_space,
+    expand_disk,
+    expand_square,
+    shrink_boundary,
+)
+from tests.conftest import square
+
+L_SHAPE = Polygon([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)])
+U_SHAPE = Polygon([(0, 0), (4, 0), (4, 3), (3, 3), (3, 1), (1, 1), (1, 3), (0, 3)])
+
+
+# --------------------------------------------------------------------------- strategies
+
+
+@st.composite
+def star_polygons(draw, max_vertices=9):
+    """Random simple polygons: star-shaped around a centre, so often non-convex."""
+    n = draw(st.integers(3, max_vertices))
+    cx, cy = draw(st.floats(-5, 5)), draw(st.floats(-5, 5))
+    angles = np.sort(np.array(draw(st.lists(st.floats(0, 2 * math.pi), min_size=n, max_size=n, unique=True))))
+    assume_spread = np.diff(np.append(angles, angles[0] + 2 * math.pi))
+    if np.any(assume_spread < 0.05) or np.any(assume_spread > math.pi - 0.05):
+        angles = np.linspace(0, 2 * math.pi, n, endpoint=False)
+    radii = np.array(draw(st.lists(st.floats(0.3, 3), min_size=n, max_size=n)))
+    pts = np.column_stack([cx + radii * np.cos(angles), cy + radii * np.sin(angles)])
+    polygon = Polygon(pts)
+    if not polygon.is_valid:
+        polygon = polygon.convex_hull
+    return polygon
+
+
+# --------------------------------------------------------------------------- disk
+
+
+def test_disk_square_by_hand():
+    grown = expand_disk(square(0, 0, 1, 1), 0.5)
+    assert grown.bounds == (-0.5, -0.5, 1.5, 1.5)
+    exact = 1 + 4 * 0.5 + math.pi * 0.25
+    assert exact < grown.area < exact * 1.01
+    # Four tangent edges per 90-degree corner at the default step of 22.5 degrees.
+    assert len(grown.exterior.coords) - 1 == 16
+
+
+def test_disk_zero_radius_is_identity():
+    assert expand_disk(L_SHAPE, 0.0) is L_SHAPE
+
+
+def test_disk_arc_edges_are_tangent_or_outside_the_circle():
+    r = 0.4
+    grown = expand_disk(square(0, 0, 2, 1), r)
+    ring = np.asarray(grown.exterior.coords)
+    # Every edge is at distance >= r from the polygon, and its midpoint of a corner arc
+    # touches the circle: distance exactly r.
+    for a, b in zip(ring[:-1], ring[1:], strict=True):
+        mid = shapely.Point((a + b) / 2)
+        assert square(0, 0, 2, 1).distance(mid) == pytest.approx(r, abs=1e-12)
+        for p in (a, b):
+            d = square(0, 0, 2, 1).distance(shapely.Point(p))
+            assert r - 1e-12 <= d <= r / math.cos(DEFAULT_ARC_STEP / 2) + 1e-12
+
+
+@pytest.mark.parametrize("polygon", [square(0, 0, 1, 1), L_SHAPE, U_SHAPE], ids=["square", "L", "U"])
+@pytest.mark.parametrize("step", [DEFAULT_ARC_STEP, math.pi / 32])
+def test_disk_encloses_the_exact_sum_and_overshoot_is_bounded(polygon, step):
+    r = 0.3
+    grown = expand_disk(polygon, r, step)
+    assert grown.is_valid and not grown.interiors
+    # Encloses: the exact sum is the set of points within r of the polygon.
+    exactish = polygon.buffer(r * (1 - 1e-9), quad_segs=256)
+    assert grown.covers(exactish)
+    # Overshoot: no vertex farther than r / cos(step / 2) from the polygon.
+    far = max(polygon.distance(shapely.Point(p)) for p in grown.exterior.coords)
+    assert far <= r / math.cos(step / 2) + 1e-12
+
+
+def test_disk_u_shape_pocket_narrower_than_diameter_closes():
+    # The U's pocket is 2 wide: a robot of radius 1.01 cannot enter it.
+    grown = expand_disk(U_SHAPE, 1.01)
+    assert grown.covers(shapely.Point(2, 2.5))
+    open_ = expand_disk(U_SHAPE, 0.4)
+    assert not open_.covers(shapely.Point(2, 2.5))
+
+
+@given(polygon=star_polygons(), r=st.floats(0.01, 1.5), data=st.data())
+def test_disk_contains_every_point_closer_than_radius(polygon, r, data):
+    grown = expand_disk(polygon, r)
+    assert grown.is_valid
+    seed = data.draw(st.integers(0, 2**31))
+    rng = np.random.default_rng(seed)
+    minx, miny, maxx, maxy = polygon.bounds
+    pts = rng.uniform([minx - r, miny - r], [maxx + r, maxy + r], size=(400, 2))
+    geoms = shapely.points(pts)
+    close = shapely.distance(polygon, geoms) < r
+    # Every point closer than r is covered (up to rounding 1e-9 of the scale).
+    uncovered = close & ~shapely.covers(grown, geoms)
+    if uncovered.any():
+        d = shapely.distance(grown.exterior, geoms[uncovered])
+        assert d.max() < 1e-9
+    # And nothing farther than the stated overshoot is covered.
+    far = shapely.distance(polygon, geoms) > r / math.cos(DEFAULT_ARC_STEP / 2) + 1e-9
+    assert not (far & shapely.covers(grown, geoms)).any()
+
+
+# --------------------------------------------------------------------------- square
+
+
+def _reference_square_sum(polygon: Polygon, r: float) -> Polygon:
+    """Minkowski sum with the square, the obvious way: triangulate, sum each convex piece."""
+    corners = r * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
+    pieces = []
+    for tri in shapely.constrained_delaunay_triangles(polygon).geoms:
+        pts = np.asarray(tri.exterior.coords)[:-1]
+        pieces.append(shapely.MultiPoint((pts[:, None, :] + corners[None]).reshape(-1, 2)).convex_hull)
+    return shapely.union_all(pieces)
+
+
+def test_square_by_hand():
+    assert list(expand_square(Polygon([(0, 0), (2, 0), (0, 2)]), 0.5).exterior.coords) == [
+        (-0.5, -0.5),
+        (2.5, -0.5),
+        (2.5, 0.5),
+        (0.5, 2.5),
+        (-0.5, 2.5),
+        (-0.5, -0.5),
+    ]
+    assert expand_square(square(0, 0, 1, 1), 0.25).equals(square(-0.25, -0.25, 1.25, 1.25))
+
+
+def test_square_of_l_shape_by_hand():
+    grown = expand_square(L_SHAPE, 0.5)
+    assert grown.equals(Polygon([(-0.5, -0.5), (3.5, -0.5), (3.5, 1.5), (1.5, 1.5), (1.5, 3.5), (-0.5, 3.5)]))
+
+
+@given(polygon=star_polygons(), r=st.floats(0.01, 1.5))
+def test_square_equals_the_exact_minkowski_sum(polygon, r):
+    ours = expand_square(polygon, r)
+    reference = _reference_square_sum(polygon, r)
+    assert ours.is_valid
+    assert ours.symmetric_difference(reference).area <= 1e-9 * max(1.0, reference.area)
+
+
+def test_square_contains_disk_expansion():
+    # The enclosing square is conservative: its expansion contains the disk's exact sum.
+    for polygon in (square(0, 0, 1, 1), L_SHAPE, U_SHAPE):
+        assert expand_square(polygon, 0.3).covers(polygon.buffer(0.3, quad_segs=64))
+
+
+# --------------------------------------------------------------------------- walls, merging
+
+
+def test_boundary_shrinks_by_radius():
+    room = square(0, 0, 4, 3)
+    assert shrink_boundary(room, 0.5).equals(square(0.5, 0.5, 3.5, 2.5))
+    assert shrink_boundary(room, 0.5, "square").equals(square(0.5, 0.5, 3.5, 2.5))
+    assert shrink_boundary(room, 0.0) is room
+
+
+def test_non_convex_boundary_corner_is_rounded_conservatively():
+    room = Polygon([(0, 0), (4, 0), (4, 3), (2, 3), (2, 1.5), (0, 1.5)])
+    r = 0.25
+    shrunk = shrink_boundary(room, r)
+    # No point of the shrunk room is closer than r to the walls.
+    pts = np.asarray(shrunk.exterior.coords)
+    d = shapely.distance(room.exterior, shapely.points(pts))
+    assert d.min() >= r - 1e-12
+    # The reflex corner (2, 1.5) is kept at distance r.
+    assert shrunk.distance(shapely.Point(2, 1.5)) == pytest.approx(r, abs=1e-9)
+
+
+def test_narrow_room_pinches_into_two_parts():
+    dumbbell = Polygon([(0, 0), (2, 0), (2, 0.9), (3, 0.9), (3, 0), (5, 0), (5, 2), (3, 2), (3, 1.1), (2, 1.1), (2, 2), (0, 2)])
+    shrunk = shrink_boundary(dumbbell, 0.3)
+    assert shrunk.geom_type == "MultiPolygon" and len(shrunk.geoms) == 2
+
+
+def test_touching_and_overlapping_obstacles_merge_with_holes():
+    ring = [square(0, 0, 3, 0.5), square(2.5, 0, 3, 3), square(0, 2.5, 3, 3), square(0, 0, 0.5, 3)]
+    space = configuration_space(tuple(ring), 0.0)
+    assert len(space.merged.geoms) == 1
+    assert len(space.merged.geoms[0].interiors) == 1
+    assert not space.contains_blocked([1.5, 1.5])[0]
+    assert space.contains_blocked([0.25, 1.5])[0]
+
+
+def test_contains_blocked_treats_the_border_as_free():
+    space = configuration_space((square(0, 0, 1, 1),), 0.0, boundary=square(-2, -2, 3, 3))
+    pts = [[0, 0], [0.5, 0], [1, 1], [-2, 0], [0.5, 0.5], [-2.1, 0], [0.5, 1e-3]]
+    assert_allclose(space.contains_blocked(pts), [False, False, False, False, True, True, True])
+    assert space.blockers([0.5, 0.5]) == ["obstacle 1"]
+    assert space.blockers([-3, 0]) == ["outside the boundary"]
+
+
+def test_tolerance_scales_with_coordinates():
+    small = configuration_space((square(0, 0, 1, 1),), 0.0)
+    large = configuration_space((square(1e4, 1e4, 1e4 + 1, 1e4 + 1),), 0.0)
+    assert large.eps == pytest.approx(small.eps * 1e4 * (1 + 1e-4))
+
+
+def test_unknown_mode_is_an_error():
+    with pytest.raises(ValueError, match="unknown expansion mode"):
+        configuration_space((square(0, 0, 1, 1),), 0.1, "circle")
+
+
+def test_union_slivers_do_not_break_the_polygon():
+    # Found by hypothesis: rounding left holes of area ~1e-17 in the union of pieces.
+    polygon = shapely.from_wkt(
+        "POLYGON ((3.2603062102947042 -5, 2.2709247051387167 -4.135061894468778, 1.4737934352722446 -3.6748379412319014, 0.3247696863221274 -3.4145466400094766, -0.4801860804968965 -4.373855566995475, -0.4801860804968967 -5.626144433004525, 0.5909896394279653 -6.1243468752226065, 1.2922260638003311 -5.295442325903663, 2.190127539460159 -5.7971412336101755, 3.2603062102947042 -5))"
+    )
+    grown = expand_disk(polygon, 1.2401316105002522)
+    assert grown.is_valid and not grown.interiors
+    assert grown.covers(polygon.buffer(1.24 * (1 - 1e-9), quad_segs=64))

@@ -1,0 +1,375 @@
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import assume, given
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+from shapely import Polygon
+
+from planners import load_scene, plan_all
+from planners.expansion import configuration_space
+from planners.visibility import (
+    plan_visibility,
+    segments_free,
+    simplified_visibility_graph,
+    visibility_graph,
+)
+from tests.conftest import reference_segment_free, reference_shortest_length, scene_dict, square
+
+SQRT2 = math.sqrt(2)
+
+
+def plan(obstacles, start, goal, **kw):
+    return plan_all(load_scene(scene_dict(obstacles, start, goal, **kw)))
+
+
+def both(obstacles, start, goal, **kw):
+    plans = plan(obstacles, start, goal, **kw)
+    return plans["vg"], plans["svg"]
+
+
+# --------------------------------------------------------------------------- by hand
+
+
+def test_straight_line_when_nothing_is_in_the_way():
+    vg, svg = both([], (0, 0), (3, 4))
+    assert vg.status == svg.status == "ok"
+    assert vg.length == svg.length == 5.0
+    assert_allclose(vg.path, [[0, 0], [3, 4]])
+
+
+def test_around_a_square_by_hand():
+    vg, svg = both([square(0, 0, 2, 2).exterior.coords[:-1]], (-1, 1), (3, 1))
+    assert vg.length == pytest.approx(2 * SQRT2 + 2, abs=1e-12)
+    assert svg.length == pytest.approx(vg.length, abs=1e-12)
+    assert vg.path.shape == (4, 2)
+
+
+def test_expanded_square_by_hand():
+    # Square expansion of [0,2]^2 by 0.5 is [-0.5,2.5]^2: from (-1,1) over a corner.
+    vg, _ = both([square(0, 0, 2, 2).exterior.coords[:-1]], (-1, 1), (3, 1), radius=0.5, expansion="square")
+    assert vg.length == pytest.approx(2 * math.hypot(0.5, 1.5) + 3, abs=1e-12)
+
+
+def test_disk_expansion_path_hugs_tangent_edges():
+    # Around a point-like triangle the path length approaches the exact arc path from above.
+    vg, svg = both([[(0, -0.01), (0.01, 0.01), (-0.01, 0.01)]], (-2, 0), (2, 0), radius=1.0)
+    exact = 2 * math.sqrt(3) + math.pi / 3  # two tangents of length sqrt(3) + a 60-degree arc
+    assert exact < vg.length < exact * 1.01
+    assert svg.length == pytest.approx(vg.length, rel=1e-12)
+
+
+def test_counts_by_hand():
+    space = configuration_space((square(0, 0, 1, 1),), 0.0)
+    vg = visibility_graph(space, (-1, 0.5), (2, 0.5))
+    svg = simplified_visibility_graph(space, (-1, 0.5), (2, 0.5))
+    # 4 sides + 2 from the start + 2 from the goal; diagonals and start-goal are blocked.
+    assert vg.number_of_edges() == 8
+    assert svg.number_of_edges() == 8
+
+
+def test_svg_has_fewer_edges_than_vg():
+    vg, svg = both([square(0, 0, 1, 1).exterior.coords[:-1], square(3, 0, 4, 1).exterior.coords[:-1]], (-1, 3), (5, -2))
+    assert svg.edges < vg.edges
+    assert svg.length == pytest.approx(vg.length, rel=1e-12)
+
+
+# --------------------------------------------------------------------------- degenerate geometry
+
+
+def test_collinear_vertices_along_the_path():
+    row = [square(x, 0, x + 1, 1).exterior.coords[:-1] for x in (0, 2, 4)]
+    vg, svg = both(row, (-1, 0), (6, 0))
+    assert vg.length == svg.length == 7.0
+    assert vg.path.shape == (2, 2)  # straight along the three bottom edges
+
+
+def test_collinear_vertices_inside_one_polygon():
+    # A rectangle with extra vertices on its bottom edge.
+    rect = [(0, 0), (1, 0), (2, 0), (3, 0), (3, 1), (0, 1)]
+    vg, svg = both([rect], (-1, -1), (4, 2))
+    assert vg.length == pytest.approx(math.hypot(4, 1) + math.hypot(1, 2), abs=1e-12)
+    assert svg.length == pytest.approx(vg.length, abs=1e-12)
+
+
+def test_path_grazing_a_vertex():
+    # The line y = -x touches the square's corner (0, 0) and nothing else.
+    vg, svg = both([square(0, 0, 1, 1).exterior.coords[:-1]], (-1, 1), (1, -1))
+    assert vg.length == svg.length == pytest.approx(2 * SQRT2, abs=1e-12)
+
+
+def test_line_through_two_vertices_crosses_the_interior():
+    # The line x + y = 1 passes through (1, 0) and (0, 1): between them it is a diagonal.
+    space = configuration_space((square(0, 0, 1, 1),), 0.0)
+    assert not segments_free(space, [[-1, 2]], [[2, -1]])[0]
+    vg, _ = both([square(0, 0, 1, 1).exterior.coords[:-1]], (-1, 2), (2, -1))
+    assert vg.length > 3 * SQRT2
+
+
+@pytest.mark.parametrize(
+    ("start", "goal", "length"),
+    [
+        ((0.5, 0), (0.5, -1), 1.0),  # start on an edge, leaving outward
+        ((0, 0), (-1, -1), SQRT2),  # start on a vertex
+        ((1, 0.5), (3, 0.5), 2.0),  # start on an edge
+        ((0, 0.5), (0, 1), 0.5),  # start and goal on the same edge
+        ((0, 0), (1, 1), 2.0),  # opposite corners: along the border, not through
+    ],
+)
+def test_start_or_goal_on_an_obstacle_border_is_valid(start, goal, length):
+    vg, svg = both([square(0, 0, 1, 1).exterior.coords[:-1]], start, goal)
+    assert vg.status == svg.status == "ok"
+    assert vg.length == pytest.approx(length, abs=1e-12)
+    assert svg.length == pytest.approx(length, abs=1e-12)
+
+
+def test_start_on_the_shrunk_boundary_is_valid():
+    room = square(0, 0, 4, 4).exterior.coords[:-1]
+    vg, svg = both([], (0.5, 2), (3.5, 2), radius=0.5, boundary=room)
+    assert vg.status == "ok" and vg.length == pytest.approx(3.0)
+    assert svg.length == pytest.approx(3.0)
+
+
+def test_start_equals_goal():
+    vg, svg = both([square(0, 0, 1, 1).exterior.coords[:-1]], (2, 2), (2, 2))
+    assert vg.status == svg.status == "ok"
+    assert vg.length == svg.length == 0.0
+    assert vg.path.shape == (1, 2)
+
+
+def test_obstacles_touching_at_a_corner_let_the_point_pass_the_pinch():
+    a, b = square(0, 0, 1, 1).exterior.coords[:-1], square(1, 1, 2, 2).exterior.coords[:-1]
+    vg, svg = both([a, b], (0, 2), (2, 0))
+    assert vg.length == svg.length == pytest.approx(2 * SQRT2)
+
+
+def test_obstacles_sharing_an_edge_merge():
+    a, b = square(0, 0, 1, 1).exterior.coords[:-1], square(1, 0, 2, 1).exterior.coords[:-1]
+    vg, svg = both([a, b], (-1, 0.5), (3, 0.5))
+    # No slit between them: around the merged 2 x 1 block.
+    assert vg.length == pytest.approx(2 * math.hypot(1, 0.5) + 2, abs=1e-12)
+    assert svg.length == pytest.approx(vg.length, abs=1e-12)
+
+
+def test_overlapping_obstacles():
+    a, b = square(0, 0, 2, 2).exterior.coords[:-1], square(1, 1, 3, 3).exterior.coords[:-1]
+    vg, svg = both([a, b], (-1, 3), (4, 0))
+    reference = reference_shortest_length(plan([a, b], (-1, 3), (4, 0))["cspace"], (-1, 3), (4, 0))
+    assert vg.length == pytest.approx(reference, abs=1e-12)
+    assert svg.length == pytest.approx(reference, abs=1e-12)
+
+
+@pytest.mark.parametrize("which", ["start", "goal"])
+def test_inside_an_obstacle_is_invalid_and_names_it(which):
+    obstacles = [square(0, 0, 1, 1).exterior.coords[:-1], square(3, 0, 4, 1).exterior.coords[:-1]]
+    points = {"start": (-1, -1), "goal": (5, 5)}
+    points[which] = (3.5, 0.5)
+    for result in plan(obstacles, points["start"], points["goal"]).values():
+        if hasattr(result, "status"):
+            assert result.status == "invalid"
+            assert result.reason == f"the {which} is inside obstacle 2"
+            assert result.length is None and result.path.shape == (0, 2)
+
+
+def test_inside_the_expanded_obstacle_names_the_radius():
+    plans = plan([square(0, 0, 1, 1).exterior.coords[:-1]], (1.2, 0.5), (3, 3), radius=0.3)
+    assert plans["vg"].status == "invalid"
+    assert "inside obstacle 1 (expanded by the robot's radius 0.3 m)" in plans["vg"].reason
+
+
+def test_outside_the_boundary_is_invalid():
+    room = square(0, 0, 4, 4).exterior.coords[:-1]
+    plans = plan([], (0.2, 2), (3, 2), radius=0.3, boundary=room)
+    assert plans["vg"].status == "invalid"
+    assert plans["vg"].reason == "the start is outside the boundary (shrunk by the robot's radius)"
+
+
+def test_enclosed_goal_is_unreachable_with_a_reason():
+    walls = [square(0, 0, 3, 0.5), square(2.5, 0, 3, 3), square(0, 2.5, 3, 3), square(0, 0, 0.5, 3)]
+    plans = plan([w.exterior.coords[:-1] for w in walls], (-1, -1), (1.5, 1.5))
+    for name in ("vg", "svg"):
+        assert plans[name].status == "unreachable"
+        assert plans[name].path.shape == (0, 2) and plans[name].length is None
+        assert plans[name].reason == "the goal is enclosed by obstacles 1, 2, 3, 4 (merged after expansion)"
+
+
+def test_gap_closed_by_expansion_is_unreachable():
+    # Two obstacles 0.5 apart, inside walls: radius 0.3 closes the only passage.
+    room = square(0, 0, 6, 4).exterior.coords[:-1]
+    wall_a = square(2.8, -1, 3.2, 1.75).exterior.coords[:-1]
+    wall_b = square(2.8, 2.25, 3.2, 5).exterior.coords[:-1]
+    assert both([wall_a, wall_b], (1, 2), (5, 2), boundary=room, radius=0.2)[0].status == "ok"
+    vg, svg = both([wall_a, wall_b], (1, 2), (5, 2), boundary=room, radius=0.3)
+    assert vg.status == svg.status == "unreachable"
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e4, -3.7e4])
+def test_large_coordinates_give_the_same_answer(offset):
+    shift = np.array([offset, offset])
+    obstacles = [square(0, 0, 2, 2), Polygon([(3, -1), (5, 0), (4, 2)])]
+    moved = [np.asarray(o.exterior.coords[:-1]) + shift for o in obstacles]
+    vg, svg = both(moved, np.array([-1, 1]) + shift, np.array([6, 1]) + shift, radius=0.25)
+    base, _ = both([o.exterior.coords[:-1] for o in obstacles], (-1, 1), (6, 1), radius=0.25)
+    assert vg.length == pytest.approx(base.length, rel=1e-9)
+    assert svg.length == pytest.approx(base.length, rel=1e-9)
+
+
+def test_pocket_start_exits_through_the_mouth():
+    u = [(5, 2), (8, 2), (8, 6), (5, 6), (5, 5), (7, 5), (7, 3), (5, 3)]
+    vg, svg = both([u], (6, 4), (9, 4))
+    reference = reference_shortest_length(plan([u], (6, 4), (9, 4))["cspace"], (6, 4), (9, 4))
+    assert vg.length == pytest.approx(reference, abs=1e-12)
+    assert svg.length == pytest.approx(reference, abs=1e-12)
+
+
+def test_pocket_with_an_inner_convex_vertex_is_kept_by_the_svg():
+    # A spiral-like pocket: the path must wrap around a convex vertex that lies inside
+    # the obstacle's convex hull, which the chapter's hull-only wording would miss.
+    # A pocket opening left, with a tooth hanging from its ceiling.
+    spiral = [(0, 0), (5, 0), (5, 4), (0, 4), (0, 3), (1.8, 3), (1.8, 2), (2.2, 2), (2.2, 3), (4, 3), (4, 1), (0, 1)]
+    assume_valid = Polygon(spiral)
+    assert assume_valid.is_valid
+    vg, svg = both([spiral], (3.0, 2.8), (-1, 3.5))
+    assert vg.status == "ok"
+    assert svg.length == pytest.approx(vg.length, abs=1e-12)
+    hull = assume_valid.convex_hull
+    inner_bends = [p for p in svg.path[1:-1] if hull.exterior.distance(shapely.Point(p)) > 1e-9]
+    assert inner_bends, "the shortest path bends at vertices inside the hull"
+
+
+# --------------------------------------------------------------------------- shipped scenarios
+
+
+def test_every_shipped_scenario_vg_equals_svg_and_reference(scenario_path):
+    scene = load_scene(scenario_path)
+    for mode in ("disk", "square"):
+        plans = plan_all(dataclasses.replace(scene, expansion=mode))
+        vg, svg = plans["vg"], plans["svg"]
+        assert vg.status == svg.status
+        reference = reference_shortest_length(plans["cspace"], scene.start, scene.goal)
+        if reference is None:
+            assert vg.status == "unreachable"
+        else:
+            assert vg.length == pytest.approx(reference, rel=1e-12)
+            assert svg.length == pytest.approx(reference, rel=1e-12)
+            assert svg.edges < vg.edges
+
+
+def test_narrow_gap_scenario_disk_passes_square_blocks():
+    scene = load_scene(next(p for p in __import__("tests.conftest").conftest.SCENARIOS if "gap" in p.stem))
+    assert plan_all(dataclasses.replace(scene, expansion="disk"))["vg"].status == "ok"
+    assert plan_all(dataclasses.replace(scene, expansion="square"))["vg"].status == "unreachable"
+
+
+# --------------------------------------------------------------------------- properties
+
+
+@st.composite
+def random_scenes(draw, grid=False):
+    """A few random polygons (convex or star-shaped), maybe walls, a free start and goal."""
+    k = draw(st.integers(1, 4))
+    obstacles = []
+    for _ in range(k):
+        if grid:
+            # Small integer grid: collinear vertices, touching and shared corners abound.
+            x0, y0 = draw(st.integers(0, 6)), draw(st.integers(0, 6))
+            w, h = draw(st.integers(1, 3)), draw(st.integers(1, 3))
+            shape = draw(st.sampled_from(["rect", "tri", "L"]))
+            if shape == "rect":
+                pts = [(x0, y0), (x0 + w, y0), (x0 + w, y0 + h), (x0, y0 + h)]
+            elif shape == "tri":
+                pts = [(x0, y0), (x0 + w, y0), (x0, y0 + h)]
+            else:
+                pts = [(x0, y0), (x0 + w + 1, y0), (x0 + w + 1, y0 + 1), (x0 + 1, y0 + 1), (x0 + 1, y0 + h + 1), (x0, y0 + h + 1)]
+        else:
+            n = draw(st.integers(3, 7))
+            cx, cy = draw(st.floats(1, 9)), draw(st.floats(1, 9))
+            angles = np.linspace(0, 2 * math.pi, n, endpoint=False) + draw(st.floats(0, 1))
+            radii = np.array(draw(st.lists(st.floats(0.4, 2.0), min_size=n, max_size=n)))
+            pts = list(zip(cx + radii * np.cos(angles), cy + radii * np.sin(angles), strict=True))
+        obstacles.append(pts)
+    if grid:
+        radius = draw(st.sampled_from([0.0, 0.0, 0.5]))
+        pick = st.integers(-1, 10).map(float)
+    else:
+        radius = draw(st.sampled_from([0.0, 0.15, 0.4]))
+        pick = st.floats(-1, 11)
+    expansion = draw(st.sampled_from(["disk", "square"]))
+    boundary = [(-2, -2), (12, -2), (12, 12), (-2, 12)] if draw(st.booleans()) else None
+    start, goal = (draw(pick), draw(pick)), (draw(pick), draw(pick))
+    scene = load_scene(scene_dict(obstacles, start, goal, radius=radius, expansion=expansion, boundary=boundary))
+    return scene
+
+
+def _check_against_reference(scene):
+    plans = plan_all(scene)
+    vg, svg = plans["vg"], plans["svg"]
+    assume(vg.status != "invalid")
+    space = plans["cspace"]
+    reference = reference_shortest_length(space, scene.start, scene.goal)
+    if reference is None:
+        assert vg.status == svg.status == "unreachable"
+        return
+    assert vg.status == svg.status == "ok"
+    assert vg.length == pytest.approx(reference, rel=1e-9, abs=1e-9)
+    assert svg.length == pytest.approx(vg.length, rel=1e-9, abs=1e-9)
+    assert vg.length >= math.dist(scene.start, scene.goal) - 1e-12
+    # No segment of either path, and no VG edge, enters an obstacle's interior.
+    for path in (vg.path, svg.path):
+        for a, b in zip(path[:-1], path[1:], strict=True):
+            assert reference_segment_free(space, a, b)
+    for a, b in vg.graph.edges:
+        assert reference_segment_free(space, a, b)
+    assert svg.edges <= vg.edges
+
+
+@given(scene=random_scenes())
+def test_random_scenes_match_the_reference(scene):
+    _check_against_reference(scene)
+
+
+@given(scene=random_scenes(grid=True))
+def test_degenerate_grid_scenes_match_the_reference(scene):
+    _check_against_reference(scene)
+
+
+@given(scene=random_scenes(grid=True))
+def test_vg_has_exactly_the_reference_edges_on_grid_scenes(scene):
+    plans = plan_all(dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, radius=0.0)))
+    assume(plans["vg"].status != "invalid")
+    space = plans["cspace"]
+    graph = plans["vg"].graph
+    nodes = list(graph.nodes)
+    for i, a in enumerate(nodes):
+        for b in nodes[i + 1 :]:
+            assert graph.has_edge(a, b) == reference_segment_free(space, a, b), (a, b)
+
+
+def test_hole_touching_the_outer_ring_at_a_vertex():
+    # Four obstacles merge into one whose hole [4,5]x[5,6] touches the outside at (4, 5):
+    # the vertex appears in two rings, and the free directions there are two quadrants.
+    obstacles = [
+        [(0, 5), (4, 5), (4, 6), (1, 6), (1, 7), (0, 7)],
+        [(5, 4), (6, 4), (6, 7), (5, 7)],
+        [(4, 2), (5, 2), (5, 5), (4, 5)],
+        [(2, 6), (5, 6), (5, 7), (2, 7)],
+    ]
+    space = plan(obstacles, (0, 0), (0, 0))["cspace"]
+    assert len(space.merged.geoms) == 1 and len(space.merged.geoms[0].interiors) == 1
+    graph = visibility_graph(space, (0, 0), (0, 0))
+    assert graph.has_edge((0.0, 5.0), (4.0, 5.0))  # along an edge into the touching vertex
+    assert graph.has_edge((4.0, 5.0), (4.0, 2.0))
+    assert not segments_free(space, [[4, 5]], [[3, 6]])[0]  # into the L
+    assert segments_free(space, [[4, 5]], [[3, 4]])[0]  # into the free quadrant
+
+
+def test_path_bending_at_a_pinch_point_is_in_the_svg():
+    # Triangle and square touch at (1, 1); the shortest path bends there around the
+    # triangle while its outgoing segment extended points into the square.
+    obstacles = [[(0, 1), (1, 1), (0, 2)], [(1, 0), (2, 0), (2, 1), (1, 1)]]
+    vg, svg = both(obstacles, (1, 0), (0, 3))
+    assert vg.length == pytest.approx(1 + math.sqrt(5), abs=1e-12)
+    assert svg.length == pytest.approx(vg.length, abs=1e-12)

@@ -1,0 +1,251 @@
+"""Headless snapshots: the command line, repeatability, clean shutdown, errors, framing."""
+
+from __future__ import annotations
+
+import io
+import os
+import socket
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import app
+from app import headless
+from app.headless import CameraPose, capture, frame_camera, scene_bounds, snapshot
+from planners.scene import load_scene
+from tests.browser import use_browser
+
+if TYPE_CHECKING:
+    from playwright.sync_api import Browser
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIO = ROOT / "static_scenarios" / "01_two_convex.json"
+NAME = SCENARIO.stem
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Browser]:
+    with use_browser() as shared:
+        yield shared
+
+
+def pixels(png: bytes | Path) -> np.ndarray:
+    data = png.read_bytes() if isinstance(png, Path) else png
+    return np.asarray(Image.open(io.BytesIO(data)).convert("RGB"))
+
+
+def run_cli(
+    *args: str, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "app", *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=180,
+        env={**os.environ, **(env or {})},
+        check=False,
+    )
+
+
+def chromium_pids() -> set[int]:
+    """Browser processes that belong to this test process (or were orphaned by it)."""
+    pids = set()
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            cmdline = (entry / "cmdline").read_bytes()
+            ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            continue
+        if b"chrom" in cmdline and ppid in (os.getpid(), 1):
+            pids.add(int(entry.name))
+    return pids
+
+
+def port_open(port: int) -> bool:
+    with socket.socket() as s:
+        s.settimeout(0.5)
+        return s.connect_ex(("127.0.0.1", port)) == 0
+
+
+# --------------------------------------------------------------------------- end to end
+
+
+def test_cli_and_python_give_the_same_picture_and_stop_everything(
+    tmp_path: Path, monkeypatch
+) -> None:
+    out_cli = tmp_path / "cli" / "snap.png"  # the parent folder does not exist yet
+    result = run_cli(
+        "--scenario",
+        NAME,
+        "--snapshot",
+        str(out_cli),
+        "--width",
+        "640",
+        "--height",
+        "400",
+    )
+    assert result.returncode == 0, result.stderr
+    assert "http://" not in result.stdout  # no URL printed in headless mode
+    assert "Traceback" not in result.stderr
+    cli = pixels(out_cli)
+    assert cli.shape == (400, 640, 3)
+    assert len(np.unique(cli.reshape(-1, 3), axis=0)) > 8  # a drawing, not a blank page
+
+    # The same picture from Python, in another process's browser and server: repeatable.
+    started: list[Any] = []
+    real_start = app.start_app
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        started.append(real_start(*args, **kwargs))
+        return started[-1]
+
+    monkeypatch.setattr(app, "start_app", spy)
+    before = chromium_pids()
+    out_py = tmp_path / "py.png"
+    assert snapshot(NAME, out_py, width=640, height=400) == 0
+    assert np.array_equal(pixels(out_py), cli), "two runs gave different pictures"
+
+    # Everything it started is gone: the browser and the app's server.
+    assert not (chromium_pids() - before), "Chromium still running after snapshot()"
+    (planner_app,) = started
+    assert not port_open(planner_app.port), "the app's server still listens"
+
+
+def test_robot_time_and_perspective_change_the_picture(browser: Browser) -> None:
+    planner_app = app.start_app(SCENARIO, print_url=False)
+    try:
+        at_start = pixels(capture(planner_app, browser, width=480, height=300))
+        later = pixels(
+            capture(planner_app, browser, width=480, height=300, robot_time=3.0)
+        )
+        tilted = pixels(
+            capture(planner_app, browser, width=480, height=300, view="perspective")
+        )
+    finally:
+        planner_app.stop()
+    moved = np.abs(at_start.astype(int) - later).max(axis=2) > 16
+    assert moved.mean() > 1e-3, "the robot did not move with robot_time"
+    # Away from the robot, the scene is the same: only the robot moved.
+    assert moved.mean() < 0.05
+    assert (np.abs(at_start.astype(int) - tilted).max(axis=2) > 16).mean() > 0.05
+
+
+# --------------------------------------------------------------------------- errors
+
+
+def test_bad_scenario_is_one_line_and_exit_2(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "x.png"
+    assert snapshot(tmp_path / "missing.json", out) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "missing.json" in err and "Traceback" not in err
+    assert not out.exists()
+
+    result = run_cli(
+        "--scenario", str(tmp_path / "missing.json"), "--snapshot", str(out)
+    )
+    assert result.returncode != 0
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert "missing.json" in result.stderr
+    assert not out.exists()
+
+
+def test_missing_chromium_is_one_line_with_a_hint(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "x.png"
+    assert snapshot(NAME, out, chromium=str(tmp_path / "no-chromium")) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "apt-get install -y chromium" in err
+
+    result = run_cli(
+        "--scenario",
+        NAME,
+        "--snapshot",
+        str(out),
+        env={headless.CHROMIUM_ENV: "/nonexistent/chromium"},
+    )
+    assert result.returncode != 0
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert "apt-get install -y chromium" in result.stderr
+    assert not out.exists()
+
+
+def test_browser_that_fails_to_start_is_one_line(tmp_path: Path, capsys) -> None:
+    # An executable that is not a browser: playwright's launch fails.
+    assert snapshot(NAME, tmp_path / "x.png", chromium="/bin/false") == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "failed to start" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "word"),
+    [
+        ({"width": 0}, "width"),
+        ({"height": 10**6}, "height"),
+        ({"view": "side"}, "view"),
+        ({"robot_time": -1.0}, "robot_time"),
+    ],
+)
+def test_bad_arguments_exit_2(
+    tmp_path: Path, capsys, kwargs: dict[str, Any], word: str
+) -> None:
+    assert snapshot(NAME, tmp_path / "x.png", **kwargs) == 2
+    assert word in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- framing
+
+
+def project(pose: CameraPose, points: np.ndarray, aspect: float) -> np.ndarray:
+    """Pinhole projection to normalised picture coordinates (-1..1 is inside)."""
+    position, target = np.asarray(pose.position), np.asarray(pose.look_at)
+    forward = (target - position) / np.linalg.norm(target - position)
+    right = np.cross(forward, pose.up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    rel = points - position
+    depth = rel @ forward
+    tan = np.tan(pose.fov / 2)
+    return np.stack(
+        [(rel @ right) / (depth * tan * aspect), (rel @ up) / (depth * tan)], axis=1
+    )
+
+
+@pytest.mark.parametrize("view", ["top", "perspective"])
+@pytest.mark.parametrize(("width", "height"), [(1280, 800), (600, 900), (960, 600)])
+def test_framing_shows_the_whole_scene_with_a_margin(
+    view: str, width: int, height: int
+) -> None:
+    bounds = scene_bounds(load_scene(SCENARIO))
+    x0, y0, x1, y1 = bounds
+    corners = np.array([[x, y, 0.0] for x in (x0, x1) for y in (y0, y1)])
+    pose = frame_camera(bounds, width, height, view)
+    ndc = project(pose, corners, width / height)
+    assert np.abs(ndc).max() < 0.97  # inside, with a margin
+    assert np.abs(ndc).max() > 0.6  # and not lost in the middle
+    assert (
+        pose.near < np.linalg.norm(np.subtract(pose.position, pose.look_at)) < pose.far
+    )
+    if view == "top":
+        # A plan: +x to the right, +y up in the picture.
+        assert ndc[2, 0] > ndc[0, 0] and ndc[1, 1] > ndc[0, 1]
+
+
+def test_scene_bounds_include_the_robot_around_start_and_goal() -> None:
+    scene = load_scene(
+        {
+            "format": 1,
+            "obstacles": [],
+            "start": [0, 0],
+            "goal": [4, 1],
+            "robot": {"radius": 0.5},
+        }
+    )
+    assert scene_bounds(scene) == (-0.5, -0.5, 4.5, 1.5)

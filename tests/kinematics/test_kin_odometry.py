@@ -6,11 +6,23 @@ import math
 
 import numpy as np
 import pytest
-from kin_helpers import DIFFERENTIAL, HOLONOMIC, dense_trace
+from kin_helpers import DIFFERENTIAL, HOLONOMIC, LECTURE_PATH, dense_trace
 from numpy.testing import assert_allclose
 
-from kinematics import TrajectoryOptions, plan_trajectory
+from kinematics import RobotParams, TrajectoryOptions, plan_trajectory
 from kinematics.odometry import integrate_rates, integrate_wheel_rates
+
+
+# The fixtures are defined per module rather than in a conftest.py: with --doctest-modules
+# every conftest.py is imported as a module named "conftest", and sibling ones collide.
+@pytest.fixture(params=[HOLONOMIC, DIFFERENTIAL], ids=["holonomic", "differential"])
+def robot(request) -> RobotParams:
+    return request.param
+
+
+@pytest.fixture
+def lecture_path() -> np.ndarray:
+    return LECTURE_PATH.copy()
 
 
 @pytest.mark.parametrize("continuous", [False, True], ids=["stop", "continuous"])

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from kin_helpers import (
     DIFFERENTIAL,
     HOLONOMIC,
+    LECTURE_PATH,
     dense_trace,
     distance_to_polyline,
 )
@@ -30,6 +31,18 @@ from kinematics.odometry import integrate_wheel_rates
 
 STOP = TrajectoryOptions(continuous=False)
 CONTINUOUS = TrajectoryOptions(continuous=True)
+
+
+# The fixtures are defined per module rather than in a conftest.py: with --doctest-modules
+# every conftest.py is imported as a module named "conftest", and sibling ones collide.
+@pytest.fixture(params=[HOLONOMIC, DIFFERENTIAL], ids=["holonomic", "differential"])
+def robot(request) -> RobotParams:
+    return request.param
+
+
+@pytest.fixture
+def lecture_path() -> np.ndarray:
+    return LECTURE_PATH.copy()
 
 
 def check_invariants(traj, path_end) -> None:

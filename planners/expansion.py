@@ -231,6 +231,11 @@ def shrink_boundary(
     >>> shrink_boundary(room, 0.5).bounds
     (0.5, 0.5, 3.5, 2.5)
     """
+    return _shrink_cached(boundary, float(radius), mode, float(arc_step))
+
+
+@functools.lru_cache(maxsize=64)
+def _shrink_cached(boundary: Polygon, radius: float, mode: str, arc_step: float) -> Polygon | MultiPolygon:
     if radius == 0:
         return boundary
     minx, miny, maxx, maxy = boundary.bounds
@@ -369,6 +374,9 @@ def configuration_space(
 ) -> ConfigurationSpace:
     """Expand every obstacle, merge overlaps, shrink the boundary.
 
+    The result is cached by value: while a user drags the start or the goal, the same
+    configuration space (and every structure the planners derive from it) is reused.
+
     Parameters
     ----------
     obstacles
@@ -392,17 +400,31 @@ def configuration_space(
     >>> len(space.merged.geoms), space.merged.geoms[0].bounds  # the gap closed
     (1, (-0.2, -0.2, 2.2, 1.2))
     """
-    expanded = tuple(expand_polygon(o, radius, mode, arc_step) for o in obstacles)
-    merged_geometry = shapely.union_all(expanded) if expanded else MultiPolygon()
-    merged = _as_multipolygon(merged_geometry)
-    shrunk = shrink_boundary(boundary, radius, mode, arc_step) if boundary is not None else None
-    coords = [np.asarray(o.exterior.coords) for o in expanded]
+    coords = [np.asarray(o.exterior.coords) for o in obstacles]
     if boundary is not None:
         coords.append(np.asarray(boundary.exterior.coords))
     if extra_points is not None:
         coords.append(np.atleast_2d(np.asarray(extra_points, dtype=np.float64)))
-    eps = EPS * _scale(np.vstack(coords)) if coords else EPS
+    scale = _scale(np.vstack(coords)) if coords else 1.0
+    # The tolerance grows with the coordinates' magnitude, in powers of two so that
+    # moving the start a little keeps the same (cached) configuration space.
+    eps = EPS * 2.0 ** math.ceil(math.log2(scale))
+    return _configuration_space(tuple(obstacles), float(radius), mode, boundary, float(arc_step), eps)
 
+
+@functools.lru_cache(maxsize=32)
+def _configuration_space(
+    obstacles: tuple[Polygon, ...],
+    radius: float,
+    mode: str,
+    boundary: Polygon | None,
+    arc_step: float,
+    eps: float,
+) -> ConfigurationSpace:
+    expanded = tuple(expand_polygon(o, radius, mode, arc_step) for o in obstacles)
+    merged_geometry = shapely.union_all(expanded) if expanded else MultiPolygon()
+    merged = _as_multipolygon(merged_geometry)
+    shrunk = shrink_boundary(boundary, radius, mode, arc_step) if boundary is not None else None
     if shrunk is not None:
         free = _as_multipolygon(shrunk.difference(merged)) if not merged.is_empty else _as_multipolygon(shrunk)
         shapely.prepare(free)
@@ -413,6 +435,8 @@ def configuration_space(
         rings = tuple(r for p in merged.geoms for r in _ccw_rings(p))
         free_region = None
     shapely.prepare(merged)
+    for ring in rings:
+        ring.flags.writeable = False  # shared through the cache: nobody may change it
     return ConfigurationSpace(
         expanded=expanded,
         merged=merged,

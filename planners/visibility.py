@@ -60,8 +60,8 @@ IntArray = npt.NDArray[np.intp]
 
 # Segment/edge pairs tested at once; bounds memory to a few hundred MB in the worst case.
 _CHUNK_PAIRS = 2_000_000
-# Below this many segment x edge pairs, testing all of them beats a spatial index.
-_DENSE_LIMIT = 200_000
+# Below this many segment x edge pairs, a bounding-box matrix beats a spatial index.
+_DENSE_LIMIT = 3_000_000
 # Directions closer than this (as a sine) to an edge count as running along it.
 _ANGLE_TOL = 1e-12
 
@@ -117,6 +117,10 @@ class _Border:
     @functools.cached_property
     def edge_tree(self) -> shapely.STRtree:
         return shapely.STRtree(shapely.linestrings(np.stack([self.edge_a, self.edge_b], axis=1)))
+
+    @functools.cached_property
+    def edge_boxes(self) -> tuple[FloatArray, FloatArray]:
+        return np.minimum(self.edge_a, self.edge_b), np.maximum(self.edge_a, self.edge_b)
 
     @functools.cached_property
     def first_occurrence(self) -> IntArray:
@@ -277,7 +281,7 @@ def _segments_free(cspace: ConfigurationSpace, border: _Border, a: FloatArray, b
     touch_seg: list[IntArray] = []
     touch_t: list[FloatArray] = []
     if s * m <= _DENSE_LIMIT:
-        chunks = [(np.repeat(np.arange(s), m), np.tile(np.arange(m), s))]
+        chunks = [_overlapping_boxes(a, b, border, cspace.eps)]
     else:
         chunks = _index_chunks(border, a, b)
     for seg, edge in chunks:
@@ -305,6 +309,16 @@ def _segments_free(cspace: ConfigurationSpace, border: _Border, a: FloatArray, b
     blocked_piece = cspace.contains_blocked(mids)
     free[piece_seg[blocked_piece]] = False
     return free
+
+
+def _overlapping_boxes(a: FloatArray, b: FloatArray, border: _Border, eps: float) -> tuple[IntArray, IntArray]:
+    """(segment, edge) index pairs whose bounding boxes overlap, from a dense matrix."""
+    lo, hi = np.minimum(a, b) - eps, np.maximum(a, b) + eps
+    elo, ehi = border.edge_boxes
+    overlap = (lo[:, None, 0] <= ehi[None, :, 0]) & (hi[:, None, 0] >= elo[None, :, 0])
+    overlap &= (lo[:, None, 1] <= ehi[None, :, 1]) & (hi[:, None, 1] >= elo[None, :, 1])
+    seg, edge = np.nonzero(overlap)
+    return seg.astype(np.intp), edge.astype(np.intp)
 
 
 def _index_chunks(border: _Border, a: FloatArray, b: FloatArray):
@@ -433,7 +447,23 @@ def visibility_graph(cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt
     q = _query(border, np.asarray(start, dtype=np.float64), np.asarray(goal, dtype=np.float64), cspace.eps)
     i, j = np.triu_indices(len(q.points), 1)
     ok = _visible(cspace, border, q, i, j)
+    global _LAST_ALL_PAIRS  # noqa: PLW0603 - a one-entry cache, keyed by value below
+    _LAST_ALL_PAIRS = (cspace, q.points.tobytes(), ok)
     return _build_graph(q, i[ok], j[ok])
+
+
+# The last all-pairs visibility the full VG computed: when the SVG of the same scene is
+# asked for next (as plan_all does), it reads visibility from here instead of testing
+# its candidate segments again. Keyed by the configuration space and the node array.
+_LAST_ALL_PAIRS: tuple[ConfigurationSpace, bytes, BoolArray] | None = None
+
+
+def _known_visibility(cspace: ConfigurationSpace, q: _Query, i: IntArray, j: IntArray) -> BoolArray | None:
+    last = _LAST_ALL_PAIRS
+    if last is None or last[0] is not cspace or last[1] != q.points.tobytes():
+        return None
+    n = len(q.points)
+    return last[2][i * n - i * (i + 1) // 2 + (j - i - 1)]
 
 
 def simplified_visibility_graph(
@@ -474,7 +504,9 @@ def simplified_visibility_graph(
         | (_into_blocked(border, q.node[j], d) & ~pinch[q.node[j]])
     )
     i, j = i[tangent], j[tangent]
-    ok = _visible(cspace, border, q, i, j)
+    ok = _known_visibility(cspace, q, i, j)
+    if ok is None:
+        ok = _visible(cspace, border, q, i, j)
     graph = _build_graph(q, i[ok], j[ok])
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
     graph.remove_nodes_from([n for n, deg in list(graph.degree) if deg == 0 and graph.nodes[n]["kind"] == "vertex"])

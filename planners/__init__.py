@@ -12,8 +12,21 @@ from __future__ import annotations
 
 from planners import api, expansion, scene, visibility
 from planners.api import PLANNERS, PlanOptions, plan_all, result_to_json
-from planners.expansion import ConfigurationSpace, configuration_space, expand_disk, expand_polygon, expand_square
-from planners.scene import Robot, ScenarioError, Scene, load_scene, save_scene, scene_problems
+from planners.expansion import (
+    ConfigurationSpace,
+    configuration_space,
+    expand_disk,
+    expand_polygon,
+    expand_square,
+)
+from planners.scene import (
+    Robot,
+    ScenarioError,
+    Scene,
+    load_scene,
+    save_scene,
+    scene_problems,
+)
 from planners.visibility import (
     VisibilityResult,
     plan_visibility,

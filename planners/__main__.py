@@ -27,7 +27,9 @@ def _planner_list(text: str) -> tuple[str, ...]:
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     unknown = [n for n in names if n not in PLANNERS]
     if unknown or not names:
-        raise argparse.ArgumentTypeError(f"unknown planner {unknown[0] if unknown else text!r}; known: {','.join(PLANNERS)}")
+        raise argparse.ArgumentTypeError(
+            f"unknown planner {unknown[0] if unknown else text!r}; known: {','.join(PLANNERS)}"
+        )
     return names
 
 
@@ -37,18 +39,33 @@ def _sensor_range(text: str) -> float:
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not value > 0 or math.isnan(value):
-        raise argparse.ArgumentTypeError(f"must be positive (inf for unlimited), got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"must be positive (inf for unlimited), got {text!r}"
+        )
     return value
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code."""
-    parser = _Parser(prog="python -m planners", description="Plan paths for scenario files.")
+    parser = _Parser(
+        prog="python -m planners", description="Plan paths for scenario files."
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     plan = sub.add_parser("plan", help="plan every file and print JSON")
     plan.add_argument("files", nargs="+", metavar="FILE")
-    plan.add_argument("--planners", type=_planner_list, default=DEFAULT_PLANNERS, help=f"comma-separated subset of {','.join(PLANNERS)}")
-    plan.add_argument("--sensor-range", type=_sensor_range, default=None, metavar="R", help="DSB sensor range [m] (inf: unlimited); default: the scenario's")
+    plan.add_argument(
+        "--planners",
+        type=_planner_list,
+        default=DEFAULT_PLANNERS,
+        help=f"comma-separated subset of {','.join(PLANNERS)}",
+    )
+    plan.add_argument(
+        "--sensor-range",
+        type=_sensor_range,
+        default=None,
+        metavar="R",
+        help="DSB sensor range [m] (inf: unlimited); default: the scenario's",
+    )
     args = parser.parse_args(argv)
 
     scenes = []
@@ -62,7 +79,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     for path, scene in zip(args.files, scenes, strict=True):
         results = plan_all(scene, args.planners, options)
         out = {"scene": scene.name or path}
-        out.update({name: result_to_json(name, results[name]) for name in args.planners})
+        out.update(
+            {name: result_to_json(name, results[name]) for name in args.planners}
+        )
         print(json.dumps(out))
     return 0
 

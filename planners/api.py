@@ -45,11 +45,15 @@ class InvalidResult:
 Planner = Callable[[Scene, ConfigurationSpace, PlanOptions], Any]
 
 
-def _vg(scene: Scene, cspace: ConfigurationSpace, options: PlanOptions) -> VisibilityResult:
+def _vg(
+    scene: Scene, cspace: ConfigurationSpace, options: PlanOptions
+) -> VisibilityResult:
     return plan_visibility(cspace, scene.start, scene.goal)
 
 
-def _svg(scene: Scene, cspace: ConfigurationSpace, options: PlanOptions) -> VisibilityResult:
+def _svg(
+    scene: Scene, cspace: ConfigurationSpace, options: PlanOptions
+) -> VisibilityResult:
     return plan_visibility(cspace, scene.start, scene.goal, simplified=True)
 
 
@@ -105,7 +109,9 @@ def plan_all(
     names = list(which)
     unknown = [n for n in names if n not in PLANNERS]
     if unknown:
-        raise ValueError(f"unknown planner {unknown[0]!r} (known: {', '.join(PLANNERS)})")
+        raise ValueError(
+            f"unknown planner {unknown[0]!r} (known: {', '.join(PLANNERS)})"
+        )
     results: dict[str, Any] = {}
     problems = scene_problems(scene)
     if problems:
@@ -135,7 +141,9 @@ def plan_all(
 
 def _endpoint_problem(scene: Scene, cspace: ConfigurationSpace) -> str | None:
     blocked = cspace.contains_blocked([scene.start, scene.goal])
-    for label, point, is_blocked in zip(("start", "goal"), (scene.start, scene.goal), blocked, strict=True):
+    for label, point, is_blocked in zip(
+        ("start", "goal"), (scene.start, scene.goal), blocked, strict=True
+    ):
         if is_blocked:
             names = cspace.blockers(point)
             if not names:
@@ -143,7 +151,11 @@ def _endpoint_problem(scene: Scene, cspace: ConfigurationSpace) -> str | None:
             where = " and ".join(names)
             if where.startswith("obstacle"):
                 radius = scene.robot.radius
-                grown = f" (expanded by the robot's radius {radius:g} m)" if radius > 0 else ""
+                grown = (
+                    f" (expanded by the robot's radius {radius:g} m)"
+                    if radius > 0
+                    else ""
+                )
                 return f"the {label} is inside {where}{grown}"
             return f"the {label} is {where} (shrunk by the robot's radius)"
     return None
@@ -155,7 +167,9 @@ def result_to_json(name: str, result: Any) -> dict[str, Any]:
     length = result.length
     out: dict[str, Any] = {
         "status": result.status,
-        "length": None if length is None or not math.isfinite(length) else float(length),
+        "length": None
+        if length is None or not math.isfinite(length)
+        else float(length),
         "path": path.tolist(),
     }
     graph = getattr(result, "graph", None)

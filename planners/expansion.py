@@ -54,7 +54,11 @@ def _ccw_rings(polygon: Polygon) -> list[FloatArray]:
 
 
 def _open_ring(coords: FloatArray) -> FloatArray:
-    coords = coords[:-1] if len(coords) > 1 and np.array_equal(coords[0], coords[-1]) else coords
+    coords = (
+        coords[:-1]
+        if len(coords) > 1 and np.array_equal(coords[0], coords[-1])
+        else coords
+    )
     # Drop repeated consecutive vertices: they carry no geometry and have no edge direction.
     keep = np.any(coords != np.roll(coords, 1, axis=0), axis=1)
     return coords[keep] if keep.any() else coords[:1]
@@ -79,7 +83,7 @@ def _tangent_arc(
 
 
 def _edge_normals(ring: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Unit outward normals of each edge i -> i+1 and the turn (cross) at each vertex."""
+    """Return unit outward normals of each edge i -> i+1 and the turn (cross) at each vertex."""
     edges = np.roll(ring, -1, axis=0) - ring
     lengths = np.hypot(edges[:, 0], edges[:, 1])
     normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / lengths[:, None]
@@ -88,7 +92,9 @@ def _edge_normals(ring: FloatArray) -> tuple[FloatArray, FloatArray]:
     return normals, turns
 
 
-def expand_disk(polygon: Polygon, radius: float, arc_step: float = DEFAULT_ARC_STEP) -> Polygon:
+def expand_disk(
+    polygon: Polygon, radius: float, arc_step: float = DEFAULT_ARC_STEP
+) -> Polygon:
     """Expand ``polygon`` by a disk of ``radius``: a polygon enclosing the Minkowski sum.
 
     Straight parts of the boundary are offset exactly by ``radius``. Around each convex
@@ -142,7 +148,11 @@ def expand_disk(polygon: Polygon, radius: float, arc_step: float = DEFAULT_ARC_S
             parts = []
             for i in range(len(ring)):
                 if turns[i] > EPS * scale * scale:
-                    parts.append(_tangent_arc(ring[i], normals[i - 1], normals[i], radius, arc_step))
+                    parts.append(
+                        _tangent_arc(
+                            ring[i], normals[i - 1], normals[i], radius, arc_step
+                        )
+                    )
                 else:  # a straight-through vertex: nothing to round off
                     parts.append(ring[i] + radius * normals[i][None, :])
             return Polygon(np.vstack(parts))
@@ -155,7 +165,9 @@ def expand_disk(polygon: Polygon, radius: float, arc_step: float = DEFAULT_ARC_S
         pieces.extend(shapely.polygons(quads))
         for i in np.flatnonzero(turns > 0):
             arc = _tangent_arc(ring[i], normals[i - 1], normals[i], radius, arc_step)
-            fan = np.vstack([ring[i], ring[i] + offset[i - 1], arc, ring[i] + offset[i]])
+            fan = np.vstack(
+                [ring[i], ring[i] + offset[i - 1], arc, ring[i] + offset[i]]
+            )
             pieces.append(Polygon(fan))
     merged = shapely.union_all(pieces)
     return _largest_polygon(_drop_collinear(merged))
@@ -189,7 +201,9 @@ def expand_square(polygon: Polygon, radius: float) -> Polygon:
     for ring in rings:
         following = np.roll(ring, -1, axis=0)
         for a, b in zip(ring, following, strict=True):
-            pieces.append(shapely.MultiPoint(np.vstack([a + corners, b + corners])).convex_hull)
+            pieces.append(
+                shapely.MultiPoint(np.vstack([a + corners, b + corners])).convex_hull
+            )
     return _largest_polygon(_drop_collinear(shapely.union_all(pieces)))
 
 
@@ -200,14 +214,19 @@ def _clean_convex(geometry: BaseGeometry) -> Polygon:
 
 
 def expand_polygon(
-    polygon: Polygon, radius: float, mode: str = "disk", arc_step: float = DEFAULT_ARC_STEP
+    polygon: Polygon,
+    radius: float,
+    mode: str = "disk",
+    arc_step: float = DEFAULT_ARC_STEP,
 ) -> Polygon:
     """Expand one obstacle by the robot: ``mode`` is ``"disk"`` or ``"square"``."""
     return _expand_cached(polygon, float(radius), mode, float(arc_step))
 
 
 @functools.lru_cache(maxsize=4096)
-def _expand_cached(polygon: Polygon, radius: float, mode: str, arc_step: float) -> Polygon:
+def _expand_cached(
+    polygon: Polygon, radius: float, mode: str, arc_step: float
+) -> Polygon:
     # Polygons hash by value, so during a drag only the dragged obstacle is recomputed.
     if mode == "disk":
         return expand_disk(polygon, radius, arc_step)
@@ -217,7 +236,10 @@ def _expand_cached(polygon: Polygon, radius: float, mode: str, arc_step: float) 
 
 
 def shrink_boundary(
-    boundary: Polygon, radius: float, mode: str = "disk", arc_step: float = DEFAULT_ARC_STEP
+    boundary: Polygon,
+    radius: float,
+    mode: str = "disk",
+    arc_step: float = DEFAULT_ARC_STEP,
 ) -> Polygon | MultiPolygon:
     """Shrink the walls by the robot: the region where the robot's centre may go.
 
@@ -235,15 +257,21 @@ def shrink_boundary(
 
 
 @functools.lru_cache(maxsize=64)
-def _shrink_cached(boundary: Polygon, radius: float, mode: str, arc_step: float) -> Polygon | MultiPolygon:
+def _shrink_cached(
+    boundary: Polygon, radius: float, mode: str, arc_step: float
+) -> Polygon | MultiPolygon:
     if radius == 0:
         return boundary
     minx, miny, maxx, maxy = boundary.bounds
     margin = 2.0 * radius + 1.0
     frame = shapely.box(minx - margin, miny - margin, maxx + margin, maxy + margin)
     outside = frame.difference(boundary)
-    if isinstance(outside, MultiPolygon):  # cannot happen for a simple boundary; be safe
-        grown = shapely.union_all([expand_polygon(p, radius, mode, arc_step) for p in outside.geoms])
+    if isinstance(
+        outside, MultiPolygon
+    ):  # cannot happen for a simple boundary; be safe
+        grown = shapely.union_all(
+            [expand_polygon(p, radius, mode, arc_step) for p in outside.geoms]
+        )
     else:
         grown = expand_polygon(outside, radius, mode, arc_step)
     shrunk = boundary.difference(grown)
@@ -268,9 +296,15 @@ def _drop_collinear(geometry: BaseGeometry) -> BaseGeometry:
         if not isinstance(polygon, Polygon) or polygon.is_empty:
             continue
         scale = _scale(np.asarray(polygon.exterior.coords))
-        holes = [np.asarray(r.coords) for r in polygon.interiors if Polygon(r).area > 1e-12 * scale * scale]
+        holes = [
+            np.asarray(r.coords)
+            for r in polygon.interiors
+            if Polygon(r).area > 1e-12 * scale * scale
+        ]
         original = Polygon(polygon.exterior, holes)
-        rings = [_clean_ring(np.asarray(polygon.exterior.coords))] + [_clean_ring(h) for h in holes]
+        rings = [_clean_ring(np.asarray(polygon.exterior.coords))] + [
+            _clean_ring(h) for h in holes
+        ]
         if len(rings[0]) < 3:
             continue
         candidate = Polygon(rings[0], [r for r in rings[1:] if len(r) >= 3])
@@ -289,7 +323,9 @@ def _clean_ring(coords: FloatArray) -> FloatArray:
         prev, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
         chord = nxt - prev
         length = np.hypot(chord[:, 0], chord[:, 1])
-        cross = chord[:, 0] * (ring[:, 1] - prev[:, 1]) - chord[:, 1] * (ring[:, 0] - prev[:, 0])
+        cross = chord[:, 0] * (ring[:, 1] - prev[:, 1]) - chord[:, 1] * (
+            ring[:, 0] - prev[:, 0]
+        )
         # Only drop a vertex that lies between its neighbours, and never two neighbours at
         # once (dropping one changes the other's test).
         between = np.einsum("ij,ij->i", ring - prev, chord) > 0
@@ -409,7 +445,9 @@ def configuration_space(
     # The tolerance grows with the coordinates' magnitude, in powers of two so that
     # moving the start a little keeps the same (cached) configuration space.
     eps = EPS * 2.0 ** math.ceil(math.log2(scale))
-    return _configuration_space(tuple(obstacles), float(radius), mode, boundary, float(arc_step), eps)
+    return _configuration_space(
+        tuple(obstacles), float(radius), mode, boundary, float(arc_step), eps
+    )
 
 
 @functools.lru_cache(maxsize=32)
@@ -424,9 +462,17 @@ def _configuration_space(
     expanded = tuple(expand_polygon(o, radius, mode, arc_step) for o in obstacles)
     merged_geometry = shapely.union_all(expanded) if expanded else MultiPolygon()
     merged = _as_multipolygon(merged_geometry)
-    shrunk = shrink_boundary(boundary, radius, mode, arc_step) if boundary is not None else None
+    shrunk = (
+        shrink_boundary(boundary, radius, mode, arc_step)
+        if boundary is not None
+        else None
+    )
     if shrunk is not None:
-        free = _as_multipolygon(shrunk.difference(merged)) if not merged.is_empty else _as_multipolygon(shrunk)
+        free = (
+            _as_multipolygon(shrunk.difference(merged))
+            if not merged.is_empty
+            else _as_multipolygon(shrunk)
+        )
         shapely.prepare(free)
         # Free space on the left of its oriented rings; reversed, blocked space is.
         rings = tuple(r[::-1].copy() for p in free.geoms for r in _ccw_rings(p))
@@ -452,5 +498,9 @@ def _as_multipolygon(geometry: BaseGeometry) -> MultiPolygon:
         return geometry
     if isinstance(geometry, Polygon):
         return MultiPolygon([geometry]) if not geometry.is_empty else MultiPolygon()
-    parts = [g for g in getattr(geometry, "geoms", []) if isinstance(g, Polygon) and not g.is_empty]
+    parts = [
+        g
+        for g in getattr(geometry, "geoms", [])
+        if isinstance(g, Polygon) and not g.is_empty
+    ]
     return MultiPolygon(parts)

@@ -144,8 +144,13 @@ def _describe(value: Any) -> str:
 
 def _point(source: str, field: str, value: Any) -> Point:
     if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise ScenarioError(source, field, f"expected a point [x, y], got {_describe(value)}")
-    return (_number(source, f"{field}[0]", value[0]), _number(source, f"{field}[1]", value[1]))
+        raise ScenarioError(
+            source, field, f"expected a point [x, y], got {_describe(value)}"
+        )
+    return (
+        _number(source, f"{field}[0]", value[0]),
+        _number(source, f"{field}[1]", value[1]),
+    )
 
 
 def _polygon(source: str, field: str, value: Any) -> Polygon:
@@ -168,7 +173,9 @@ def _polygon_from_points(source: str, field: str, points: list[Point]) -> Polygo
         ring.pop()
     if len(set(ring)) < 3:
         raise ScenarioError(
-            source, field, f"a polygon needs at least 3 distinct vertices, got {len(set(ring))}"
+            source,
+            field,
+            f"a polygon needs at least 3 distinct vertices, got {len(set(ring))}",
         )
     polygon = Polygon(ring)
     if not polygon.is_valid:
@@ -215,21 +222,31 @@ def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
     ((-1.0, -1.0), 1, 'holonomic')
     """
     if not isinstance(data, Mapping):
-        raise ScenarioError(source, "(top level)", f"expected a JSON object, got {_describe(data)}")
+        raise ScenarioError(
+            source, "(top level)", f"expected a JSON object, got {_describe(data)}"
+        )
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
-        raise ScenarioError(source, unknown[0], f"unknown key (allowed: {', '.join(sorted(_TOP_KEYS))})")
+        raise ScenarioError(
+            source, unknown[0], f"unknown key (allowed: {', '.join(sorted(_TOP_KEYS))})"
+        )
     for key in _REQUIRED_KEYS:
         if key not in data:
             raise ScenarioError(source, key, "missing required key")
     if data["format"] != FORMAT_VERSION or isinstance(data["format"], bool):
-        raise ScenarioError(source, "format", f"expected {FORMAT_VERSION}, got {_describe(data['format'])}")
+        raise ScenarioError(
+            source,
+            "format",
+            f"expected {FORMAT_VERSION}, got {_describe(data['format'])}",
+        )
 
     name = data.get("name", "")
     description = data.get("description", "")
     for key, value in (("name", name), ("description", description)):
         if not isinstance(value, str):
-            raise ScenarioError(source, key, f"expected a string, got {_describe(value)}")
+            raise ScenarioError(
+                source, key, f"expected a string, got {_describe(value)}"
+            )
 
     boundary = None
     if data.get("boundary") is not None:
@@ -237,8 +254,14 @@ def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
 
     obstacles_data = data["obstacles"]
     if not isinstance(obstacles_data, (list, tuple)):
-        raise ScenarioError(source, "obstacles", f"expected a list of polygons, got {_describe(obstacles_data)}")
-    obstacles = tuple(_polygon(source, f"obstacles[{i}]", o) for i, o in enumerate(obstacles_data))
+        raise ScenarioError(
+            source,
+            "obstacles",
+            f"expected a list of polygons, got {_describe(obstacles_data)}",
+        )
+    obstacles = tuple(
+        _polygon(source, f"obstacles[{i}]", o) for i, o in enumerate(obstacles_data)
+    )
 
     start = _point(source, "start", data["start"])
     goal = _point(source, "goal", data["goal"])
@@ -248,11 +271,15 @@ def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
     expansion = data.get("expansion", "disk")
     if expansion not in EXPANSION_MODES:
         raise ScenarioError(
-            source, "expansion", f"expected one of {', '.join(EXPANSION_MODES)}, got {_describe(expansion)}"
+            source,
+            "expansion",
+            f"expected one of {', '.join(EXPANSION_MODES)}, got {_describe(expansion)}",
         )
     sensor_range = _number(source, "sensor_range", data.get("sensor_range", 2.0))
     if sensor_range <= 0:
-        raise ScenarioError(source, "sensor_range", f"must be positive, got {sensor_range!r}")
+        raise ScenarioError(
+            source, "sensor_range", f"must be positive, got {sensor_range!r}"
+        )
 
     return Scene(
         obstacles=obstacles,
@@ -269,22 +296,32 @@ def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
 
 def _robot(source: str, data: Any) -> Robot:
     if not isinstance(data, Mapping):
-        raise ScenarioError(source, "robot", f"expected an object, got {_describe(data)}")
+        raise ScenarioError(
+            source, "robot", f"expected an object, got {_describe(data)}"
+        )
     unknown = sorted(set(data) - _ROBOT_KEYS)
     if unknown:
         raise ScenarioError(
-            source, f"robot.{unknown[0]}", f"unknown key (allowed: {', '.join(sorted(_ROBOT_KEYS))})"
+            source,
+            f"robot.{unknown[0]}",
+            f"unknown key (allowed: {', '.join(sorted(_ROBOT_KEYS))})",
         )
     defaults = Robot()
     kind = data.get("kind", defaults.kind)
     if kind not in ROBOT_KINDS:
-        raise ScenarioError(source, "robot.kind", f"expected one of {', '.join(ROBOT_KINDS)}, got {_describe(kind)}")
+        raise ScenarioError(
+            source,
+            "robot.kind",
+            f"expected one of {', '.join(ROBOT_KINDS)}, got {_describe(kind)}",
+        )
     values = {}
     for key in ("radius", "wheel_radius", "wheel_distance"):
         value = _number(source, f"robot.{key}", data.get(key, getattr(defaults, key)))
         if value < 0 or (key != "radius" and value == 0):
             bound = "non-negative" if key == "radius" else "positive"
-            raise ScenarioError(source, f"robot.{key}", f"must be {bound}, got {value!r}")
+            raise ScenarioError(
+                source, f"robot.{key}", f"must be {bound}, got {value!r}"
+            )
         values[key] = value
     return Robot(kind=kind, **values)
 
@@ -314,7 +351,9 @@ def load_scene(path_or_dict: str | os.PathLike[str] | Mapping[str, Any]) -> Scen
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
-        raise ScenarioError(source, "(file)", f"cannot read: {error.strerror or error}") from None
+        raise ScenarioError(
+            source, "(file)", f"cannot read: {error.strerror or error}"
+        ) from None
     except UnicodeDecodeError:
         raise ScenarioError(source, "(file)", "not UTF-8 text") from None
     try:
@@ -322,7 +361,9 @@ def load_scene(path_or_dict: str | os.PathLike[str] | Mapping[str, Any]) -> Scen
         # them naming the field.
         data = json.loads(text)
     except json.JSONDecodeError as error:
-        raise ScenarioError(source, f"(line {error.lineno})", f"not valid JSON: {error.msg}") from None
+        raise ScenarioError(
+            source, f"(line {error.lineno})", f"not valid JSON: {error.msg}"
+        ) from None
     return scene_from_dict(data, source)
 
 
@@ -378,7 +419,9 @@ def save_scene(scene: Scene, path: str | os.PathLike[str]) -> Path:
             Path(tmp).unlink(missing_ok=True)
             raise
     except OSError as error:
-        raise ScenarioError(str(path), "(file)", f"cannot write: {error.strerror or error}") from None
+        raise ScenarioError(
+            str(path), "(file)", f"cannot write: {error.strerror or error}"
+        ) from None
     return path
 
 
@@ -458,7 +501,9 @@ def move_vertex(scene: Scene, i: int, j: int, xy: Iterable[float]) -> Scene:
     return _replace_obstacle(scene, i, coords)
 
 
-def insert_vertex(scene: Scene, i: int, j: int, xy: Iterable[float] | None = None) -> Scene:
+def insert_vertex(
+    scene: Scene, i: int, j: int, xy: Iterable[float] | None = None
+) -> Scene:
     """Return ``scene`` with a new vertex after vertex ``j`` of obstacle ``i``.
 
     Without ``xy`` the vertex goes to the middle of the edge from ``j`` to ``j + 1``.
@@ -483,7 +528,9 @@ def delete_vertex(scene: Scene, i: int, j: int) -> Scene:
     """
     coords = _coords(scene.obstacles[i])
     if len(coords) <= 3:
-        raise ValueError(f"obstacle {i + 1} has only 3 vertices; delete the obstacle instead")
+        raise ValueError(
+            f"obstacle {i + 1} has only 3 vertices; delete the obstacle instead"
+        )
     del coords[j]
     return _replace_obstacle(scene, i, coords)
 

@@ -116,11 +116,15 @@ class _Border:
 
     @functools.cached_property
     def edge_tree(self) -> shapely.STRtree:
-        return shapely.STRtree(shapely.linestrings(np.stack([self.edge_a, self.edge_b], axis=1)))
+        return shapely.STRtree(
+            shapely.linestrings(np.stack([self.edge_a, self.edge_b], axis=1))
+        )
 
     @functools.cached_property
     def edge_boxes(self) -> tuple[FloatArray, FloatArray]:
-        return np.minimum(self.edge_a, self.edge_b), np.maximum(self.edge_a, self.edge_b)
+        return np.minimum(self.edge_a, self.edge_b), np.maximum(
+            self.edge_a, self.edge_b
+        )
 
     @functools.cached_property
     def first_occurrence(self) -> IntArray:
@@ -150,7 +154,9 @@ class _Border:
         for vertex in np.unique(self.occ_node[self.extra_occurrences]):
             occ = np.flatnonzero(self.occ_node == vertex)
             dirs = np.vstack([self.occ_next[occ], self.occ_prev[occ]])
-            opens = np.concatenate([np.ones(len(occ), dtype=bool), np.zeros(len(occ), dtype=bool)])
+            opens = np.concatenate(
+                [np.ones(len(occ), dtype=bool), np.zeros(len(occ), dtype=bool)]
+            )
             angles = np.arctan2(dirs[:, 1], dirs[:, 0]) % (2 * np.pi)
             order = np.argsort(angles)
             sectors[int(vertex)] = (angles[order], opens[order])
@@ -200,7 +206,9 @@ def _cross(u: FloatArray, v: FloatArray) -> FloatArray:
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
 
 
-def _strictly_inside_wedge(nxt: FloatArray, prv: FloatArray, d: FloatArray) -> BoolArray:
+def _strictly_inside_wedge(
+    nxt: FloatArray, prv: FloatArray, d: FloatArray
+) -> BoolArray:
     """Tell if unit direction ``d`` points strictly into the blocked wedge at a vertex."""
     narrow = _cross(nxt, prv) > _ANGLE_TOL
     inside_narrow = (_cross(nxt, d) > _ANGLE_TOL) & (_cross(d, prv) > _ANGLE_TOL)
@@ -210,13 +218,15 @@ def _strictly_inside_wedge(nxt: FloatArray, prv: FloatArray, d: FloatArray) -> B
 
 
 def _into_blocked(border: _Border, node: IntArray, d: FloatArray) -> BoolArray:
-    """For each (node, unit direction): does stepping from the vertex along d enter blocked space?"""
+    """Tell, for each (node, unit direction), if stepping from the vertex along d enters blocked space."""
     result = np.zeros(len(node), dtype=bool)
     is_vertex = node >= 0
     if not is_vertex.any():
         return result
     occ = border.first_occurrence[node[is_vertex]]
-    result[is_vertex] = _strictly_inside_wedge(border.occ_next[occ], border.occ_prev[occ], d[is_vertex])
+    result[is_vertex] = _strictly_inside_wedge(
+        border.occ_next[occ], border.occ_prev[occ], d[is_vertex]
+    )
     for vertex, (angles, opens_blocked) in border.touching_sectors.items():
         hit = np.flatnonzero(node == vertex)
         if len(hit):
@@ -224,7 +234,9 @@ def _into_blocked(border: _Border, node: IntArray, d: FloatArray) -> BoolArray:
     return result
 
 
-def _in_blocked_sector(angles: FloatArray, opens_blocked: BoolArray, d: FloatArray) -> BoolArray:
+def _in_blocked_sector(
+    angles: FloatArray, opens_blocked: BoolArray, d: FloatArray
+) -> BoolArray:
     """Classify directions at a vertex where the border touches itself.
 
     ``angles`` are the sorted directions of every border edge at the vertex; the sector
@@ -234,7 +246,10 @@ def _in_blocked_sector(angles: FloatArray, opens_blocked: BoolArray, d: FloatArr
     """
     a = np.arctan2(d[:, 1], d[:, 0]) % (2 * np.pi)
     k = np.searchsorted(angles, a, side="right") - 1  # -1 wraps to the last sector
-    gap = np.minimum(np.abs(a[:, None] - angles[None, :]), 2 * np.pi - np.abs(a[:, None] - angles[None, :]))
+    gap = np.minimum(
+        np.abs(a[:, None] - angles[None, :]),
+        2 * np.pi - np.abs(a[:, None] - angles[None, :]),
+    )
     on_edge = gap.min(axis=1) <= _ANGLE_TOL
     return opens_blocked[k] & ~on_edge
 
@@ -242,7 +257,9 @@ def _in_blocked_sector(angles: FloatArray, opens_blocked: BoolArray, d: FloatArr
 # --------------------------------------------------------------------------- segment test
 
 
-def segments_free(cspace: ConfigurationSpace, a: npt.ArrayLike, b: npt.ArrayLike) -> BoolArray:
+def segments_free(
+    cspace: ConfigurationSpace, a: npt.ArrayLike, b: npt.ArrayLike
+) -> BoolArray:
     """Tell, for each segment a[k] -> b[k], whether it lies in the closed free space.
 
     Parameters
@@ -270,7 +287,9 @@ def segments_free(cspace: ConfigurationSpace, a: npt.ArrayLike, b: npt.ArrayLike
     return _segments_free(cspace, _border(cspace), a, b)
 
 
-def _segments_free(cspace: ConfigurationSpace, border: _Border, a: FloatArray, b: FloatArray) -> BoolArray:
+def _segments_free(
+    cspace: ConfigurationSpace, border: _Border, a: FloatArray, b: FloatArray
+) -> BoolArray:
     s, m = len(a), len(border.edge_a)
     if s == 0:
         return np.zeros(0, dtype=bool)
@@ -285,7 +304,9 @@ def _segments_free(cspace: ConfigurationSpace, border: _Border, a: FloatArray, b
     else:
         chunks = _index_chunks(border, a, b)
     for seg, edge in chunks:
-        blocked, t_seg, t_val = _crossings(a, b, border.edge_a, border.edge_b, seg, edge, cspace.eps)
+        blocked, t_seg, t_val = _crossings(
+            a, b, border.edge_a, border.edge_b, seg, edge, cspace.eps
+        )
         free[blocked] = False
         touch_seg.append(t_seg)
         touch_t.append(t_val)
@@ -311,7 +332,9 @@ def _segments_free(cspace: ConfigurationSpace, border: _Border, a: FloatArray, b
     return free
 
 
-def _overlapping_boxes(a: FloatArray, b: FloatArray, border: _Border, eps: float) -> tuple[IntArray, IntArray]:
+def _overlapping_boxes(
+    a: FloatArray, b: FloatArray, border: _Border, eps: float
+) -> tuple[IntArray, IntArray]:
     """(segment, edge) index pairs whose bounding boxes overlap, from a dense matrix."""
     lo, hi = np.minimum(a, b) - eps, np.maximum(a, b) + eps
     elo, ehi = border.edge_boxes
@@ -405,12 +428,15 @@ def _build_graph(q: _Query, i: IntArray, j: IntArray) -> nx.Graph:
         graph.add_node(key, kind=kind)
     lengths = np.hypot(*(q.points[j] - q.points[i]).T)
     graph.add_weighted_edges_from(
-        (keys[u], keys[v], w) for u, v, w in zip(i.tolist(), j.tolist(), lengths.tolist(), strict=True)
+        (keys[u], keys[v], w)
+        for u, v, w in zip(i.tolist(), j.tolist(), lengths.tolist(), strict=True)
     )
     return graph
 
 
-def _visible(cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray, j: IntArray) -> BoolArray:
+def _visible(
+    cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray, j: IntArray
+) -> BoolArray:
     d = _unit(q.points[j] - q.points[i])
     # Cheap first: a segment that leaves a vertex straight into its obstacle is blocked.
     ok = ~_into_blocked(border, q.node[i], d) & ~_into_blocked(border, q.node[j], -d)
@@ -419,7 +445,9 @@ def _visible(cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray
     return ok
 
 
-def visibility_graph(cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike) -> nx.Graph:
+def visibility_graph(
+    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
+) -> nx.Graph:
     """Build the full visibility graph of section 9.4.
 
     Parameters
@@ -444,7 +472,12 @@ def visibility_graph(cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt
     (6, 8)
     """
     border = _border(cspace)
-    q = _query(border, np.asarray(start, dtype=np.float64), np.asarray(goal, dtype=np.float64), cspace.eps)
+    q = _query(
+        border,
+        np.asarray(start, dtype=np.float64),
+        np.asarray(goal, dtype=np.float64),
+        cspace.eps,
+    )
     i, j = np.triu_indices(len(q.points), 1)
     ok = _visible(cspace, border, q, i, j)
     global _LAST_ALL_PAIRS  # noqa: PLW0603 - a one-entry cache, keyed by value below
@@ -458,7 +491,9 @@ def visibility_graph(cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt
 _LAST_ALL_PAIRS: tuple[ConfigurationSpace, bytes, BoolArray] | None = None
 
 
-def _known_visibility(cspace: ConfigurationSpace, q: _Query, i: IntArray, j: IntArray) -> BoolArray | None:
+def _known_visibility(
+    cspace: ConfigurationSpace, q: _Query, i: IntArray, j: IntArray
+) -> BoolArray | None:
     last = _LAST_ALL_PAIRS
     if last is None or last[0] is not cspace or last[1] != q.points.tobytes():
         return None
@@ -487,7 +522,12 @@ def simplified_visibility_graph(
     (6, 8)
     """
     border = _border(cspace)
-    q = _query(border, np.asarray(start, dtype=np.float64), np.asarray(goal, dtype=np.float64), cspace.eps)
+    q = _query(
+        border,
+        np.asarray(start, dtype=np.float64),
+        np.asarray(goal, dtype=np.float64),
+        cspace.eps,
+    )
     # Index -1 (start, goal) reads the appended False.
     convex = np.append(border.convex_nodes, False)
     pinch = np.append(border.pinch_nodes, False)
@@ -509,11 +549,19 @@ def simplified_visibility_graph(
         ok = _visible(cspace, border, q, i, j)
     graph = _build_graph(q, i[ok], j[ok])
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
-    graph.remove_nodes_from([n for n, deg in list(graph.degree) if deg == 0 and graph.nodes[n]["kind"] == "vertex"])
+    graph.remove_nodes_from(
+        [
+            n
+            for n, deg in list(graph.degree)
+            if deg == 0 and graph.nodes[n]["kind"] == "vertex"
+        ]
+    )
     return graph
 
 
-def shortest_path(graph: nx.Graph, start: npt.ArrayLike, goal: npt.ArrayLike) -> tuple[FloatArray, float] | None:
+def shortest_path(
+    graph: nx.Graph, start: npt.ArrayLike, goal: npt.ArrayLike
+) -> tuple[FloatArray, float] | None:
     """Return the shortest (path, length) from start to goal in ``graph``, or None.
 
     A* with the straight-line distance as heuristic (admissible, so the path is optimal).
@@ -523,7 +571,7 @@ def shortest_path(graph: nx.Graph, start: npt.ArrayLike, goal: npt.ArrayLike) ->
     if s == g:
         return np.asarray([s], dtype=np.float64), 0.0
     try:
-        nodes = nx.astar_path(graph, s, g, heuristic=lambda u, v: math.dist(u, v), weight="weight")
+        nodes = nx.astar_path(graph, s, g, heuristic=math.dist, weight="weight")
     except nx.NetworkXNoPath:
         return None
     path = np.asarray(nodes, dtype=np.float64)
@@ -539,7 +587,11 @@ def _node_key(graph: nx.Graph, point: npt.ArrayLike, kind: str) -> tuple[float, 
 
 
 def plan_visibility(
-    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike, *, simplified: bool = False
+    cspace: ConfigurationSpace,
+    start: npt.ArrayLike,
+    goal: npt.ArrayLike,
+    *,
+    simplified: bool = False,
 ) -> VisibilityResult:
     """Build the VG (or SVG) and search it for the shortest path.
 
@@ -561,27 +613,47 @@ def plan_visibility(
     name = "svg" if simplified else "vg"
     if math.dist(start, goal) <= cspace.eps:
         # Already there (the graph merged the two into one node).
-        path = start[None, :] if np.array_equal(start, goal) else np.stack([start, goal])
-        return VisibilityResult(name, "ok", path, math.dist(start, goal), graph, None, cspace)
+        path = (
+            start[None, :] if np.array_equal(start, goal) else np.stack([start, goal])
+        )
+        return VisibilityResult(
+            name, "ok", path, math.dist(start, goal), graph, None, cspace
+        )
     found = shortest_path(graph, start, goal)
     if found is None:
         return VisibilityResult(
-            name, "unreachable", np.zeros((0, 2)), None, graph, _unreachable_reason(cspace, start, goal), cspace
+            name,
+            "unreachable",
+            np.zeros((0, 2)),
+            None,
+            graph,
+            _unreachable_reason(cspace, start, goal),
+            cspace,
         )
     path, length = found
     return VisibilityResult(name, "ok", path, length, graph, None, cspace)
 
 
-def _unreachable_reason(cspace: ConfigurationSpace, start: FloatArray, goal: FloatArray) -> str:
+def _unreachable_reason(
+    cspace: ConfigurationSpace, start: FloatArray, goal: FloatArray
+) -> str:
     """Say which obstacles cut the goal off from the start."""
     s, g = shapely.Point(start), shapely.Point(goal)
     for label, p in (("goal", g), ("start", s)):
         for merged in cspace.merged.geoms:
             outline = shapely.Polygon(merged.exterior)
-            if outline.buffer(-cspace.eps).contains(p) and not outline.buffer(-cspace.eps).contains(
-                s if label == "goal" else g
-            ):
-                names = [f"{k + 1}" for k, e in enumerate(cspace.expanded) if e.intersects(merged)]
-                which = "obstacle " + names[0] if len(names) == 1 else "obstacles " + ", ".join(names)
+            if outline.buffer(-cspace.eps).contains(p) and not outline.buffer(
+                -cspace.eps
+            ).contains(s if label == "goal" else g):
+                names = [
+                    f"{k + 1}"
+                    for k, e in enumerate(cspace.expanded)
+                    if e.intersects(merged)
+                ]
+                which = (
+                    "obstacle " + names[0]
+                    if len(names) == 1
+                    else "obstacles " + ", ".join(names)
+                )
                 return f"the {label} is enclosed by {which} (merged after expansion)"
     return "start and goal lie in separate parts of the free space"

@@ -23,7 +23,9 @@ def square(x0: float, y0: float, x1: float, y1: float) -> Polygon:
     return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
 
 
-def scene_dict(obstacles, start, goal, *, radius=0.0, boundary=None, expansion="disk", **extra) -> dict:
+def scene_dict(
+    obstacles, start, goal, *, radius=0.0, boundary=None, expansion="disk", **extra
+) -> dict:
     """A scenario mapping with a point robot unless told otherwise."""
     data = {
         "format": 1,
@@ -58,7 +60,9 @@ def _eroded_blocked(cspace: ConfigurationSpace):
     key = id(cspace)
     if key not in _ERODED or _ERODED[key][0] is not cspace:
         if cspace.free is not None:
-            minx, miny, maxx, maxy = cspace.free.bounds if not cspace.free.is_empty else (0, 0, 1, 1)
+            minx, miny, maxx, maxy = (
+                cspace.free.bounds if not cspace.free.is_empty else (0, 0, 1, 1)
+            )
             frame = shapely.box(minx - 10, miny - 10, maxx + 10, maxy + 10)
             blocked = frame.difference(cspace.free.buffer(cspace.eps, quad_segs=2))
         else:
@@ -81,7 +85,9 @@ def reference_shortest_length(cspace: ConfigurationSpace, start, goal) -> float 
             if reference_segment_free(cspace, a, b):
                 graph.add_edge(a, b, weight=math.dist(a, b))
     try:
-        return nx.dijkstra_path_length(graph, tuple(map(float, start)), tuple(map(float, goal)))
+        return nx.dijkstra_path_length(
+            graph, tuple(map(float, start)), tuple(map(float, goal))
+        )
     except nx.NetworkXNoPath:
         return None
 
@@ -97,6 +103,10 @@ from hypothesis import HealthCheck as _HealthCheck  # noqa: E402
 from hypothesis import settings as _settings  # noqa: E402
 
 _QUIET = [_HealthCheck.too_slow, _HealthCheck.filter_too_much]
-_settings.register_profile("default", max_examples=100, deadline=None, suppress_health_check=_QUIET)
-_settings.register_profile("thorough", max_examples=3000, deadline=None, suppress_health_check=_QUIET)
+_settings.register_profile(
+    "default", max_examples=100, deadline=None, suppress_health_check=_QUIET
+)
+_settings.register_profile(
+    "thorough", max_examples=3000, deadline=None, suppress_health_check=_QUIET
+)
 _settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))

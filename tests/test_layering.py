@@ -15,5 +15,11 @@ def test_pure_packages_do_not_import_viser(package):
         "bad = [m for m in ('viser', 'app', 'matplotlib', 'playwright') if m in sys.modules]\n"
         "print(','.join(bad))\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert out.stdout.strip() == "", f"{package} imported {out.stdout.strip()}"

@@ -6,7 +6,13 @@ from tests.conftest import ROOT, SCENARIOS
 
 
 def run(*args):
-    return subprocess.run([sys.executable, "-m", "planners", *args], cwd=ROOT, capture_output=True, text=True)
+    return subprocess.run(
+        [sys.executable, "-m", "planners", *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
 
 
 def test_one_file_prints_one_json_object():
@@ -17,7 +23,15 @@ def test_one_file_prints_one_json_object():
     assert data["scene"] == "Two convex obstacles"
     for name in ("vg", "svg"):
         result = data[name]
-        assert set(result) == {"status", "length", "path", "nodes", "edges", "ms", "reason"}
+        assert set(result) == {
+            "status",
+            "length",
+            "path",
+            "nodes",
+            "edges",
+            "ms",
+            "reason",
+        }
         assert result["status"] == "ok" and result["reason"] is None
         assert result["path"][0] == [1.0, 1.0] and result["path"][-1] == [9.0, 7.0]
         assert result["nodes"] > 0 and result["edges"] > 0 and result["ms"] >= 0
@@ -36,7 +50,11 @@ def test_several_files_print_one_line_each_in_order():
 def test_unreachable_and_invalid_are_statuses_not_errors(tmp_path):
     enclosed = next(p for p in SCENARIOS if "enclosed" in p.stem)
     data = json.loads(run("plan", str(enclosed), "--planners", "vg,svg").stdout)
-    assert data["vg"]["status"] == "unreachable" and data["vg"]["length"] is None and data["vg"]["path"] == []
+    assert (
+        data["vg"]["status"] == "unreachable"
+        and data["vg"]["length"] is None
+        and data["vg"]["path"] == []
+    )
     scene = json.loads(enclosed.read_text())
     scene["start"] = [6.0, 2.8]  # inside obstacle 1
     file = tmp_path / "inside.json"
@@ -49,7 +67,16 @@ def test_unreachable_and_invalid_are_statuses_not_errors(tmp_path):
 
 def test_invalid_file_exits_2_with_one_line_naming_file_and_field(tmp_path):
     file = tmp_path / "bad.json"
-    file.write_text(json.dumps({"format": 1, "obstacles": [[[0, 0], [1, 1], [1, 0], [0, 1]]], "start": [5, 5], "goal": [6, 6]}))
+    file.write_text(
+        json.dumps(
+            {
+                "format": 1,
+                "obstacles": [[[0, 0], [1, 1], [1, 0], [0, 1]]],
+                "start": [5, 5],
+                "goal": [6, 6],
+            }
+        )
+    )
     out = run("plan", str(SCENARIOS[0]), str(file))
     assert out.returncode == 2
     assert out.stdout == ""
@@ -66,4 +93,6 @@ def test_missing_file_and_bad_flags_exit_2_without_traceback(tmp_path):
     ):
         out = run(*args)
         assert out.returncode == 2, args
-        assert "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1
+        assert (
+            "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1
+        )

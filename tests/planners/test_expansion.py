@@ -1,3 +1,4 @@
+import itertools
 import math
 
 import numpy as np
@@ -29,7 +30,13 @@ def star_polygons(draw, max_vertices=9):
     """Random simple polygons: star-shaped around a centre, so often non-convex."""
     n = draw(st.integers(3, max_vertices))
     cx, cy = draw(st.floats(-5, 5)), draw(st.floats(-5, 5))
-    angles = np.sort(np.array(draw(st.lists(st.floats(0, 2 * math.pi), min_size=n, max_size=n, unique=True))))
+    angles = np.sort(
+        np.array(
+            draw(
+                st.lists(st.floats(0, 2 * math.pi), min_size=n, max_size=n, unique=True)
+            )
+        )
+    )
     assume_spread = np.diff(np.append(angles, angles[0] + 2 * math.pi))
     if np.any(assume_spread < 0.05) or np.any(assume_spread > math.pi - 0.05):
         angles = np.linspace(0, 2 * math.pi, n, endpoint=False)
@@ -63,7 +70,7 @@ def test_disk_arc_edges_are_tangent_or_outside_the_circle():
     ring = np.asarray(grown.exterior.coords)
     # Every edge is at distance >= r from the polygon, and its midpoint of a corner arc
     # touches the circle: distance exactly r.
-    for a, b in zip(ring[:-1], ring[1:], strict=True):
+    for a, b in itertools.pairwise(ring):
         mid = shapely.Point((a + b) / 2)
         assert square(0, 0, 2, 1).distance(mid) == pytest.approx(r, abs=1e-12)
         for p in (a, b):
@@ -71,7 +78,9 @@ def test_disk_arc_edges_are_tangent_or_outside_the_circle():
             assert r - 1e-12 <= d <= r / math.cos(DEFAULT_ARC_STEP / 2) + 1e-12
 
 
-@pytest.mark.parametrize("polygon", [square(0, 0, 1, 1), L_SHAPE, U_SHAPE], ids=["square", "L", "U"])
+@pytest.mark.parametrize(
+    "polygon", [square(0, 0, 1, 1), L_SHAPE, U_SHAPE], ids=["square", "L", "U"]
+)
 @pytest.mark.parametrize("step", [DEFAULT_ARC_STEP, math.pi / 32])
 def test_disk_encloses_the_exact_sum_and_overshoot_is_bounded(polygon, step):
     r = 0.3
@@ -122,12 +131,18 @@ def _reference_square_sum(polygon: Polygon, r: float) -> Polygon:
     pieces = []
     for tri in shapely.constrained_delaunay_triangles(polygon).geoms:
         pts = np.asarray(tri.exterior.coords)[:-1]
-        pieces.append(shapely.MultiPoint((pts[:, None, :] + corners[None]).reshape(-1, 2)).convex_hull)
+        pieces.append(
+            shapely.MultiPoint(
+                (pts[:, None, :] + corners[None]).reshape(-1, 2)
+            ).convex_hull
+        )
     return shapely.union_all(pieces)
 
 
 def test_square_by_hand():
-    assert list(expand_square(Polygon([(0, 0), (2, 0), (0, 2)]), 0.5).exterior.coords) == [
+    assert list(
+        expand_square(Polygon([(0, 0), (2, 0), (0, 2)]), 0.5).exterior.coords
+    ) == [
         (-0.5, -0.5),
         (2.5, -0.5),
         (2.5, 0.5),
@@ -135,12 +150,18 @@ def test_square_by_hand():
         (-0.5, 2.5),
         (-0.5, -0.5),
     ]
-    assert expand_square(square(0, 0, 1, 1), 0.25).equals(square(-0.25, -0.25, 1.25, 1.25))
+    assert expand_square(square(0, 0, 1, 1), 0.25).equals(
+        square(-0.25, -0.25, 1.25, 1.25)
+    )
 
 
 def test_square_of_l_shape_by_hand():
     grown = expand_square(L_SHAPE, 0.5)
-    assert grown.equals(Polygon([(-0.5, -0.5), (3.5, -0.5), (3.5, 1.5), (1.5, 1.5), (1.5, 3.5), (-0.5, 3.5)]))
+    assert grown.equals(
+        Polygon(
+            [(-0.5, -0.5), (3.5, -0.5), (3.5, 1.5), (1.5, 1.5), (1.5, 3.5), (-0.5, 3.5)]
+        )
+    )
 
 
 @given(polygon=star_polygons(), r=st.floats(0.01, 1.5))
@@ -180,13 +201,33 @@ def test_non_convex_boundary_corner_is_rounded_conservatively():
 
 
 def test_narrow_room_pinches_into_two_parts():
-    dumbbell = Polygon([(0, 0), (2, 0), (2, 0.9), (3, 0.9), (3, 0), (5, 0), (5, 2), (3, 2), (3, 1.1), (2, 1.1), (2, 2), (0, 2)])
+    dumbbell = Polygon(
+        [
+            (0, 0),
+            (2, 0),
+            (2, 0.9),
+            (3, 0.9),
+            (3, 0),
+            (5, 0),
+            (5, 2),
+            (3, 2),
+            (3, 1.1),
+            (2, 1.1),
+            (2, 2),
+            (0, 2),
+        ]
+    )
     shrunk = shrink_boundary(dumbbell, 0.3)
     assert shrunk.geom_type == "MultiPolygon" and len(shrunk.geoms) == 2
 
 
 def test_touching_and_overlapping_obstacles_merge_with_holes():
-    ring = [square(0, 0, 3, 0.5), square(2.5, 0, 3, 3), square(0, 2.5, 3, 3), square(0, 0, 0.5, 3)]
+    ring = [
+        square(0, 0, 3, 0.5),
+        square(2.5, 0, 3, 3),
+        square(0, 2.5, 3, 3),
+        square(0, 0, 0.5, 3),
+    ]
     space = configuration_space(tuple(ring), 0.0)
     assert len(space.merged.geoms) == 1
     assert len(space.merged.geoms[0].interiors) == 1
@@ -195,9 +236,13 @@ def test_touching_and_overlapping_obstacles_merge_with_holes():
 
 
 def test_contains_blocked_treats_the_border_as_free():
-    space = configuration_space((square(0, 0, 1, 1),), 0.0, boundary=square(-2, -2, 3, 3))
+    space = configuration_space(
+        (square(0, 0, 1, 1),), 0.0, boundary=square(-2, -2, 3, 3)
+    )
     pts = [[0, 0], [0.5, 0], [1, 1], [-2, 0], [0.5, 0.5], [-2.1, 0], [0.5, 1e-3]]
-    assert_allclose(space.contains_blocked(pts), [False, False, False, False, True, True, True])
+    assert_allclose(
+        space.contains_blocked(pts), [False, False, False, False, True, True, True]
+    )
     assert space.blockers([0.5, 0.5]) == ["obstacle 1"]
     assert space.blockers([-3, 0]) == ["outside the boundary"]
 

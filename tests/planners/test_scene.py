@@ -29,7 +29,12 @@ GOOD = {
     "obstacles": [[[2, 2], [4, 2], [4, 5], [2, 5]], [[6, 3], [8, 3], [7, 6]]],
     "start": [1, 1],
     "goal": [9, 7],
-    "robot": {"kind": "holonomic", "radius": 0.3, "wheel_radius": 0.05, "wheel_distance": 0.25},
+    "robot": {
+        "kind": "holonomic",
+        "radius": 0.3,
+        "wheel_radius": 0.05,
+        "wheel_distance": 0.25,
+    },
     "expansion": "disk",
     "sensor_range": 2.0,
 }
@@ -107,8 +112,18 @@ def _mutate(path, value):
         (("goal",), [1, True], "goal[1]", "expected a number"),
         (("obstacles",), {"a": 1}, "obstacles", "list of polygons"),
         (("obstacles", 1), [[6, 3], [8, 3]], "obstacles[1]", "at least 3 distinct"),
-        (("obstacles", 1), [[6, 3], [8, 3], [6, 3]], "obstacles[1]", "at least 3 distinct"),
-        (("obstacles", 0), [[2, 2], [4, 5], [4, 2], [2, 5]], "obstacles[0]", "intersects itself"),
+        (
+            ("obstacles", 1),
+            [[6, 3], [8, 3], [6, 3]],
+            "obstacles[1]",
+            "at least 3 distinct",
+        ),
+        (
+            ("obstacles", 0),
+            [[2, 2], [4, 5], [4, 2], [2, 5]],
+            "obstacles[0]",
+            "intersects itself",
+        ),
         (("obstacles", 0), [[0, 0], [1, 1], [2, 2]], "obstacles[0]", "zero area"),
         (("obstacles", 0, 1), [4, float("nan")], "obstacles[0][1][1]", "finite"),
         (("obstacles", 0, 1), [float("inf"), 2], "obstacles[0][1][0]", "finite"),
@@ -139,7 +154,10 @@ def test_malformed_scenario_names_file_and_field(tmp_path, path, value, field, m
     ("text", "message"),
     [
         ('{"format": 1,', "not valid JSON"),
-        ('{"format": 1, "obstacles": [], "start": [NaN, 0], "goal": [1, 1]}', "start\\[0\\]: expected a finite number"),
+        (
+            '{"format": 1, "obstacles": [], "start": [NaN, 0], "goal": [1, 1]}',
+            "start\\[0\\]: expected a finite number",
+        ),
         ("[1, 2]", "expected a JSON object"),
     ],
 )
@@ -188,7 +206,10 @@ def test_scene_to_dict_is_the_file_format():
     data = scene_to_dict(load_scene(GOOD))
     assert data == {**GOOD, "start": [1.0, 1.0], "goal": [9.0, 7.0]} | {
         "boundary": [[0.0, 0.0], [10.0, 0.0], [10.0, 8.0], [0.0, 8.0]],
-        "obstacles": [[[2.0, 2.0], [4.0, 2.0], [4.0, 5.0], [2.0, 5.0]], [[6.0, 3.0], [8.0, 3.0], [7.0, 6.0]]],
+        "obstacles": [
+            [[2.0, 2.0], [4.0, 2.0], [4.0, 5.0], [2.0, 5.0]],
+            [[6.0, 3.0], [8.0, 3.0], [7.0, 6.0]],
+        ],
     }
 
 

@@ -1,4 +1,5 @@
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -12,12 +13,16 @@ from shapely import Polygon
 from planners import load_scene, plan_all
 from planners.expansion import configuration_space
 from planners.visibility import (
-    plan_visibility,
     segments_free,
     simplified_visibility_graph,
     visibility_graph,
 )
-from tests.conftest import reference_segment_free, reference_shortest_length, scene_dict, square
+from tests.conftest import (
+    reference_segment_free,
+    reference_shortest_length,
+    scene_dict,
+    square,
+)
 
 SQRT2 = math.sqrt(2)
 
@@ -50,14 +55,24 @@ def test_around_a_square_by_hand():
 
 def test_expanded_square_by_hand():
     # Square expansion of [0,2]^2 by 0.5 is [-0.5,2.5]^2: from (-1,1) over a corner.
-    vg, _ = both([square(0, 0, 2, 2).exterior.coords[:-1]], (-1, 1), (3, 1), radius=0.5, expansion="square")
+    vg, _ = both(
+        [square(0, 0, 2, 2).exterior.coords[:-1]],
+        (-1, 1),
+        (3, 1),
+        radius=0.5,
+        expansion="square",
+    )
     assert vg.length == pytest.approx(2 * math.hypot(0.5, 1.5) + 3, abs=1e-12)
 
 
 def test_disk_expansion_path_hugs_tangent_edges():
     # Around a point-like triangle the path length approaches the exact arc path from above.
-    vg, svg = both([[(0, -0.01), (0.01, 0.01), (-0.01, 0.01)]], (-2, 0), (2, 0), radius=1.0)
-    exact = 2 * math.sqrt(3) + math.pi / 3  # two tangents of length sqrt(3) + a 60-degree arc
+    vg, svg = both(
+        [[(0, -0.01), (0.01, 0.01), (-0.01, 0.01)]], (-2, 0), (2, 0), radius=1.0
+    )
+    exact = (
+        2 * math.sqrt(3) + math.pi / 3
+    )  # two tangents of length sqrt(3) + a 60-degree arc
     assert exact < vg.length < exact * 1.01
     assert svg.length == pytest.approx(vg.length, rel=1e-12)
 
@@ -72,7 +87,14 @@ def test_counts_by_hand():
 
 
 def test_svg_has_fewer_edges_than_vg():
-    vg, svg = both([square(0, 0, 1, 1).exterior.coords[:-1], square(3, 0, 4, 1).exterior.coords[:-1]], (-1, 3), (5, -2))
+    vg, svg = both(
+        [
+            square(0, 0, 1, 1).exterior.coords[:-1],
+            square(3, 0, 4, 1).exterior.coords[:-1],
+        ],
+        (-1, 3),
+        (5, -2),
+    )
     assert svg.edges < vg.edges
     assert svg.length == pytest.approx(vg.length, rel=1e-12)
 
@@ -141,13 +163,19 @@ def test_start_equals_goal():
 
 
 def test_obstacles_touching_at_a_corner_let_the_point_pass_the_pinch():
-    a, b = square(0, 0, 1, 1).exterior.coords[:-1], square(1, 1, 2, 2).exterior.coords[:-1]
+    a, b = (
+        square(0, 0, 1, 1).exterior.coords[:-1],
+        square(1, 1, 2, 2).exterior.coords[:-1],
+    )
     vg, svg = both([a, b], (0, 2), (2, 0))
     assert vg.length == svg.length == pytest.approx(2 * SQRT2)
 
 
 def test_obstacles_sharing_an_edge_merge():
-    a, b = square(0, 0, 1, 1).exterior.coords[:-1], square(1, 0, 2, 1).exterior.coords[:-1]
+    a, b = (
+        square(0, 0, 1, 1).exterior.coords[:-1],
+        square(1, 0, 2, 1).exterior.coords[:-1],
+    )
     vg, svg = both([a, b], (-1, 0.5), (3, 0.5))
     # No slit between them: around the merged 2 x 1 block.
     assert vg.length == pytest.approx(2 * math.hypot(1, 0.5) + 2, abs=1e-12)
@@ -155,16 +183,24 @@ def test_obstacles_sharing_an_edge_merge():
 
 
 def test_overlapping_obstacles():
-    a, b = square(0, 0, 2, 2).exterior.coords[:-1], square(1, 1, 3, 3).exterior.coords[:-1]
+    a, b = (
+        square(0, 0, 2, 2).exterior.coords[:-1],
+        square(1, 1, 3, 3).exterior.coords[:-1],
+    )
     vg, svg = both([a, b], (-1, 3), (4, 0))
-    reference = reference_shortest_length(plan([a, b], (-1, 3), (4, 0))["cspace"], (-1, 3), (4, 0))
+    reference = reference_shortest_length(
+        plan([a, b], (-1, 3), (4, 0))["cspace"], (-1, 3), (4, 0)
+    )
     assert vg.length == pytest.approx(reference, abs=1e-12)
     assert svg.length == pytest.approx(reference, abs=1e-12)
 
 
 @pytest.mark.parametrize("which", ["start", "goal"])
 def test_inside_an_obstacle_is_invalid_and_names_it(which):
-    obstacles = [square(0, 0, 1, 1).exterior.coords[:-1], square(3, 0, 4, 1).exterior.coords[:-1]]
+    obstacles = [
+        square(0, 0, 1, 1).exterior.coords[:-1],
+        square(3, 0, 4, 1).exterior.coords[:-1],
+    ]
     points = {"start": (-1, -1), "goal": (5, 5)}
     points[which] = (3.5, 0.5)
     for result in plan(obstacles, points["start"], points["goal"]).values():
@@ -175,25 +211,40 @@ def test_inside_an_obstacle_is_invalid_and_names_it(which):
 
 
 def test_inside_the_expanded_obstacle_names_the_radius():
-    plans = plan([square(0, 0, 1, 1).exterior.coords[:-1]], (1.2, 0.5), (3, 3), radius=0.3)
+    plans = plan(
+        [square(0, 0, 1, 1).exterior.coords[:-1]], (1.2, 0.5), (3, 3), radius=0.3
+    )
     assert plans["vg"].status == "invalid"
-    assert "inside obstacle 1 (expanded by the robot's radius 0.3 m)" in plans["vg"].reason
+    assert (
+        "inside obstacle 1 (expanded by the robot's radius 0.3 m)" in plans["vg"].reason
+    )
 
 
 def test_outside_the_boundary_is_invalid():
     room = square(0, 0, 4, 4).exterior.coords[:-1]
     plans = plan([], (0.2, 2), (3, 2), radius=0.3, boundary=room)
     assert plans["vg"].status == "invalid"
-    assert plans["vg"].reason == "the start is outside the boundary (shrunk by the robot's radius)"
+    assert (
+        plans["vg"].reason
+        == "the start is outside the boundary (shrunk by the robot's radius)"
+    )
 
 
 def test_enclosed_goal_is_unreachable_with_a_reason():
-    walls = [square(0, 0, 3, 0.5), square(2.5, 0, 3, 3), square(0, 2.5, 3, 3), square(0, 0, 0.5, 3)]
+    walls = [
+        square(0, 0, 3, 0.5),
+        square(2.5, 0, 3, 3),
+        square(0, 2.5, 3, 3),
+        square(0, 0, 0.5, 3),
+    ]
     plans = plan([w.exterior.coords[:-1] for w in walls], (-1, -1), (1.5, 1.5))
     for name in ("vg", "svg"):
         assert plans[name].status == "unreachable"
         assert plans[name].path.shape == (0, 2) and plans[name].length is None
-        assert plans[name].reason == "the goal is enclosed by obstacles 1, 2, 3, 4 (merged after expansion)"
+        assert (
+            plans[name].reason
+            == "the goal is enclosed by obstacles 1, 2, 3, 4 (merged after expansion)"
+        )
 
 
 def test_gap_closed_by_expansion_is_unreachable():
@@ -201,7 +252,10 @@ def test_gap_closed_by_expansion_is_unreachable():
     room = square(0, 0, 6, 4).exterior.coords[:-1]
     wall_a = square(2.8, -1, 3.2, 1.75).exterior.coords[:-1]
     wall_b = square(2.8, 2.25, 3.2, 5).exterior.coords[:-1]
-    assert both([wall_a, wall_b], (1, 2), (5, 2), boundary=room, radius=0.2)[0].status == "ok"
+    assert (
+        both([wall_a, wall_b], (1, 2), (5, 2), boundary=room, radius=0.2)[0].status
+        == "ok"
+    )
     vg, svg = both([wall_a, wall_b], (1, 2), (5, 2), boundary=room, radius=0.3)
     assert vg.status == svg.status == "unreachable"
 
@@ -211,8 +265,12 @@ def test_large_coordinates_give_the_same_answer(offset):
     shift = np.array([offset, offset])
     obstacles = [square(0, 0, 2, 2), Polygon([(3, -1), (5, 0), (4, 2)])]
     moved = [np.asarray(o.exterior.coords[:-1]) + shift for o in obstacles]
-    vg, svg = both(moved, np.array([-1, 1]) + shift, np.array([6, 1]) + shift, radius=0.25)
-    base, _ = both([o.exterior.coords[:-1] for o in obstacles], (-1, 1), (6, 1), radius=0.25)
+    vg, svg = both(
+        moved, np.array([-1, 1]) + shift, np.array([6, 1]) + shift, radius=0.25
+    )
+    base, _ = both(
+        [o.exterior.coords[:-1] for o in obstacles], (-1, 1), (6, 1), radius=0.25
+    )
     assert vg.length == pytest.approx(base.length, rel=1e-9)
     assert svg.length == pytest.approx(base.length, rel=1e-9)
 
@@ -220,7 +278,9 @@ def test_large_coordinates_give_the_same_answer(offset):
 def test_pocket_start_exits_through_the_mouth():
     u = [(5, 2), (8, 2), (8, 6), (5, 6), (5, 5), (7, 5), (7, 3), (5, 3)]
     vg, svg = both([u], (6, 4), (9, 4))
-    reference = reference_shortest_length(plan([u], (6, 4), (9, 4))["cspace"], (6, 4), (9, 4))
+    reference = reference_shortest_length(
+        plan([u], (6, 4), (9, 4))["cspace"], (6, 4), (9, 4)
+    )
     assert vg.length == pytest.approx(reference, abs=1e-12)
     assert svg.length == pytest.approx(reference, abs=1e-12)
 
@@ -229,14 +289,29 @@ def test_pocket_with_an_inner_convex_vertex_is_kept_by_the_svg():
     # A spiral-like pocket: the path must wrap around a convex vertex that lies inside
     # the obstacle's convex hull, which the chapter's hull-only wording would miss.
     # A pocket opening left, with a tooth hanging from its ceiling.
-    spiral = [(0, 0), (5, 0), (5, 4), (0, 4), (0, 3), (1.8, 3), (1.8, 2), (2.2, 2), (2.2, 3), (4, 3), (4, 1), (0, 1)]
+    spiral = [
+        (0, 0),
+        (5, 0),
+        (5, 4),
+        (0, 4),
+        (0, 3),
+        (1.8, 3),
+        (1.8, 2),
+        (2.2, 2),
+        (2.2, 3),
+        (4, 3),
+        (4, 1),
+        (0, 1),
+    ]
     assume_valid = Polygon(spiral)
     assert assume_valid.is_valid
     vg, svg = both([spiral], (3.0, 2.8), (-1, 3.5))
     assert vg.status == "ok"
     assert svg.length == pytest.approx(vg.length, abs=1e-12)
     hull = assume_valid.convex_hull
-    inner_bends = [p for p in svg.path[1:-1] if hull.exterior.distance(shapely.Point(p)) > 1e-9]
+    inner_bends = [
+        p for p in svg.path[1:-1] if hull.exterior.distance(shapely.Point(p)) > 1e-9
+    ]
     assert inner_bends, "the shortest path bends at vertices inside the hull"
 
 
@@ -259,9 +334,18 @@ def test_every_shipped_scenario_vg_equals_svg_and_reference(scenario_path):
 
 
 def test_narrow_gap_scenario_disk_passes_square_blocks():
-    scene = load_scene(next(p for p in __import__("tests.conftest").conftest.SCENARIOS if "gap" in p.stem))
+    scene = load_scene(
+        next(
+            p
+            for p in __import__("tests.conftest").conftest.SCENARIOS
+            if "gap" in p.stem
+        )
+    )
     assert plan_all(dataclasses.replace(scene, expansion="disk"))["vg"].status == "ok"
-    assert plan_all(dataclasses.replace(scene, expansion="square"))["vg"].status == "unreachable"
+    assert (
+        plan_all(dataclasses.replace(scene, expansion="square"))["vg"].status
+        == "unreachable"
+    )
 
 
 # --------------------------------------------------------------------------- properties
@@ -283,13 +367,30 @@ def random_scenes(draw, grid=False):
             elif shape == "tri":
                 pts = [(x0, y0), (x0 + w, y0), (x0, y0 + h)]
             else:
-                pts = [(x0, y0), (x0 + w + 1, y0), (x0 + w + 1, y0 + 1), (x0 + 1, y0 + 1), (x0 + 1, y0 + h + 1), (x0, y0 + h + 1)]
+                pts = [
+                    (x0, y0),
+                    (x0 + w + 1, y0),
+                    (x0 + w + 1, y0 + 1),
+                    (x0 + 1, y0 + 1),
+                    (x0 + 1, y0 + h + 1),
+                    (x0, y0 + h + 1),
+                ]
         else:
             n = draw(st.integers(3, 7))
             cx, cy = draw(st.floats(1, 9)), draw(st.floats(1, 9))
-            angles = np.linspace(0, 2 * math.pi, n, endpoint=False) + draw(st.floats(0, 1))
-            radii = np.array(draw(st.lists(st.floats(0.4, 2.0), min_size=n, max_size=n)))
-            pts = list(zip(cx + radii * np.cos(angles), cy + radii * np.sin(angles), strict=True))
+            angles = np.linspace(0, 2 * math.pi, n, endpoint=False) + draw(
+                st.floats(0, 1)
+            )
+            radii = np.array(
+                draw(st.lists(st.floats(0.4, 2.0), min_size=n, max_size=n))
+            )
+            pts = list(
+                zip(
+                    cx + radii * np.cos(angles),
+                    cy + radii * np.sin(angles),
+                    strict=True,
+                )
+            )
         obstacles.append(pts)
     if grid:
         radius = draw(st.sampled_from([0.0, 0.0, 0.5]))
@@ -300,7 +401,16 @@ def random_scenes(draw, grid=False):
     expansion = draw(st.sampled_from(["disk", "square"]))
     boundary = [(-2, -2), (12, -2), (12, 12), (-2, 12)] if draw(st.booleans()) else None
     start, goal = (draw(pick), draw(pick)), (draw(pick), draw(pick))
-    scene = load_scene(scene_dict(obstacles, start, goal, radius=radius, expansion=expansion, boundary=boundary))
+    scene = load_scene(
+        scene_dict(
+            obstacles,
+            start,
+            goal,
+            radius=radius,
+            expansion=expansion,
+            boundary=boundary,
+        )
+    )
     return scene
 
 
@@ -319,7 +429,7 @@ def _check_against_reference(scene):
     assert vg.length >= math.dist(scene.start, scene.goal) - 1e-12
     # No segment of either path, and no VG edge, enters an obstacle's interior.
     for path in (vg.path, svg.path):
-        for a, b in zip(path[:-1], path[1:], strict=True):
+        for a, b in itertools.pairwise(path):
             assert reference_segment_free(space, a, b)
     for a, b in vg.graph.edges:
         assert reference_segment_free(space, a, b)
@@ -338,7 +448,9 @@ def test_degenerate_grid_scenes_match_the_reference(scene):
 
 @given(scene=random_scenes(grid=True))
 def test_vg_has_exactly_the_reference_edges_on_grid_scenes(scene):
-    plans = plan_all(dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, radius=0.0)))
+    plans = plan_all(
+        dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, radius=0.0))
+    )
     assume(plans["vg"].status != "invalid")
     space = plans["cspace"]
     graph = plans["vg"].graph
@@ -360,7 +472,9 @@ def test_hole_touching_the_outer_ring_at_a_vertex():
     space = plan(obstacles, (0, 0), (0, 0))["cspace"]
     assert len(space.merged.geoms) == 1 and len(space.merged.geoms[0].interiors) == 1
     graph = visibility_graph(space, (0, 0), (0, 0))
-    assert graph.has_edge((0.0, 5.0), (4.0, 5.0))  # along an edge into the touching vertex
+    assert graph.has_edge(
+        (0.0, 5.0), (4.0, 5.0)
+    )  # along an edge into the touching vertex
     assert graph.has_edge((4.0, 5.0), (4.0, 2.0))
     assert not segments_free(space, [[4, 5]], [[3, 6]])[0]  # into the L
     assert segments_free(space, [[4, 5]], [[3, 4]])[0]  # into the free quadrant

@@ -11,6 +11,7 @@ import json
 import math
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from planners.api import PLANNERS, PlanOptions, plan_all, result_to_json
 from planners.scene import ScenarioError, load_scene
@@ -19,7 +20,7 @@ DEFAULT_PLANNERS = tuple(PLANNERS)
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line and exit 2, like a bad file
+    def error(self, message: str) -> NoReturn:  # one line and exit 2, like a bad file
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 

@@ -162,7 +162,7 @@ def expand_disk(
         following = np.roll(ring, -1, axis=0)
         offset = radius * normals
         quads = np.stack([ring, following, following + offset, ring + offset], axis=1)
-        pieces.extend(shapely.polygons(quads))
+        pieces.extend(np.asarray(shapely.polygons(quads)).tolist())
         for i in np.flatnonzero(turns > 0):
             arc = _tangent_arc(ring[i], normals[i - 1], normals[i], radius, arc_step)
             fan = np.vstack(
@@ -265,15 +265,9 @@ def _shrink_cached(
     minx, miny, maxx, maxy = boundary.bounds
     margin = 2.0 * radius + 1.0
     frame = shapely.box(minx - margin, miny - margin, maxx + margin, maxy + margin)
-    outside = frame.difference(boundary)
-    if isinstance(
-        outside, MultiPolygon
-    ):  # cannot happen for a simple boundary; be safe
-        grown = shapely.union_all(
-            [expand_polygon(p, radius, mode, arc_step) for p in outside.geoms]
-        )
-    else:
-        grown = expand_polygon(outside, radius, mode, arc_step)
+    # The frame minus a simple boundary is one polygon with the room as its hole.
+    outside = _largest_polygon(frame.difference(boundary))
+    grown = expand_polygon(outside, radius, mode, arc_step)
     shrunk = boundary.difference(grown)
     return shrunk if isinstance(shrunk, (Polygon, MultiPolygon)) else MultiPolygon()
 

@@ -116,9 +116,10 @@ class _Border:
 
     @functools.cached_property
     def edge_tree(self) -> shapely.STRtree:
-        return shapely.STRtree(
+        lines = np.asarray(
             shapely.linestrings(np.stack([self.edge_a, self.edge_b], axis=1))
         )
+        return shapely.STRtree(lines)
 
     @functools.cached_property
     def edge_boxes(self) -> tuple[FloatArray, FloatArray]:
@@ -347,7 +348,7 @@ def _overlapping_boxes(
 def _index_chunks(border: _Border, a: FloatArray, b: FloatArray):
     """Yield (segment, edge) index pairs whose bounding boxes overlap, in bounded chunks."""
     tree = border.edge_tree
-    lines = shapely.linestrings(np.stack([a, b], axis=1))
+    lines = np.asarray(shapely.linestrings(np.stack([a, b], axis=1)))
     step = max(1, _CHUNK_PAIRS // max(1, min(len(border.edge_a), 400)))
     for lo in range(0, len(a), step):
         seg, edge = tree.query(lines[lo : lo + step])

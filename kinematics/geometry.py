@@ -49,10 +49,12 @@ __all__ = [
 import dataclasses
 import math
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 import numpy.typing as npt
 import trimesh
+from trimesh.visual import ColorVisuals
 
 from kinematics import differential, holonomic
 from kinematics._arrays import FloatArray, check_positive
@@ -76,10 +78,15 @@ _SECTIONS = 24  # facets around a wheel; rollers and spokes use fewer
 
 def _colored(mesh: trimesh.Trimesh, color: RGB) -> trimesh.Trimesh:
     rgba = np.array([*color, 255], dtype=np.uint8)
-    mesh.visual = trimesh.visual.ColorVisuals(
+    mesh.visual = ColorVisuals(
         mesh, vertex_colors=np.tile(rgba, (len(mesh.vertices), 1))
     )
     return mesh
+
+
+def _concatenate(meshes: Sequence[trimesh.Trimesh]) -> trimesh.Trimesh:
+    """Concatenate meshes (colours kept), typed as the Trimesh it always is here."""
+    return cast("trimesh.Trimesh", trimesh.util.concatenate(list(meshes)))
 
 
 def rotation_matrix(axis: npt.ArrayLike, angle: float) -> FloatArray:
@@ -383,7 +390,7 @@ class RobotGeometry:
             All parts concatenated, with their vertex colours.
         """
         meshes = [_colored(p.mesh.copy(), p.color) for p in self.parts(wheel_angles)]
-        return trimesh.util.concatenate(meshes)
+        return _concatenate(meshes)
 
 
 def _body(radius: float, r: float) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
@@ -398,7 +405,7 @@ def _body(radius: float, r: float) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
     left = _prism(arrow[[0, 1, 2]], z1, z1 + 0.2 * r)
     right = _prism(arrow[[0, 2, 3]], z1, z1 + 0.2 * r)
     return _colored(body, BODY_COLOR), _colored(
-        trimesh.util.concatenate([left, right]), HEADING_COLOR
+        _concatenate([left, right]), HEADING_COLOR
     )
 
 
@@ -437,9 +444,7 @@ def _omni_wheel(
         [0.0, 0.0, 0.0] + 0.25 * r * z - (0.45 * width + 0.02 * r) * axle,
     )
     pieces.append(stripe)
-    return _colored(hub, WHEEL_COLOR), _colored(
-        trimesh.util.concatenate(pieces), MARKING_COLOR
-    )
+    return _colored(hub, WHEEL_COLOR), _colored(_concatenate(pieces), MARKING_COLOR)
 
 
 def _plain_wheel(
@@ -462,9 +467,7 @@ def _plain_wheel(
                     0.4 * r * radial + side * (0.5 * width + 0.02 * r) * axle,
                 )
             )
-    return _colored(tyre, WHEEL_COLOR), _colored(
-        trimesh.util.concatenate(spokes), MARKING_COLOR
-    )
+    return _colored(tyre, WHEEL_COLOR), _colored(_concatenate(spokes), MARKING_COLOR)
 
 
 def _wheels(

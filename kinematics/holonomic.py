@@ -239,7 +239,7 @@ def _pseudo_inverse(jinv: FloatArray, betas: FloatArray) -> FloatArray:
             "(two wheels at the same angle?): the forward kinematics (eq. 9.6) does not exist"
         )
     # For k = 3 this is the plain matrix inverse of eq. 9.6; for k > 3 the least-squares one.
-    return np.linalg.pinv(jinv)
+    return np.asarray(np.linalg.pinv(jinv), dtype=np.float64)
 
 
 def forward_robot_frame(

@@ -528,9 +528,8 @@ def _gaussian_smooth(p: FloatArray, sigma_nodes: float) -> FloatArray:
     k = np.arange(-m, m + 1, dtype=np.float64)
     g = np.exp(-0.5 * (k / sigma_nodes) ** 2)
     g /= g.sum()
-    return np.column_stack(
-        [np.convolve(padded[:, i], g, mode="valid") for i in range(2)]
-    )
+    smooth = [np.convolve(padded[:, i], g, mode="valid") for i in range(2)]
+    return np.column_stack(smooth).astype(np.float64)
 
 
 def _blend_curve(points: FloatArray, tolerance: float) -> FloatArray:
@@ -632,12 +631,13 @@ def _continuous_piece(
     if follow:
         motion.turn_to(float(theta[0]))
     x0, y0, phi0 = motion.pose
-    target = points[-1]
     node_acc = np.divide(
         v[1:] ** 2 - v[:-1] ** 2, 2.0 * ds, out=np.zeros_like(ds), where=ds > 0.0
     )
-    n_steps = math.ceil(t_total / dt - 1e-9)
-    for _ in range(12):
+    w_end = points[-1] - np.array([x0, y0])
+
+    def attempt(n_steps: int) -> tuple[FloatArray, FloatArray, bool]:
+        """Sample the profile in ``n_steps`` steps; return velocity, heading, ok."""
         stretch = t_total / (n_steps * dt)  # <= 1: slowing down keeps every limit
         tau = np.arange(n_steps + 1) * dt * stretch
         i = np.clip(np.searchsorted(tau_nodes, tau, side="right") - 1, 0, len(ds) - 1)
@@ -671,7 +671,7 @@ def _continuous_piece(
         # trapezoid rule on a curve). Scale the speeds by (1 + u . c), a smooth change
         # that vanishes at rest, with c solving the 2x2 linear end condition exactly.
         wv = w * speed
-        error = (target - np.array([x0, y0])) - (wv[:, None] * u).sum(axis=0)
+        error = w_end - (wv[:, None] * u).sum(axis=0)
         gram = (wv[:, None, None] * u[:, :, None] * u[:, None, :]).sum(axis=0)
         c = np.linalg.lstsq(gram, error, rcond=1e-9)[0]
         scale = u @ c
@@ -681,10 +681,19 @@ def _continuous_piece(
             _peaks_of(vel, dt).within(lim, rtol=0.0)
             and float(np.max(np.abs(scale))) <= 0.01
         )
+        return vel, phi, ok
+
+    n_steps = math.ceil(t_total / dt - 1e-9)
+    for _ in range(12):
+        vel, phi, ok = attempt(n_steps)
         if ok:
             break
         # Sampling too coarse for this curve: slow down (more samples) and try again.
         n_steps = math.ceil(n_steps * 1.15) + 1
+    else:
+        # Never met in the tests; stopping at every via point always keeps the limits.
+        _stop_mode(motion, points, follow)
+        return
     xy = np.array([x0, y0]) + np.concatenate(
         [np.zeros((1, 2)), np.cumsum(0.5 * dt * (vel[1:, :2] + vel[:-1, :2]), axis=0)]
     )

@@ -128,7 +128,7 @@ def test_inverse_inverts_forward(rates, phi):
 )
 def test_round_trip_for_other_wheel_layouts(v, phi, b0, spread):
     betas = (b0, b0 + spread, b0 + 2 * spread + 0.3)  # three distinct angles
-    q = inverse(*v, phi, r=0.03, L=0.4, betas=betas)
+    q = inverse(v[0], v[1], v[2], phi, r=0.03, L=0.4, betas=betas)
     assert_allclose(forward(q, phi, r=0.03, L=0.4, betas=betas), v, atol=1e-7)
 
 

@@ -89,5 +89,9 @@ def test_shape_and_method_errors():
         integrate_rates([0.0, 1.0], np.zeros((2, 3)), DIFFERENTIAL, [0, 0, 0])
     with pytest.raises(ValueError, match="method"):
         integrate_rates(
-            [0.0, 1.0], np.zeros((2, 2)), DIFFERENTIAL, [0, 0, 0], method="rk4"
-        )  # type: ignore[arg-type]
+            [0.0, 1.0],
+            np.zeros((2, 2)),
+            DIFFERENTIAL,
+            [0, 0, 0],
+            method="rk4",  # pyright: ignore[reportArgumentType]
+        )

@@ -181,7 +181,13 @@ def test_holonomic_hold_keeps_its_heading_and_translates_diagonally():
     moving = np.hypot(traj.velocity[:, 0], traj.velocity[:, 1]) > 0
     # Sideways components: a holonomic robot may translate in any direction.
     assert (
-        np.max(np.abs(differential.sway_residual(*traj.velocity[moving, :2].T, 0.3)))
+        np.max(
+            np.abs(
+                differential.sway_residual(
+                    traj.velocity[moving, 0], traj.velocity[moving, 1], 0.3
+                )
+            )
+        )
         > 0.1
     )
 
@@ -199,7 +205,7 @@ def test_holonomic_travel_faces_the_direction_of_travel():
     check_invariants(traj, path[-1])
     moving = np.hypot(traj.velocity[:, 0], traj.velocity[:, 1]) > 0
     sway = differential.sway_residual(
-        *traj.velocity[moving, :2].T, traj.pose[moving, 2]
+        traj.velocity[moving, 0], traj.velocity[moving, 1], traj.pose[moving, 2]
     )
     assert np.max(np.abs(sway)) < 1e-9
     assert traj.pose[-1, 2] == pytest.approx(-math.pi / 4)
@@ -466,12 +472,14 @@ def test_configurable_sample_period(lecture_path):
 
 def test_robot_params_validate():
     with pytest.raises(ValueError, match="kind"):
-        RobotParams("tracked")
+        RobotParams("tracked")  # pyright: ignore[reportArgumentType]
     with pytest.raises(ValueError, match="fixed wheel angles"):
         RobotParams("differential", betas=(0.0, 1.0))
     with pytest.raises(ValueError, match="singular"):
         RobotParams("holonomic", betas=(0.0, 0.0, 1.0))
-    assert RobotParams(betas=[0.1, 2.0, 4.0]) == RobotParams(betas=(0.1, 2.0, 4.0))
+    # A list is normalised to a tuple, so equal robots compare equal.
+    as_list = RobotParams(betas=[0.1, 2.0, 4.0])  # pyright: ignore[reportArgumentType]
+    assert as_list == RobotParams(betas=(0.1, 2.0, 4.0))
 
 
 # ---------------------------------------------------------------- properties

@@ -99,6 +99,7 @@ _PERSPECTIVE_FOV = math.radians(40.0)
 _PERSPECTIVE_AZIMUTH = math.radians(-105.0)  # looking from slightly left of "south"
 _PERSPECTIVE_ELEVATION = math.radians(50.0)
 _MARGIN = 0.06  # of the larger side of the scene, on every side
+_TALLEST = 0.5  # [m] above the floor: obstacles (0.4 m) and walls (0.3 m) must fit too
 
 # Everything but the WebGL canvas: the GUI panel, notifications (SwiftShader triggers a
 # "software rendering" toast), the logo link. `visibility` is inherited and can be turned
@@ -197,7 +198,8 @@ def frame_camera(
     view
         ``"top"``: straight down, +x to the right and +y up in the picture, a narrow
         field of view (20 degrees) so it reads like a plan. ``"perspective"``: from above
-        the lower-left, 50 degrees above the floor.
+        the lower-left, 50 degrees above the floor; the box is fitted up to 0.5 m above
+        the floor so that obstacle and wall tops stay in the picture.
 
     Returns
     -------

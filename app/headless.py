@@ -210,8 +210,8 @@ def frame_camera(
     >>> pose = frame_camera((0.0, 0.0, 10.0, 8.0), 1280, 800)
     >>> pose.look_at, pose.up
     ((5.0, 4.0, 0.0), (0.0, 1.0, 0.0))
-    >>> round(pose.position[2], 3)  # high enough for the 10 m side plus margins
-    24.658
+    >>> round(pose.position[2], 3)  # (4 m + 0.6 m margin) / tan(10 deg): the height fills it
+    26.088
     """
     if view not in VIEWS:
         raise ValueError(f"unknown view {view!r} (known: {', '.join(VIEWS)})")
@@ -420,6 +420,18 @@ def _wait_client(server: Any, known: set[int], deadline: float) -> Any:
 def _apply_camera(client: Any, pose: CameraPose, deadline: float) -> None:
     """Set the client's camera and wait until the browser reports it back."""
     camera = client.camera
+    scale = float(np.linalg.norm(np.subtract(pose.position, pose.look_at)))
+
+    def applied() -> bool:
+        return bool(
+            np.allclose(camera.position, pose.position, atol=1e-4 * scale)
+            and np.allclose(camera.look_at, pose.look_at, atol=1e-4 * scale)
+            and np.allclose(camera.up_direction, pose.up, atol=1e-4)
+            and abs(camera.fov - pose.fov) < 1e-4
+        )
+
+    if applied():  # the setters would send nothing, and nothing would be echoed
+        return
     # Order matters: the up direction first (it re-aims the orbit), then the pose.
     camera.up_direction = pose.up
     camera.fov = pose.fov
@@ -427,23 +439,16 @@ def _apply_camera(client: Any, pose: CameraPose, deadline: float) -> None:
     camera.far = pose.far
     camera.position = pose.position
     camera.look_at = pose.look_at
-    want_position = np.asarray(pose.position)
-    want_look_at = np.asarray(pose.look_at)
-    scale = float(np.linalg.norm(want_position - want_look_at))
     stamp = camera.update_timestamp
     while time.monotonic() < deadline:
         time.sleep(0.05)
-        # The browser echoes its camera after every change; compare the echo, not our own
-        # request (the setters store the requested values immediately).
-        if camera.update_timestamp == stamp:
-            continue
-        stamp = camera.update_timestamp
-        if (
-            np.allclose(camera.position, want_position, atol=1e-4 * scale)
-            and np.allclose(camera.look_at, want_look_at, atol=1e-4 * scale)
-            and abs(camera.fov - pose.fov) < 1e-4
-        ):
-            return
+        # The browser echoes its camera after every change; judge the echo, not our own
+        # request (the setters store the requested values at once). An older message from
+        # the browser may arrive first: keep waiting until an echo matches.
+        if camera.update_timestamp != stamp:
+            stamp = camera.update_timestamp
+            if applied():
+                return
     raise SnapshotError("the browser did not apply the camera in time")
 
 

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
-from PIL import Image, ImageDraw
+from PIL import Image, ImageDraw, ImageFont
 
 from app import start_app
 from app.headless import capture
@@ -46,6 +46,7 @@ PIXEL_THRESHOLD = 16
 MAX_DIFF_SHARE = 0.005
 """A picture matches when at most this share of its pixels differ (0.5 %)."""
 UPDATE = os.environ.get("UPDATE_SNAPSHOTS") == "1"
+LABEL_HEIGHT = 22  # [px] title strip above the three panels of a diff image
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,9 +107,10 @@ def diff_image(
         )
         faded[comparison.mask] = (230, 0, 0)
         overlay = Image.fromarray(faded.astype(np.uint8))
-    label_h = 22
+    label_h = LABEL_HEIGHT
     out = Image.new("RGB", (3 * w, h + label_h), (255, 255, 255))
     draw = ImageDraw.Draw(out)
+    font = ImageFont.load_default(size=14)
     for k, (image, title) in enumerate(
         (
             (expected.convert("RGB"), "golden"),
@@ -117,7 +119,7 @@ def diff_image(
         )
     ):
         out.paste(image, (k * w, label_h))
-        draw.text((k * w + 6, 5), title, fill=(0, 0, 0))
+        draw.text((k * w + 6, 4), title, fill=(0, 0, 0), font=font)
     return out
 
 
@@ -210,10 +212,10 @@ def test_moved_obstacle_fails_the_comparison(browser: Browser, tmp_path: Path) -
             path.stem, render(browser, moved), failures=tmp_path, update=False
         )
     diff = Image.open(tmp_path / f"{path.stem}.diff.png").convert("RGB")
-    assert diff.size == (3 * WIDTH, HEIGHT + 22)
+    assert diff.size == (3 * WIDTH, HEIGHT + LABEL_HEIGHT)
     assert Image.open(tmp_path / f"{path.stem}.actual.png").size == (WIDTH, HEIGHT)
     # The third panel shows what moved in red: a visible patch, not a few stray pixels.
-    overlay = np.asarray(diff)[22:, 2 * WIDTH :]
+    overlay = np.asarray(diff)[LABEL_HEIGHT:, 2 * WIDTH :]
     red = (overlay[..., 0] == 230) & (overlay[..., 1] == 0) & (overlay[..., 2] == 0)
     assert red.mean() > MAX_DIFF_SHARE
 

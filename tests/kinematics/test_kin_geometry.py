@@ -10,7 +10,7 @@ import networkx as nx
 import numpy as np
 import pytest
 import trimesh
-from kin_helpers import DIFFERENTIAL, HOLONOMIC
+from tests.kinematics.kin_helpers import DIFFERENTIAL, HOLONOMIC
 from numpy.testing import assert_allclose
 
 from kinematics import geometry, holonomic, plan_trajectory

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from kin_helpers import DIFFERENTIAL, HOLONOMIC, LECTURE_PATH, dense_trace
+from tests.kinematics.kin_helpers import DIFFERENTIAL, HOLONOMIC, LECTURE_PATH, dense_trace
 from numpy.testing import assert_allclose
 
 from kinematics import RobotParams, TrajectoryOptions, plan_trajectory

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from kin_helpers import (
+from tests.kinematics.kin_helpers import (
     DIFFERENTIAL,
     HOLONOMIC,
     LECTURE_PATH,

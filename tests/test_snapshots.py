@@ -233,3 +233,13 @@ def test_compare_tolerance() -> None:
     more[0, :51] = 0
     assert not compare(Image.fromarray(more), golden).ok
     assert not compare(Image.new("RGB", (100, 99)), golden).ok
+
+
+def test_missing_golden_fails_instead_of_being_created(tmp_path: Path) -> None:
+    buffer = io.BytesIO()
+    Image.new("RGB", (8, 8), (255, 255, 255)).save(buffer, format="PNG")
+    with pytest.raises(pytest.fail.Exception, match="no golden picture"):
+        check_snapshot(
+            "no_such_scenario", buffer.getvalue(), failures=tmp_path, update=False
+        )
+    assert not (SNAPSHOTS / "no_such_scenario.png").exists()

@@ -24,11 +24,13 @@ never overwrites a newer one.
 from __future__ import annotations
 
 __all__ = [
+    "FAST_PLANNERS",
     "LAYERS",
     "TOOLS",
     "Controller",
     "Frame",
     "Handle",
+    "Pending",
     "PlanFn",
     "RobotPose",
     "SampleFn",
@@ -37,9 +39,11 @@ __all__ = [
     "View",
     "default_plan",
     "pick",
+    "split_planners",
 ]
 
 import dataclasses
+import functools
 import json
 import logging
 import math
@@ -205,13 +209,17 @@ class Frame:
     """Time to compute the plans [ms]."""
 
 
-def default_plan(scene: Scene) -> dict[str, Any]:
-    """Run every registered planner (:data:`planners.PLANNERS`) on ``scene``.
+FAST_PLANNERS = ("vg", "svg")
+"""Planners computed first on every edit; the others (DSB) follow in a second lane."""
+
+
+def default_plan(scene: Scene, which: Iterable[str] | None = None) -> dict[str, Any]:
+    """Run the planners ``which`` (default: all of :data:`planners.PLANNERS`) on ``scene``.
 
     If running them all together fails (a bug in one planner), each planner is run on its
     own, so one broken planner never takes the others down with it.
     """
-    which = tuple(planners.PLANNERS)
+    which = tuple(planners.PLANNERS) if which is None else tuple(which)
     try:
         return dict(planners.plan_all(scene, which=which))
     except Exception:
@@ -226,6 +234,33 @@ def default_plan(scene: Scene) -> dict[str, Any]:
                 name, f"{name.upper()} failed: {type(error).__name__}: {error}"
             )
     return results
+
+
+def split_planners(names: Iterable[str]) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """Split planner names into the fast lane (VG, SVG) and the slow lane (the rest).
+
+    Examples
+    --------
+    >>> split_planners(["vg", "svg", "dsb"])
+    (('vg', 'svg'), ('dsb',))
+    """
+    names = tuple(names)
+    fast = tuple(n for n in names if n in FAST_PLANNERS)
+    return fast, tuple(n for n in names if n not in fast)
+
+
+@dataclasses.dataclass(frozen=True)
+class Pending:
+    """A slow planner's place-holder while it computes: no path yet, never a stale one."""
+
+    planner: str
+    status: str = "computing"
+    reason: str | None = None
+    length: float | None = None
+    path: npt.NDArray[np.float64] = dataclasses.field(
+        default_factory=lambda: np.zeros((0, 2))
+    )
+    ms: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -268,7 +303,13 @@ class Controller:
     scene
         The scene to start with.
     plan
-        Scene -> results; defaults to every planner in :data:`planners.PLANNERS`.
+        Scene -> results of the fast planners (and ``"cspace"``); by default VG and SVG.
+        Drawn as soon as they are ready.
+    slow_plan
+        Scene -> results of the slow planners (DSB), computed in a second thread for the
+        newest scene and drawn when ready; until then those planners show no path. By
+        default every other planner of :data:`planners.PLANNERS`; without it (a test
+        passing only ``plan``) there is no second lane.
     trajectory
         (scene, path) -> timed trajectory (or None); None disables the robot.
     sample
@@ -288,6 +329,7 @@ class Controller:
         scene: Scene,
         *,
         plan: PlanFn | None = None,
+        slow_plan: PlanFn | None = None,
         trajectory: TrajectoryFn | None = None,
         sample: SampleFn | None = None,
         scenarios: Mapping[str, Path] | None = None,
@@ -297,7 +339,15 @@ class Controller:
         self._views: list[View] = (
             list(views) if isinstance(views, Sequence) else [views]
         )
-        self._plan: PlanFn = plan or default_plan
+        fast, slow = split_planners(planners.PLANNERS)
+        if plan is None:
+            self._plan: PlanFn = functools.partial(default_plan, which=fast)
+            if slow_plan is None and slow:
+                slow_plan = functools.partial(default_plan, which=slow)
+        else:
+            self._plan = plan
+        self._slow_plan: PlanFn | None = slow_plan
+        self._slow_names: tuple[str, ...] = slow if slow_plan is not None else ()
         self._trajectory_fn = trajectory
         self._sample_fn = sample
         self._scenarios: dict[str, Path] = dict(scenarios or {})
@@ -332,7 +382,10 @@ class Controller:
 
         # Results.
         self._computed: tuple[int, Scene, Mapping[str, Any], float] | None = None
-        self._computed_trajectory: tuple[int, str, Any] = (-1, "", None)
+        self._computed_trajectory: tuple[Any, Any] = (None, None)  # (key, trajectory)
+        self._slow: tuple[int, Mapping[str, Any]] = (-1, {})  # newest slow results
+        self._slow_tried = -1  # newest version the slow lane has started on
+        self._slow_busy = False
         self._other: tuple[Any, tuple[Polygon, ...] | None] = (None, None)
         self._rendered = (-1, -1)  # (scene version, ui version) last drawn
         self._busy = False
@@ -343,6 +396,12 @@ class Controller:
             target=self._work, name="planner-worker", daemon=True
         )
         self._worker.start()
+        self._slow_worker: threading.Thread | None = None
+        if self._slow_plan is not None:
+            self._slow_worker = threading.Thread(
+                target=self._work_slow, name="slow-planner-worker", daemon=True
+            )
+            self._slow_worker.start()
         self._animator = threading.Thread(
             target=self._animate, name="robot-animation", daemon=True
         )
@@ -404,15 +463,22 @@ class Controller:
             return True
 
     def _idle_locked(self) -> bool:
-        return not self._busy and self._rendered == (self._version, self._ui_version)
+        slow_done = self._slow_plan is None or (
+            not self._slow_busy and self._slow_tried == self._version
+        )
+        return (
+            slow_done
+            and not self._busy
+            and self._rendered == (self._version, self._ui_version)
+        )
 
     def close(self) -> None:
         """Stop the worker and animation threads (the views are left as they are)."""
         with self._wake:
             self._closed = True
             self._wake.notify_all()
-        for thread in (self._worker, self._animator):
-            if thread is not threading.current_thread():
+        for thread in (self._worker, self._animator, self._slow_worker):
+            if thread is not None and thread is not threading.current_thread():
                 thread.join(timeout=5.0)
 
     # ------------------------------------------------------------------ scene edits
@@ -558,10 +624,12 @@ class Controller:
         """Replace the whole scene (one undo step, so a switch can be undone)."""
         with self._wake:
             self._close_gesture_locked()
-            self._scenario = scenario
             self._selection = None
             self._draft.clear()
-            self._commit_locked(scene, key=None, phased=False)
+            self._commit_locked(
+                scene, key=None, phased=False
+            )  # undo keeps the old scenario
+            self._scenario = scenario
             self._say_locked(None)
             self._wake.notify_all()
 
@@ -888,7 +956,7 @@ class Controller:
             self._wake.notify_all()
 
     def _duration_locked(self) -> float | None:
-        trajectory = self._computed_trajectory[2]
+        trajectory = self._computed_trajectory[1]
         if trajectory is None:
             return None
         return float(getattr(trajectory, "duration", 0.0))
@@ -938,13 +1006,24 @@ class Controller:
             plans = self._plan(scene)
             ms = (time.perf_counter() - t0) * 1e3
             computed = (version, scene, plans, ms)
-        _, scene, plans, ms = computed
+        _, scene, fast, ms = computed
+        with self._wake:
+            slow_version, slow = self._slow
+        plans = dict(fast)
+        for name in self._slow_names:
+            # A slow planner's result is shown only for exactly this scene.
+            plans[name] = (
+                slow.get(name, Pending(name))
+                if slow_version == version
+                else Pending(name)
+            )
+        plans.pop("cspace", None)
+        plans["cspace"] = fast.get("cspace")
         trajectory = self._trajectory_for(version, scene, plans, follow)
         other = self._other_expansion(scene) if want_other else None
         with self._wake:
             self._computed = computed
-            self._computed_trajectory = (version, follow, trajectory)
-            frame = self._frame_locked(computed, trajectory, other)
+            frame = self._frame_locked((version, scene, plans, ms), trajectory, other)
             ui_version = self._ui_version
             duration = self._duration_locked()
             if duration is not None:
@@ -962,22 +1041,59 @@ class Controller:
     def _trajectory_for(
         self, version: int, scene: Scene, plans: Mapping[str, Any], follow: str
     ) -> Any:
-        cached_version, cached_follow, cached = self._computed_trajectory
-        if cached_version == version and cached_follow == follow:
-            return cached
-        if self._trajectory_fn is None:
-            return None
         result = plans.get(follow)
+        # The result object itself is part of the key: a slow planner's result replaces
+        # its place-holder within the same scene version.
+        key = (version, follow, result)
+        cached_key, cached = self._computed_trajectory
+        if (
+            cached_key is not None
+            and cached_key[:2] == key[:2]
+            and cached_key[2] is result
+        ):
+            return cached
+        trajectory = None
         path = np.asarray(
             getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
         ).reshape(-1, 2)
-        if len(path) < 2:
-            return None
-        try:
-            return self._trajectory_fn(scene, path)
-        except Exception:
-            logger.exception("trajectory failed")
-            return None
+        if self._trajectory_fn is not None and len(path) >= 2:
+            try:
+                trajectory = self._trajectory_fn(scene, path)
+            except Exception:
+                logger.exception("trajectory failed")
+        with self._wake:
+            self._computed_trajectory = (key, trajectory)
+        return trajectory
+
+    def _work_slow(self) -> None:
+        """Second lane: compute the slow planners for the newest scene, drop stale ones."""
+        assert self._slow_plan is not None
+        while True:
+            with self._wake:
+                while not self._closed and self._slow_tried == self._version:
+                    self._wake.wait()
+                if self._closed:
+                    return
+                version, scene = self._version, self._scene
+                self._slow_tried = version
+                self._slow_busy = True
+            try:
+                results = dict(self._slow_plan(scene))
+            except Exception as error:
+                logger.exception("slow planners failed")
+                results = {
+                    n: _failed(
+                        n, f"{n.upper()} failed: {type(error).__name__}: {error}"
+                    )
+                    for n in self._slow_names
+                }
+            with self._wake:
+                self._slow_busy = False
+                if version == self._version:
+                    self._slow = (version, results)
+                    self._ui_version += 1  # redraw the frame with them
+                # else: a newer edit arrived meanwhile; its own round is next.
+                self._wake.notify_all()
 
     def _other_expansion(self, scene: Scene) -> tuple[Polygon, ...] | None:
         key = (scene.obstacles, scene.robot.radius, scene.expansion)
@@ -1040,13 +1156,14 @@ class Controller:
     # ------------------------------------------------------------------ internals: robot
 
     def _pose_locked(self) -> RobotPose | None:
-        _, follow, trajectory = self._computed_trajectory
+        key, trajectory = self._computed_trajectory
         if trajectory is None or self._sample_fn is None or self._computed is None:
             return None
+        _, follow, result = key
         p = self._playback
-        scene, plans = self._computed[1], self._computed[2]
+        scene = self._computed[1]
         try:
-            fields = self._sample_fn(trajectory, p.t, scene, plans.get(follow))
+            fields = self._sample_fn(trajectory, p.t, scene, result)
         except Exception:
             logger.exception("sampling the trajectory failed")
             return None

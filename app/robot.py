@@ -18,7 +18,6 @@ __all__ = [
 
 import dataclasses
 import functools
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -67,7 +66,7 @@ def trajectory(scene: Scene, path: npt.ArrayLike) -> kinematics.Trajectory:
     --------
     >>> import planners
     >>> s = planners.load_scene({"format": 1, "obstacles": [], "start": [0, 0], "goal": [1, 0]})
-    >>> round(trajectory(s, [[0, 0], [1, 0]]).pose[-1, 0], 9)
+    >>> float(round(trajectory(s, [[0, 0], [1, 0]]).pose[-1, 0], 9))
     1.0
     """
     return kinematics.plan_trajectory(
@@ -101,69 +100,81 @@ def sample(
         "wheel_angles": tuple(float(a) for a in angles),
         "wheel_rates": tuple(float(r) for r in rates),
         "velocity": (float(velocity[0]), float(velocity[1]), float(velocity[2])),
-        "sensing": sensing_at(result, xy, scene),
+        "sensing": sensing_at(result, traj, tt, scene),
     }
 
 
 def sensing_at(
-    result: Any, xy: tuple[float, float], scene: Scene
+    result: Any, traj: kinematics.Trajectory, t: float, scene: Scene
 ) -> Mapping[str, Any] | None:
-    """Describe what a DSB robot senses at ``xy``: sensor disk, borders, local tangent graph.
+    """Describe what a DSB robot senses at time ``t``: sensor disk, borders, tangent graph.
 
-    Returns None for results that cannot tell (VG, SVG). The DSB result's own ``sense``
-    method is used (see :mod:`planners.tangent_bug`).
+    Returns None for results that cannot tell (VG, SVG). A DSB trace
+    (:class:`planners.tangent_bug.BugTrace`) is asked at the arclength the robot has
+    travelled along it, so the picture is what the robot used for its decisions there
+    (Fig. 9.16: the visible border within R, the points O_i, the lines r-O_i and the
+    chosen O_i's line to the goal).
     """
-    sense = getattr(result, "sense", None) or getattr(result, "sensing_at", None)
-    if sense is None:
+    if (
+        getattr(result, "sensing_at", None) is None
+        or getattr(result, "cspace", None) is None
+    ):
         return None
+    path = np.asarray(
+        getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
+    ).reshape(-1, 2)
+    if len(path) < 2:
+        return None
+    s = travelled_fraction(traj, t) * float(np.hypot(*np.diff(path, axis=0).T).sum())
     try:
-        seen = sense(xy)
+        seen = result.sensing_at(s)
+        position = np.asarray(result.position_at(s), dtype=np.float64)
     except Exception:
         return None
-    return _sensing_mapping(seen, xy, scene)
-
-
-def _sensing_mapping(
-    seen: Any, xy: tuple[float, float], scene: Scene
-) -> Mapping[str, Any]:
-    get = (
-        seen.get if isinstance(seen, Mapping) else lambda k, d=None: getattr(seen, k, d)
-    )
-    radius = get("radius", None) or get("sensor_range", None) or scene.sensor_range
-    segments = get("segments", None)
-    if segments is None:
-        segments = get("visible", None)
-    if segments is None:
-        segments = get("seen", np.zeros((0, 2, 2)))
-    points = get("points", None)
-    if points is None:
-        points = get("endpoints", None)
-    if points is None:
-        points = get("tangent_points", np.zeros((0, 2)))
-    center = np.asarray(xy, dtype=np.float64)
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    tangents = (
-        np.stack([np.broadcast_to(center, points.shape), points], axis=1)
-        if len(points)
-        else np.zeros((0, 2, 2))
-    )
+    points = np.asarray(
+        getattr(seen, "points", np.zeros((0, 2))), dtype=np.float64
+    ).reshape(-1, 2)
     goal = np.asarray(scene.goal, dtype=np.float64)
-    # The local tangent graph of Fig. 9.16: robot -> O_i -> goal.
-    to_goal = (
-        np.stack([points, np.broadcast_to(goal, points.shape)], axis=1)
+    tangents = (
+        np.stack([np.broadcast_to(position, points.shape), points], axis=1)
         if len(points)
         else np.zeros((0, 2, 2))
     )
+    to_goal = np.zeros((0, 2, 2))
+    if len(points):
+        # The chosen O_i minimises d(r, O_i) + d(O_i, g) (Fig. 9.16).
+        cost = np.hypot(*(points - position).T) + np.hypot(*(points - goal).T)
+        best = points[int(np.argmin(cost))]
+        to_goal = np.array([[best, goal]])
+    radius = float(getattr(seen, "radius", scene.sensor_range))
     return {
-        "center": (float(xy[0]), float(xy[1])),
-        "radius": float(radius)
-        if radius is not None and math.isfinite(float(radius))
-        else math.inf,
-        "seen": np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2),
-        "tangents": tangents,
-        "to_goal": to_goal,
+        "center": (float(position[0]), float(position[1])),
+        "radius": radius,
+        "seen": np.asarray(
+            getattr(seen, "segments", np.zeros((0, 2, 2))), dtype=np.float64
+        ).reshape(-1, 2, 2),
+        "tangents": np.concatenate([tangents, to_goal]) if len(to_goal) else tangents,
         "points": points,
     }
+
+
+@functools.lru_cache(maxsize=8)
+def _travelled(traj: kinematics.Trajectory) -> FloatArray:
+    # Distance travelled along the trajectory at each sample (trapezoid rule on the speed).
+    speed = np.hypot(traj.velocity[:, 0], traj.velocity[:, 1])
+    return np.concatenate([[0.0], np.cumsum(0.5 * traj.dt * (speed[1:] + speed[:-1]))])
+
+
+def travelled_fraction(traj: kinematics.Trajectory, t: float) -> float:
+    """Fraction of the trajectory's distance travelled by time ``t`` [s], in [0, 1].
+
+    The robot may cut corners a little (continuous mode), so its distance is mapped onto
+    the planned path in proportion, which keeps both ends in step.
+    """
+    cum = _travelled(traj)
+    if len(cum) < 2 or cum[-1] <= 0:
+        return 1.0 if t >= traj.duration else 0.0
+    return float(np.interp(t, traj.t, cum) / cum[-1])
 
 
 @functools.lru_cache(maxsize=16)

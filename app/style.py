@@ -64,7 +64,7 @@ COLORS: dict[str, RGB] = {
     "expanded_edge": (200, 120, 0),
     "other_expansion": (90, 90, 90),
     "vg": BLUE,
-    "vg_edges": tint(BLUE, 0.55),
+    "vg_edges": tint(BLUE, 0.62),
     "svg": GREEN,
     "svg_edges": tint(GREEN, 0.45),
     "dsb": PURPLE,
@@ -101,7 +101,7 @@ HEIGHTS: dict[str, float] = {
 and of the obstacle prisms and walls."""
 
 WIDTHS: dict[str, float] = {
-    "graph": 0.022,
+    "graph_px": 1.5,
     "vg_path": 0.2,
     "svg_path": 0.11,
     "dsb_path": 0.06,
@@ -109,5 +109,5 @@ WIDTHS: dict[str, float] = {
     "selection": 0.07,
     "sensing": 0.025,
 }
-"""Line thickness [m, world units]: the paths nest (VG widest, DSB narrowest) so that
+"""Line thickness [m, world units; ``_px``: screen pixels]: the paths nest (VG widest, DSB narrowest) so that
 identical VG and SVG paths both stay visible."""

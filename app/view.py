@@ -30,7 +30,7 @@ __all__ = [
 import contextlib
 import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from typing import Any
+from typing import Any, Literal
 
 import networkx as nx
 import numpy as np
@@ -307,9 +307,15 @@ class _Segments:
         name: str,
         color: tuple[int, int, int],
         thickness: float,
+        units: Literal["world", "screen"] = "world",
     ) -> None:
         self.handle = scene.add_line_segments(
-            name, _NO_SEGMENTS, color, thickness=thickness, visible=False
+            name,
+            _NO_SEGMENTS,
+            color,
+            thickness=thickness,
+            thickness_units=units,
+            visible=False,
         )
         self.color = np.asarray(color, dtype=np.uint8)
 
@@ -453,9 +459,13 @@ class PlannerView:
         self.other_edges = _Segments(
             s, "/expanded/other", COLORS["other_expansion"], WIDTHS["outline"] * 0.8
         )
-        self.vg_edges = _Segments(s, "/vg/edges", COLORS["vg_edges"], WIDTHS["graph"])
+        # Graph edges are thin lines of constant pixel width: readable at any zoom, and
+        # cheaper to draw than world-width ribbons (which matters in software WebGL).
+        self.vg_edges = _Segments(
+            s, "/vg/edges", COLORS["vg_edges"], WIDTHS["graph_px"], "screen"
+        )
         self.svg_edges = _Segments(
-            s, "/svg/edges", COLORS["svg_edges"], WIDTHS["graph"] * 1.3
+            s, "/svg/edges", COLORS["svg_edges"], WIDTHS["graph_px"] * 1.4, "screen"
         )
         self.vg_path = _Segments(s, "/vg/path", COLORS["vg"], WIDTHS["vg_path"])
         self.svg_path = _Segments(s, "/svg/path", COLORS["svg"], WIDTHS["svg_path"])

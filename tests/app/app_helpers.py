@@ -1,0 +1,90 @@
+"""Helpers shared by the app tests."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+from app.controller import Frame, RobotPose
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO_DIR = ROOT / "static_scenarios"
+
+
+class FakeView:
+    """Records every frame and robot pose the controller draws."""
+
+    def __init__(self) -> None:
+        self.frames: list[Frame] = []
+        self.poses: list[RobotPose | None] = []
+        self._lock = threading.Lock()
+        self.concurrent = 0
+        self.max_concurrent = 0
+
+    def render(self, frame: Frame) -> None:
+        with self._lock:
+            self.concurrent += 1
+            self.max_concurrent = max(self.max_concurrent, self.concurrent)
+        self.frames.append(frame)
+        with self._lock:
+            self.concurrent -= 1
+
+    def render_robot(self, pose: RobotPose | None) -> None:
+        self.poses.append(pose)
+
+    @property
+    def last(self) -> Frame:
+        return self.frames[-1]
+
+
+def launch_chromium(playwright):  # type: ignore[no-untyped-def]
+    """Start Debian's headless Chromium (never a downloaded one); raise with the reason."""
+    return playwright.chromium.launch(
+        executable_path="/usr/bin/chromium",
+        args=[
+            "--no-sandbox",
+            "--disable-background-networking",
+            "--disable-dev-shm-usage",
+        ],
+    )
+
+
+class TopCamera:
+    """A camera looking straight down at the floor, and its world -> pixel projection."""
+
+    def __init__(
+        self,
+        look_at: tuple[float, float],
+        height: float,
+        fov_deg: float,
+        width: int,
+        px_height: int,
+    ) -> None:
+        self.look_at = look_at
+        self.height = height
+        self.fov_deg = fov_deg
+        self.width = width
+        self.px_height = px_height
+        import math
+
+        # three.js's fov is vertical: half the canvas height spans tan(fov / 2) * height.
+        self.f = (px_height / 2) / math.tan(math.radians(fov_deg) / 2)
+
+    def apply(self, server) -> None:  # type: ignore[no-untyped-def]
+        import math
+
+        cx, cy = self.look_at
+        server.initial_camera.position = (cx, cy, self.height)
+        server.initial_camera.look_at = (cx, cy, 0.0)
+        server.initial_camera.up = (0.0, 1.0, 0.0)
+        server.initial_camera.fov = math.radians(self.fov_deg)
+
+    def pixel(self, xy, z: float = 0.0) -> tuple[float, float]:  # type: ignore[no-untyped-def]
+        scale = self.f / (self.height - z)
+        return (
+            self.width / 2 + (float(xy[0]) - self.look_at[0]) * scale,
+            self.px_height / 2 - (float(xy[1]) - self.look_at[1]) * scale,
+        )
+
+    def metres_per_pixel(self, z: float = 0.0) -> float:
+        return (self.height - z) / self.f

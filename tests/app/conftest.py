@@ -1,0 +1,36 @@
+"""Fixtures for the app tests: controllers with a fake view that always stop, a scene."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import pytest
+
+import planners
+from app.controller import Controller
+from tests.app.app_helpers import SCENARIO_DIR, FakeView
+
+
+@pytest.fixture
+def scene() -> planners.Scene:
+    return planners.load_scene(SCENARIO_DIR / "01_two_convex.json")
+
+
+@pytest.fixture
+def make_controller() -> Iterator[Callable[..., tuple[Controller, FakeView]]]:
+    made: list[Controller] = []
+
+    def make(scene: planners.Scene, **kwargs: Any) -> tuple[Controller, FakeView]:
+        view = FakeView()
+        kwargs.setdefault(
+            "scenarios", {p.stem: p for p in sorted(SCENARIO_DIR.glob("*.json"))}
+        )
+        controller = Controller(view, scene, **kwargs)
+        made.append(controller)
+        assert controller.wait_idle(20), "first frame not drawn"
+        return controller, view
+
+    yield make
+    for controller in made:
+        controller.close()

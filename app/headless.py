@@ -712,6 +712,13 @@ def snapshot(
         check_chromium(chromium)
     except SnapshotError as error:
         return _fail(str(error), 1)
+    path = Path(out)
+    try:  # before the slow part: a picture that cannot be written is not worth taking
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if not os.access(path.parent, os.W_OK):
+            raise PermissionError(13, "folder not writable")
+    except OSError as error:
+        return _fail(f"cannot write {out}: {error.strerror or error}", 1)
     # Imported here: app/__init__ imports the server, and this module must stay importable
     # on its own (the app's __main__ imports it only for --snapshot).
     from app import start_app  # noqa: PLC0415
@@ -741,16 +748,17 @@ def snapshot(
                 )
 
         png = _in_own_thread(take)
-        path = Path(out)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
-        partial.write_bytes(png)
-        partial.replace(path)
+        try:
+            partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
+            partial.write_bytes(png)
+            partial.replace(path)
+        except OSError as error:
+            return _fail(f"cannot write {out}: {error.strerror or error}", 1)
         return 0
     except SnapshotError as error:
         return _fail(str(error), 1)
-    except OSError as error:
-        return _fail(f"cannot write {out}: {error.strerror or error}", 1)
+    except KeyboardInterrupt:
+        return _fail("interrupted", 130)
     except Exception as error:  # a snapshot is a command-line tool: no traceback
         return _fail(
             f"snapshot failed: {type(error).__name__}: {_first_line(error)}", 1

@@ -249,3 +249,9 @@ def test_scene_bounds_include_the_robot_around_start_and_goal() -> None:
         }
     )
     assert scene_bounds(scene) == (-0.5, -0.5, 4.5, 1.5)
+
+
+def test_unwritable_output_fails_before_rendering(capsys) -> None:
+    assert snapshot(NAME, "/proc/no-such-folder/x.png") == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot write /proc/no-such-folder/x.png" in err

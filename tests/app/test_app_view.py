@@ -1,0 +1,358 @@
+"""The view: pure drawing helpers as arrays, then the real view on a viser server (no browser)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from typing import Any
+
+import networkx as nx
+import numpy as np
+import pytest
+import shapely
+from numpy.testing import assert_allclose
+from shapely import Polygon
+
+import planners
+from app import robot
+from app.controller import Controller, Frame, Pending, RobotPose
+from app.panels import (
+    floor_point,
+    results_markdown,
+    status_markdown,
+    wheel_rate_plot_data,
+)
+from app.view import (
+    PlannerView,
+    circle_segments,
+    dsb_events,
+    dsb_segment_modes,
+    graph_to_segments,
+    path_to_segments,
+    polygon_to_mesh,
+    prism_mesh,
+    rings_to_segments,
+    wall_mesh,
+    yaw_quaternion,
+)
+from tests.app.app_helpers import SCENARIO_DIR
+
+L_SHAPE = Polygon([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)])
+WITH_HOLE = Polygon(
+    [(0, 0), (4, 0), (4, 4), (0, 4)], [[(1, 1), (3, 1), (3, 3), (1, 3)]]
+)
+
+
+def mesh_area(vertices: np.ndarray, faces: np.ndarray) -> float:
+    a, b, c = (vertices[faces[:, k], :2] for k in range(3))
+    return float(
+        np.sum(0.5 * ((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]))
+    )
+
+
+def test_graph_to_segments_has_one_segment_per_edge():
+    g = nx.Graph()
+    g.add_edge((0.0, 0.0), (1.0, 0.0))
+    g.add_edge((1.0, 0.0), (1.0, 2.0))
+    g.add_edge((1.0, 2.0), (0.0, 0.0))
+    segments = graph_to_segments(g, z=0.25)
+    assert segments.shape == (3, 2, 3)
+    assert_allclose(segments[:, :, 2], 0.25)
+    got = {frozenset(map(tuple, s[:, :2].tolist())) for s in segments}
+    want = {frozenset((a, b)) for a, b in g.edges()}
+    assert got == {frozenset(tuple(map(float, p)) for p in e) for e in want}
+    assert graph_to_segments(nx.Graph()).shape == (0, 2, 3)
+    assert graph_to_segments(None).shape == (0, 2, 3)
+
+
+def test_path_to_segments_chains_the_points():
+    path = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [2.0, 3.0]])
+    segments = path_to_segments(path, 0.1)
+    assert segments.shape == (3, 2, 3)
+    assert_allclose(
+        segments[:-1, 1], segments[1:, 0]
+    )  # each segment starts where the last ended
+    assert_allclose(segments[0, 0, :2], path[0])
+    assert_allclose(segments[-1, 1, :2], path[-1])
+    assert path_to_segments(np.zeros((1, 2))).shape == (0, 2, 3)
+    assert path_to_segments(np.zeros((0, 2))).shape == (0, 2, 3)
+
+
+def test_rings_to_segments_includes_holes_and_invalid_rings():
+    assert rings_to_segments([WITH_HOLE]).shape == (8, 2, 3)
+    assert rings_to_segments([WITH_HOLE], holes=False).shape == (4, 2, 3)
+    bowtie = Polygon([(0, 0), (1, 1), (1, 0), (0, 1)])
+    assert rings_to_segments([bowtie]).shape == (4, 2, 3)  # drawn as given
+
+
+@pytest.mark.parametrize(
+    "polygon", [L_SHAPE, WITH_HOLE, Polygon([(0, 0), (2, 0), (1, 1.5)])]
+)
+def test_polygon_to_mesh_covers_the_polygon_with_upward_triangles(polygon):
+    vertices, faces = polygon_to_mesh(polygon, 0.05)
+    assert vertices.shape[1] == 3 and faces.shape[1] == 3
+    assert faces.max() < len(vertices)
+    assert_allclose(vertices[:, 2], 0.05)
+    a, b, c = (vertices[faces[:, k], :2] for k in range(3))
+    cross = (b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]
+    assert np.all(cross > 0)  # counter-clockwise from above: normals point up
+    assert mesh_area(vertices, faces) == pytest.approx(polygon.area)
+    # Every triangle lies inside the polygon (the hole stays open).
+    centroids = (a + b + c) / 3
+    assert shapely.contains_xy(polygon, centroids[:, 0], centroids[:, 1]).all()
+
+
+def test_polygon_to_mesh_of_a_self_intersecting_polygon_does_not_fail():
+    bowtie = Polygon([(0, 0), (2, 2), (2, 0), (0, 2)])
+    vertices, faces = polygon_to_mesh(bowtie)
+    assert mesh_area(vertices, faces) == pytest.approx(shapely.make_valid(bowtie).area)
+    assert polygon_to_mesh([])[1].shape == (0, 3)
+
+
+def test_prism_mesh_has_a_top_and_outward_walls():
+    vertices, faces = prism_mesh([L_SHAPE], 0.4)
+    assert set(np.round(vertices[:, 2], 9)) == {0.0, 0.4}
+    top = faces[np.all(np.isclose(vertices[faces][:, :, 2], 0.4), axis=1)]
+    assert mesh_area(vertices, top) == pytest.approx(L_SHAPE.area)
+    n_edges = len(L_SHAPE.exterior.coords) - 1
+    assert len(faces) == len(top) + 2 * n_edges
+    # Wall normals point away from the polygon: a point just outside along the normal.
+    sides = faces[~np.all(np.isclose(vertices[faces][:, :, 2], 0.4), axis=1)]
+    tri = vertices[sides]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    mid = tri.mean(axis=1)
+    probe = mid[:, :2] + 1e-3 * normal[:, :2] / np.linalg.norm(
+        normal[:, :2], axis=1, keepdims=True
+    )
+    assert not shapely.contains_xy(L_SHAPE, probe[:, 0], probe[:, 1]).any()
+
+
+def test_wall_mesh_rings_the_boundary():
+    boundary = Polygon([(0, 0), (10, 0), (10, 8), (0, 8)])
+    vertices, faces = wall_mesh(boundary, thickness=0.1, height=0.3)
+    top = faces[np.all(np.isclose(vertices[faces][:, :, 2], 0.3), axis=1)]
+    assert mesh_area(vertices, top) == pytest.approx(10.2 * 8.2 - 80)
+    assert wall_mesh(None)[1].shape == (0, 3)
+
+
+def test_circle_and_yaw():
+    s = circle_segments((2, -1), 1.5, z=0.1, n=12)
+    assert s.shape == (12, 2, 3)
+    assert_allclose(np.hypot(s[..., 0] - 2, s[..., 1] + 1), 1.5)
+    w, x, y, z = yaw_quaternion(math.pi / 2)
+    assert_allclose((w, x, y, z), (math.sqrt(0.5), 0, 0, math.sqrt(0.5)))
+
+
+def test_dsb_adapters_read_modes_and_events():
+    class Trace:
+        modes = ("seek", "seek", "follow")
+        events = (
+            {"kind": "hit", "at": (1.0, 2.0)},
+            {"kind": "local_min", "at": (2.0, 2.0), "label": "M2"},
+        )
+
+    assert dsb_segment_modes(Trace(), 3) == ["seek", "seek", "follow"]
+    assert dsb_segment_modes(Trace(), 2) == ["seek", "seek"]  # one mode per point
+    assert dsb_segment_modes(Trace(), 5) is None
+    assert dsb_events(Trace()) == [
+        ("H1", "hit", (1.0, 2.0)),
+        ("M2", "local_min", (2.0, 2.0)),
+    ]
+    assert dsb_events(None) == []
+
+
+def test_panel_helpers():
+    assert floor_point((1.0, 2.0, 5.0), (0.6, 0.0, -0.8)) == pytest.approx((4.75, 2.0))
+    assert floor_point((0.0, 0.0, 5.0), (0.0, 0.0, 1.0)) is None
+    table = results_markdown({"vg": Pending("vg"), "cspace": None})
+    assert "| VG | **computing** | - |" in table
+    traj = robot.trajectory(
+        planners.load_scene(SCENARIO_DIR / "01_two_convex.json"),
+        [[1, 1], [4, 1], [4, 4]],
+    )
+    data = wheel_rate_plot_data(traj, max_points=50)
+    assert data is not None and len(data) == 1 + 3 and len(data[0]) <= 51
+    assert data[0][-1] == pytest.approx(traj.duration)
+
+
+# ----------------------------------------------------------------------------- real view
+
+
+@pytest.fixture(scope="module")
+def server() -> Iterator[Any]:
+    import viser
+
+    srv = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    yield srv
+    srv.stop()
+
+
+@pytest.fixture
+def drawn(server) -> Iterator[tuple[PlannerView, Controller]]:
+    server.scene.reset()
+    view = PlannerView(server)
+    view.robot_model_fn = robot.robot_model
+    scene = planners.load_scene(SCENARIO_DIR / "04_convex_nonconvex_b.json")
+    controller = Controller(
+        view, scene, trajectory=robot.trajectory, sample=robot.sample
+    )
+    assert controller.wait_idle(20)
+    yield view, controller
+    controller.close()
+
+
+def test_view_layers_hold_exactly_what_was_planned(drawn):
+    view, controller = drawn
+    frame = controller.frame
+    vg, svg = frame.plans["vg"], frame.plans["svg"]
+    assert_allclose(
+        view.vg_path.handle.points[:, :, :2],
+        path_to_segments(vg.path)[:, :, :2],
+        atol=1e-5,
+    )
+    assert_allclose(
+        view.svg_path.handle.points[:, :, :2],
+        path_to_segments(svg.path)[:, :, :2],
+        atol=1e-5,
+    )
+    assert len(view.vg_edges.handle.points) == vg.graph.number_of_edges()
+    assert len(view.svg_edges.handle.points) == svg.graph.number_of_edges()
+    assert view.vg_edges.handle.visible and view.obstacles.handle.visible
+    top = view.obstacles.handle.faces[
+        np.all(
+            np.isclose(
+                view.obstacles.handle.vertices[view.obstacles.handle.faces][:, :, 2],
+                0.4,
+                atol=1e-6,
+            ),
+            axis=1,
+        )
+    ]
+    assert mesh_area(
+        np.asarray(view.obstacles.handle.vertices, float), top
+    ) == pytest.approx(sum(o.area for o in frame.scene.obstacles), rel=1e-5)
+    # Start and goal handles sit on the scene's points; labels name the obstacles.
+    assert_allclose(view.handles["start"].position[:2], frame.scene.start)
+    assert_allclose(view.handles["goal"].position[:2], frame.scene.goal)
+    labels = [h.text for h in view.obstacle_labels.handles if h.visible]
+    assert labels == [str(i + 1) for i in range(len(frame.scene.obstacles))]
+
+
+def test_view_follows_edits_and_hides_what_has_no_path(drawn):
+    view, controller = drawn
+    n_vertices = sum(len(o.exterior.coords) - 1 for o in controller.scene.obstacles)
+    assert not any(h.visible for h in view.vertex_handles)
+    controller.set_tool("edit")
+    assert controller.wait_idle(10)
+    assert sum(h.visible for h in view.vertex_handles) == n_vertices
+    assert sum(h.visible for h in view.obstacle_handles) == len(
+        controller.scene.obstacles
+    )
+    i, j = view.vertex_slots[5]
+    assert_allclose(
+        view.vertex_handles[5].position[:2],
+        controller.scene.obstacles[i].exterior.coords[j],
+    )
+    # The start inside an obstacle: no path is drawn at all, not an old one.
+    controller.move_start((2.7, 1.7))
+    assert controller.wait_idle(10)
+    assert not view.vg_path.handle.visible and not view.svg_path.handle.visible
+    assert not view.vg_edges.handle.visible
+    controller.undo()
+    assert controller.wait_idle(10)
+    assert view.vg_path.handle.visible
+    # Layer toggles.
+    controller.set_layer("vg_edges", False)
+    controller.set_layer("expanded", False)
+    assert controller.wait_idle(10)
+    assert not view.vg_edges.handle.visible and not view.expanded_fill.handle.visible
+
+
+def test_dragged_handle_is_left_alone_until_the_drag_ends(drawn):
+    view, controller = drawn
+    goal = controller.scene.goal
+    controller.drag_handle(("goal",), goal, "start")
+    # The browser has moved the gizmo further than the controller has seen.
+    view.handles["goal"].position = (goal[0] - 1.0, goal[1], 0.0)
+    controller.drag_handle(("goal",), (goal[0] - 0.5, goal[1]), "update")
+    assert controller.wait_idle(10)
+    assert_allclose(view.handles["goal"].position[:2], (goal[0] - 1.0, goal[1]))
+    controller.drag_handle(("goal",), (goal[0] - 0.5, goal[1]), "end")
+    assert controller.wait_idle(10)
+    assert_allclose(view.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
+
+
+def test_robot_is_posed_and_wheels_spin(drawn):
+    view, controller = drawn
+    controller.set_robot_time(3.0)
+    assert controller.wait_idle(10)
+    trajectory = controller.frame.trajectory
+    pose, angles = trajectory.sample(3.0)
+    assert view.robot.visible
+    assert_allclose(view.robot.position[:2], pose[:2])
+    assert_allclose(view.robot.wxyz, yaw_quaternion(pose[2] - math.pi / 2), atol=1e-12)
+    assert len(view.wheel_spins) == 3
+    for (spin, axle), angle in zip(view.wheel_spins, angles, strict=True):
+        # The spin frame turns about the axle by the wheel angle: w = cos(a/2), xyz = sin(a/2) axle.
+        assert_allclose(
+            spin.wxyz, (math.cos(angle / 2), *(math.sin(angle / 2) * axle)), atol=1e-12
+        )
+    controller.set_robot(kind="differential")
+    assert controller.wait_idle(20)
+    assert len(view.wheel_spins) == 2
+    controller.set_layer("robot", False)
+    assert controller.wait_idle(10)
+    assert not view.robot.visible
+
+
+def test_view_draws_a_dsb_frame(server):
+    """A hand-made DSB result: coloured by mode, labelled events, sensing disk around the robot."""
+    server.scene.reset()
+    view = PlannerView(server)
+    scene = planners.load_scene(SCENARIO_DIR / "01_two_convex.json")
+    plans = dict(planners.plan_all(scene))
+
+    class Trace:
+        status = "reached"
+        path = np.array([[1.0, 1.0], [2.0, 1.0], [3.0, 1.5], [9.0, 7.0]])
+        modes = ("seek", "follow", "seek")
+        events = (
+            {"kind": "hit", "at": (2.0, 1.0), "label": "H1"},
+            {"kind": "leave", "at": (3.0, 1.5), "label": "L1"},
+        )
+        length = 10.0
+        reason = None
+        ms = 1.0
+
+    plans["dsb"] = Trace()
+    frame = Frame(
+        version=1, scene=scene, plans=plans, problems=(), message=None, tool="drag",
+        layers={"dsb_path": True}, selection=None, draft=(), dragging=frozenset(),
+        can_undo=False, can_redo=False, follow="dsb", trajectory=None, other_expanded=None,
+        scenario="", compute_ms=1.0,
+    )  # fmt: skip
+    view.render(frame)
+    colors = np.asarray(view.dsb_path.handle.colors)
+    assert colors.shape == (3, 2, 3)
+    assert not np.array_equal(colors[0], colors[1]) and np.array_equal(
+        colors[0], colors[2]
+    )
+    assert [h.text for h in view.dsb_labels.handles if h.visible] == ["H1", "L1"]
+    sensing = {"center": (2.0, 1.0), "radius": 2.0, "seen": np.array([[[3.0, 1.0], [3.0, 2.0]]]),
+               "tangents": np.array([[[2.0, 1.0], [3.0, 2.0]]])}  # fmt: skip
+    pose = RobotPose(t=1.0, duration=5.0, xy=(2.0, 1.0), phi=0.0, wheel_angles=(), wheel_rates=(),
+                     velocity=(0.0, 0.0, 0.0), playing=False, planner="dsb", sensing=sensing)  # fmt: skip
+    view.render_robot(pose)
+    circle = np.asarray(view.sensing_circle.handle.points)
+    assert_allclose(
+        np.hypot(circle[..., 0] - 2.0, circle[..., 1] - 1.0), 2.0, atol=1e-5
+    )
+    assert view.sensing_seen.handle.visible and view.sensing_graph.handle.visible
+
+
+def test_status_markdown_lists_message_and_problems(drawn):
+    _view, controller = drawn
+    controller.move_start((2.7, 1.7))
+    assert controller.wait_idle(10)
+    text = status_markdown(controller.frame)
+    assert "the start is inside obstacle 1" in text

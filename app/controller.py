@@ -451,6 +451,19 @@ class Controller:
             p = self._playback
             return (p.t, p.playing, p.speed)
 
+    def add_view(self, view: View) -> None:
+        """Draw on one more view from the next frame on (a benchmark's probe, a recorder)."""
+        with self._render_lock:
+            self._views = [*self._views, view]
+        with self._wake:
+            self._ui_version += 1
+            self._wake.notify_all()
+
+    @property
+    def slow_planners(self) -> tuple[str, ...]:
+        """Planners computed in the second lane (DSB), shown when ready."""
+        return self._slow_names
+
     def wait_idle(self, timeout: float = 10.0) -> bool:
         """Block until every edit is planned and drawn; False if ``timeout`` [s] passed."""
         deadline = time.monotonic() + timeout

@@ -1,0 +1,254 @@
+"""Edit-to-redraw of the app: a scripted drag through the real controller, view and panel.
+
+For every shipped scenario this starts the real app (viser server, 3-D view, panel,
+controller; no browser) and drags the goal handle through a few hundred positions with
+``controller.drag_handle`` -- the call the gizmo's callback makes. A probe view, drawn after
+the 3-D view and the panel, timestamps each frame. Two measurements:
+
+``step``
+    One event, then wait until it is drawn: the cost of one edit, with nothing queued.
+    *fast* is the time until the frame with expansion + VG + SVG is drawn; *full* the time
+    until the frame that also carries the DSB result (when DSB is registered).
+``mouse``
+    Events arrive at a fixed rate (60 Hz, a mouse) without waiting. The latency of an event
+    is the time until the first frame of that version *or a newer one* is drawn (coalesced
+    events are served by the newer frame). This is what a user feels.
+
+Budgets (DESIGN.md): p95 at most 16 ms for expansion + VG + SVG, at most 50 ms with DSB.
+This is a report, not a test: it always exits 0 unless ``--strict``.
+
+Run: ``python tests/benchmarks/bench_app.py [--events 300] [--rate 60] [--scenario NAME ...]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import math
+import statistics
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:  # run as a script from anywhere
+    sys.path.insert(0, str(ROOT))
+
+import planners  # noqa: E402
+from app import start_app  # noqa: E402
+from app.controller import Frame, Pending  # noqa: E402
+from app.server import list_scenarios  # noqa: E402
+
+FAST_BUDGET_MS = 16.0
+FULL_BUDGET_MS = 50.0
+
+
+class Probe:
+    """A view that records when each frame was drawn (after the real view and panel)."""
+
+    def __init__(self, slow: tuple[str, ...]) -> None:
+        self.slow = slow
+        self.fast: dict[int, float] = {}  # version -> first time drawn
+        self.full: dict[
+            int, float
+        ] = {}  # version -> first time drawn with every slow result
+        self.cond = threading.Condition()
+
+    def render(self, frame: Frame) -> None:
+        now = time.perf_counter()
+        complete = all(not isinstance(frame.plans.get(n), Pending) for n in self.slow)
+        with self.cond:
+            self.fast.setdefault(frame.version, now)
+            if complete:
+                self.full.setdefault(frame.version, now)
+            self.cond.notify_all()
+
+    def render_robot(self, pose: Any) -> None:
+        pass
+
+    def wait(
+        self, table: dict[int, float], version: int, timeout: float = 30.0
+    ) -> float:
+        deadline = time.perf_counter() + timeout
+        with self.cond:
+            while version not in table:
+                remaining = deadline - time.perf_counter()
+                if remaining <= 0:
+                    raise TimeoutError(f"version {version} not drawn in {timeout} s")
+                self.cond.wait(remaining)
+            return table[version]
+
+    def first_at_or_after(self, table: dict[int, float], version: int) -> float | None:
+        times = [t for v, t in table.items() if v >= version]
+        return min(times) if times else None
+
+
+def drag_positions(scene: planners.Scene, n: int) -> np.ndarray:
+    """A wandering drag of the goal: a loop around where it starts, 1.5 m wide."""
+    u = np.linspace(0.0, 2.0 * math.pi, n)
+    gx, gy = scene.goal
+    return np.column_stack([gx - 0.75 + 0.75 * np.cos(u), gy + 0.6 * np.sin(2 * u)])
+
+
+def percentile(values: list[float], q: float) -> float:
+    return float(np.percentile(values, q)) if values else math.nan
+
+
+def bench(name: str, events: int, rate: float) -> dict[str, Any]:
+    with contextlib.redirect_stdout(io.StringIO()):
+        app = start_app(name, port=0, print_url=False)
+    try:
+        controller = app.controller
+        slow = controller.slow_planners
+        probe = Probe(slow)
+        controller.add_view(probe)
+        assert app.wait_idle(60)
+        scene = controller.scene
+        points = drag_positions(scene, events)
+
+        # Warm up (first calls fill caches and import lazily), not recorded.
+        controller.drag_handle(("goal",), scene.goal, "start")
+        for xy in points[:: max(1, len(points) // 20)]:
+            controller.drag_handle(("goal",), xy, "update")
+            assert app.wait_idle(60)
+
+        # step: one event, wait until drawn.
+        step_fast, step_full = [], []
+        for xy in points:
+            t0 = time.perf_counter()
+            controller.drag_handle(("goal",), xy, "update")
+            v = controller.version
+            step_fast.append((probe.wait(probe.fast, v) - t0) * 1e3)
+            if slow:
+                step_full.append((probe.wait(probe.full, v) - t0) * 1e3)
+        controller.drag_handle(("goal",), points[-1], "end")
+        assert app.wait_idle(60)
+
+        # mouse: events at a fixed rate, no waiting; latency to the first frame >= version.
+        sent: list[tuple[float, int]] = []
+        period = 1.0 / rate
+        controller.drag_handle(("goal",), points[0], "start")
+        t_next = time.perf_counter()
+        for xy in points[::-1]:
+            now = time.perf_counter()
+            if now < t_next:
+                time.sleep(t_next - now)
+            t0 = time.perf_counter()
+            controller.drag_handle(("goal",), xy, "update")
+            sent.append((t0, controller.version))
+            t_next += period
+        controller.drag_handle(("goal",), points[0], "end")
+        assert app.wait_idle(120)
+        mouse_fast = []
+        mouse_full = []
+        for t0, v in sent:
+            t = probe.first_at_or_after(probe.fast, v)
+            if t is not None:
+                mouse_fast.append((t - t0) * 1e3)
+            if slow:
+                t = probe.first_at_or_after(probe.full, v)
+                if t is not None:
+                    mouse_full.append((t - t0) * 1e3)
+        drawn = len([v for v in probe.fast if v >= sent[0][1]])
+        frame = controller.frame
+        stats = {
+            "scenario": name,
+            "vg_edges": frame.plans["vg"].graph.number_of_edges() if frame else 0,
+            "step_fast": step_fast,
+            "step_full": step_full,
+            "mouse_fast": mouse_fast,
+            "mouse_full": mouse_full,
+            "mouse_frames": drawn,
+            "events": events,
+        }
+    finally:
+        with contextlib.redirect_stdout(io.StringIO()):
+            app.stop()
+    return stats
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--events",
+        type=int,
+        default=300,
+        help="drag events per scenario and mode (default 300)",
+    )
+    parser.add_argument(
+        "--rate",
+        type=float,
+        default=60.0,
+        help="mouse event rate in the mouse mode [Hz]",
+    )
+    parser.add_argument(
+        "--scenario",
+        action="append",
+        help="scenario key or name (default: all shipped)",
+    )
+    parser.add_argument(
+        "--strict", action="store_true", help="exit 1 when a budget is missed"
+    )
+    args = parser.parse_args(argv)
+
+    names = args.scenario or list(list_scenarios())
+    has_dsb = "dsb" in planners.PLANNERS
+    print(
+        f"App edit-to-redraw, goal dragged through {args.events} positions (controller + 3-D view + panel, no browser)"
+    )
+    print(
+        f"planners: {', '.join(planners.PLANNERS)}; DSB {'included' if has_dsb else 'NOT registered in planners.PLANNERS'}"
+    )
+    print(
+        f"budgets: p95 <= {FAST_BUDGET_MS:g} ms expansion+VG+SVG, <= {FULL_BUDGET_MS:g} ms with DSB"
+    )
+    print()
+    header = (
+        f"{'scenario':28s} {'VG edges':>8s} | {'step fast p50/p95':>18s} {'step +DSB p50/p95':>18s} | "
+        f"{'mouse fast p50/p95':>19s} {'mouse +DSB p50/p95':>19s} {'frames':>7s}"
+    )
+    print(header)
+    print("-" * len(header))
+    missed = False
+    all_fast: list[float] = []
+    all_full: list[float] = []
+    for name in names:
+        s = bench(name, args.events, args.rate)
+
+        def pair(values: list[float]) -> str:
+            if not values:
+                return "n/a"
+            return f"{percentile(values, 50):6.1f} / {percentile(values, 95):6.1f}"
+
+        print(
+            f"{s['scenario']:28s} {s['vg_edges']:8d} | {pair(s['step_fast']):>18s} {pair(s['step_full']):>18s} | "
+            f"{pair(s['mouse_fast']):>19s} {pair(s['mouse_full']):>19s} {s['mouse_frames']:4d}/{s['events']}",
+            flush=True,
+        )
+        all_fast += s["step_fast"]
+        all_full += s["step_full"]
+        if percentile(s["step_fast"], 95) > FAST_BUDGET_MS:
+            missed = True
+        if s["step_full"] and percentile(s["step_full"], 95) > FULL_BUDGET_MS:
+            missed = True
+    print()
+    print(
+        f"all scenarios, step: fast p50 {statistics.median(all_fast):.1f} ms, p95 {percentile(all_fast, 95):.1f} ms "
+        f"(budget {FAST_BUDGET_MS:g})"
+        + (
+            f"; with DSB p50 {statistics.median(all_full):.1f} ms, p95 {percentile(all_full, 95):.1f} ms (budget {FULL_BUDGET_MS:g})"
+            if all_full
+            else ""
+        )
+    )
+    print("budgets", "MISSED" if missed else "met")
+    return 1 if (missed and args.strict) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -310,6 +310,9 @@ class Controller:
         newest scene and drawn when ready; until then those planners show no path. By
         default every other planner of :data:`planners.PLANNERS`; without it (a test
         passing only ``plan``) there is no second lane.
+    slow_names
+        Names of the planners ``slow_plan`` computes (default: the registered ones that
+        are not in :data:`FAST_PLANNERS`).
     trajectory
         (scene, path) -> timed trajectory (or None); None disables the robot.
     sample
@@ -330,6 +333,7 @@ class Controller:
         *,
         plan: PlanFn | None = None,
         slow_plan: PlanFn | None = None,
+        slow_names: Sequence[str] | None = None,
         trajectory: TrajectoryFn | None = None,
         sample: SampleFn | None = None,
         scenarios: Mapping[str, Path] | None = None,
@@ -347,7 +351,11 @@ class Controller:
         else:
             self._plan = plan
         self._slow_plan: PlanFn | None = slow_plan
-        self._slow_names: tuple[str, ...] = slow if slow_plan is not None else ()
+        if slow_plan is None:
+            slow = ()
+        elif slow_names is not None:
+            slow = tuple(slow_names)
+        self._slow_names: tuple[str, ...] = slow
         self._trajectory_fn = trajectory
         self._sample_fn = sample
         self._scenarios: dict[str, Path] = dict(scenarios or {})

@@ -10,6 +10,7 @@ from __future__ import annotations
 __all__ = [
     "BLUE",
     "COLORS",
+    "DARK_PURPLE",
     "GREEN",
     "HEIGHTS",
     "ORANGE",
@@ -32,6 +33,9 @@ YELLOW: RGB = (240, 228, 66)
 BLUE: RGB = (0, 114, 178)
 VERMILLION: RGB = (213, 94, 0)
 PURPLE: RGB = (204, 121, 167)
+# A darker reddish purple (Paul Tol's "purple"): the light Okabe-Ito one is too faint as a
+# thin line on a white floor.
+DARK_PURPLE: RGB = (170, 68, 153)
 
 
 def tint(color: RGB, amount: float) -> RGB:
@@ -61,14 +65,14 @@ COLORS: dict[str, RGB] = {
     "obstacle_edge": (25, 25, 25),
     "wall": (150, 150, 150),
     "expanded": ORANGE,
-    "expanded_edge": (200, 120, 0),
+    "expanded_edge": (175, 140, 60),
     "other_expansion": (90, 90, 90),
     "vg": BLUE,
     "vg_edges": tint(BLUE, 0.62),
     "svg": GREEN,
     "svg_edges": tint(GREEN, 0.45),
-    "dsb": PURPLE,
-    "dsb_seek": PURPLE,
+    "dsb": DARK_PURPLE,
+    "dsb_seek": DARK_PURPLE,
     "dsb_follow": VERMILLION,
     "start": SKY,
     "goal": YELLOW,
@@ -79,7 +83,7 @@ COLORS: dict[str, RGB] = {
     "robot_wheel": (40, 40, 40),
     "robot_mark": ORANGE,
     "robot_heading": BLUE,
-    "sensing": PURPLE,
+    "sensing": DARK_PURPLE,
     "sensed": VERMILLION,
 }
 """Colour of each thing drawn, by role."""
@@ -104,7 +108,7 @@ WIDTHS: dict[str, float] = {
     "graph_px": 1.5,
     "vg_path": 0.2,
     "svg_path": 0.11,
-    "dsb_path": 0.06,
+    "dsb_path": 0.075,
     "outline": 0.03,
     "selection": 0.07,
     "sensing": 0.025,

@@ -17,6 +17,7 @@ __all__ = [
     "disk_mesh",
     "graph_to_segments",
     "lift",
+    "merge_labels",
     "path_to_segments",
     "polygon_to_mesh",
     "polygons_of",
@@ -703,9 +704,9 @@ class PlannerView:
             colors = np.repeat(rgb[:, None, :], 2, axis=1)
         self.dsb_path.set(segments, show, colors)
         events = dsb_events(result) if show else []
+        labels = merge_labels([(label, at) for label, _, at in events], 0.2)
         self.dsb_labels.set(
-            [(label, (*at, HEIGHTS["dsb_path"] + 0.05)) for label, _, at in events],
-            show,
+            [(text, (*at, HEIGHTS["dsb_path"] + 0.05)) for text, at in labels], show
         )
         crosses = [_cross(at, 0.12, HEIGHTS["dsb_path"] + 0.004) for _, _, at in events]
         self.dsb_marks.set(
@@ -918,6 +919,27 @@ def dsb_segment_modes(result: Any, n_segments: int) -> list[str] | None:
         if len(modes) == n_segments + 1:
             return modes[:-1]
     return None
+
+
+def merge_labels(
+    labels: Sequence[tuple[str, tuple[float, float]]], distance: float
+) -> list[tuple[str, tuple[float, float]]]:
+    """Join labels closer than ``distance`` [m] into one ("H2 M2"), so none hides another.
+
+    Examples
+    --------
+    >>> merge_labels([("H2", (1.0, 1.0)), ("M2", (1.05, 1.0)), ("L2", (3.0, 1.0))], 0.2)
+    [('H2 M2', (1.0, 1.0)), ('L2', (3.0, 1.0))]
+    """
+    merged: list[tuple[str, tuple[float, float]]] = []
+    for text, at in labels:
+        for k, (other, where) in enumerate(merged):
+            if math.dist(at, where) < distance:
+                merged[k] = (f"{other} {text}", where)
+                break
+        else:
+            merged.append((text, at))
+    return merged
 
 
 def dsb_events(result: Any) -> list[tuple[str, str, tuple[float, float]]]:

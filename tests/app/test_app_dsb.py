@@ -1,0 +1,205 @@
+"""The second lane (slow planners such as DSB) and the DSB drawing.
+
+The lane is tested with a fake slow planner whose speed the test controls; the drawing of a
+real TangentBug run is tested when :mod:`planners.tangent_bug` is present.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+from typing import Any
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+import planners
+from app import robot
+from app.controller import Controller, Pending, default_plan
+from tests.app.app_helpers import SCENARIO_DIR, FakeView
+
+
+@dataclasses.dataclass(frozen=True)
+class FakeTrace:
+    goal: tuple[float, float]
+    path: np.ndarray
+    status: str = "reached"
+    reason: str | None = None
+    length: float | None = 1.0
+    ms: float = 0.0
+
+
+def gated_slow_plan(gate: threading.Event, calls: list[tuple[float, float]]):
+    def slow(scene: planners.Scene) -> dict[str, Any]:
+        calls.append(scene.goal)
+        gate.wait(10)
+        return {"dsb": FakeTrace(scene.goal, np.array([scene.start, scene.goal]))}
+
+    return slow
+
+
+@pytest.fixture
+def scene() -> planners.Scene:
+    return planners.load_scene(SCENARIO_DIR / "01_two_convex.json")
+
+
+def make(scene, **kwargs) -> tuple[Controller, FakeView]:
+    view = FakeView()
+    controller = Controller(
+        view,
+        scene,
+        plan=lambda s: default_plan(s, ("vg", "svg")),
+        slow_names=("dsb",),
+        **kwargs,
+    )
+    return controller, view
+
+
+def test_fast_planners_are_drawn_while_the_slow_one_computes(scene):
+    gate, calls = threading.Event(), []
+    controller, view = make(scene, slow_plan=gated_slow_plan(gate, calls))
+    try:
+        assert not controller.wait_idle(0.5)  # the slow lane is still busy
+        frame = view.last
+        assert frame.plans["vg"].status == "ok"
+        assert isinstance(frame.plans["dsb"], Pending)
+        assert len(frame.plans["dsb"].path) == 0  # no path until it is ready
+        gate.set()
+        assert controller.wait_idle(10)
+        assert view.last.plans["dsb"].goal == scene.goal
+        assert view.last.plans["dsb"].status == "reached"
+    finally:
+        gate.set()
+        controller.close()
+
+
+def test_a_stale_slow_result_is_never_drawn(scene):
+    gate, calls = threading.Event(), []
+    controller, view = make(scene, slow_plan=gated_slow_plan(gate, calls))
+    try:
+        for k in range(5):
+            controller.move_goal((9.0, 6.0 - 0.5 * k))
+        gate.set()
+        assert controller.wait_idle(10)
+        # Every frame's DSB result, when there is one, belongs to that frame's own scene.
+        for frame in view.frames:
+            dsb = frame.plans["dsb"]
+            if not isinstance(dsb, Pending):
+                assert dsb.goal == frame.scene.goal
+        assert view.last.plans["dsb"].goal == (9.0, 4.0)
+        # The slow lane skipped the versions that were outdated before it got to them.
+        assert len(calls) < 6
+    finally:
+        gate.set()
+        controller.close()
+
+
+def test_a_failing_slow_planner_shows_an_error_not_a_path(scene):
+    def broken(s):
+        raise RuntimeError("sensor exploded")
+
+    controller, view = make(scene, slow_plan=broken)
+    try:
+        assert controller.wait_idle(10)
+        dsb = view.last.plans["dsb"]
+        assert dsb.status == "error" and len(dsb.path) == 0
+        assert any("sensor exploded" in p for p in view.last.problems)
+        assert view.last.plans["vg"].status == "ok"
+    finally:
+        controller.close()
+
+
+# ----------------------------------------------------------------------------- real DSB
+
+
+@pytest.fixture
+def with_dsb(monkeypatch):
+    """planners.PLANNERS with DSB; registers TangentBug itself only if the API does not yet."""
+    tangent_bug = pytest.importorskip("planners.tangent_bug")
+    if "dsb" not in planners.PLANNERS:
+
+        def dsb(scene, cspace, options):
+            r = (
+                options.sensor_range
+                if options.sensor_range is not None
+                else scene.sensor_range
+            )
+            return tangent_bug.plan_tangent_bug(
+                cspace, scene.start, scene.goal, r, options.leave_rule
+            )
+
+        monkeypatch.setitem(planners.PLANNERS, "dsb", dsb)
+    return tangent_bug
+
+
+def test_real_dsb_run_is_drawn_by_mode_with_its_events(with_dsb, server_view):
+    view, make_controller = server_view
+    scene = planners.load_scene(SCENARIO_DIR / "06_four_obstacles_sensor.json")
+    controller = make_controller(scene)
+    trace = controller.frame.plans["dsb"]
+    assert trace.status == "reached"
+    segments = np.asarray(view.dsb_path.handle.points)
+    assert len(segments) == len(trace.path) - 1
+    colors = np.asarray(view.dsb_path.handle.colors)
+    from app.style import COLORS
+
+    for mode, color in zip(trace.modes, colors[:, 0], strict=True):
+        assert tuple(color) == COLORS["dsb_seek" if mode == "seek" else "dsb_follow"]
+    shown = " ".join(h.text for h in view.dsb_labels.handles if h.visible).split()
+    assert shown == [e.label for e in trace.events]
+
+
+def test_following_dsb_shows_what_the_robot_senses(with_dsb, server_view):
+    view, make_controller = server_view
+    scene = planners.load_scene(SCENARIO_DIR / "06_four_obstacles_sensor.json")
+    controller = make_controller(scene)
+    controller.set_follow("dsb")
+    assert controller.wait_idle(30)
+    trajectory = controller.frame.trajectory
+    assert trajectory is not None
+    controller.set_robot_time(trajectory.duration / 3)
+    assert controller.wait_idle(10)
+    assert view.sensing_circle.handle.visible
+    circle = np.asarray(view.sensing_circle.handle.points)[:, 0, :2]
+    center = circle.mean(axis=0)
+    radius = float(np.hypot(*(circle - center).T).mean())
+    assert radius == pytest.approx(scene.sensor_range, rel=1e-3)
+    assert math.dist(center, view.robot.position[:2]) < 0.3  # around the robot
+    # The tangent lines start at the robot's sensing position.
+    tangents = np.asarray(view.sensing_graph.handle.points)
+    assert_allclose(
+        tangents[:-1, 0, :2],
+        np.broadcast_to(center, tangents[:-1, 0, :2].shape),
+        atol=0.05,
+    )
+    # Following VG: no sensing.
+    controller.set_follow("vg")
+    assert controller.wait_idle(10)
+    assert not view.sensing_circle.handle.visible
+
+
+@pytest.fixture
+def server_view():
+    import viser
+
+    from app.view import PlannerView
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    view = PlannerView(server)
+    view.robot_model_fn = robot.robot_model
+    made: list[Controller] = []
+
+    def make_controller(scene):
+        controller = Controller(
+            view, scene, trajectory=robot.trajectory, sample=robot.sample
+        )
+        made.append(controller)
+        assert controller.wait_idle(60)
+        return controller
+
+    yield view, make_controller
+    for controller in made:
+        controller.close()
+    server.stop()

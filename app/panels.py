@@ -72,7 +72,7 @@ def legend_html() -> str:
         f'<div style="margin:2px 0;font-size:0.85em">{sw}&nbsp;&nbsp;{text}</div>'
         for sw, text in rows
     )
-    return f'<div style="padding:2px 4px">{body}<div style="font-size:0.8em;color:#555">Events: H hit, L leave, M local minimum.</div></div>'
+    return f'<div style="padding:2px 4px">{body}<div style="font-size:0.8em;color:#555">Events: H hit an obstacle, M local minimum, L leave it, D goal free again.</div></div>'
 
 
 def results_markdown(plans: Mapping[str, Any]) -> str:
@@ -382,14 +382,21 @@ class Panels:
 
 
 def status_markdown(frame: Frame) -> str:
-    """Return what the user needs to know now: the answer to the last action, then problems."""
+    """Return what the user needs to know now: the answer to the last action, then problems.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> print(status_markdown(SimpleNamespace(message=None, problems=("VG, SVG: the goal is inside obstacle 2",))))
+    **No path:**
+    - VG, SVG: the goal is inside obstacle 2
+    """
     parts = []
     if frame.message:
         parts.append(f"**{frame.message}**")
-    for problem in frame.problems:
-        parts.append(f"- {problem}")
-    if not parts:
-        return ""
+    if frame.problems:
+        parts.append("**No path:**")
+        parts.extend(f"- {problem}" for problem in frame.problems)
     return "\n".join(parts)
 
 

@@ -1021,12 +1021,17 @@ def _cross(at: Sequence[float], size: float, z: float) -> FloatArray:
 
 
 def _label_point(polygon: Polygon, z: float) -> tuple[float, float, float]:
+    # A self-intersecting ring's centroid can lie far outside it (its signed areas
+    # cancel): label what make_valid makes of it, or the mean of its vertices.
+    shape = polygon if polygon.is_valid else shapely.make_valid(polygon)
     try:
-        p = polygon.representative_point() if polygon.is_valid else polygon.centroid
-        return (float(p.x), float(p.y), z)
-    except Exception:  # a degenerate ring has no centroid
-        x, y = np.asarray(polygon.exterior.coords)[0]
-        return (float(x), float(y), z)
+        p = shape.representative_point()
+        if not p.is_empty:
+            return (float(p.x), float(p.y), z)
+    except Exception:  # a degenerate ring
+        pass
+    x, y = np.asarray(polygon.exterior.coords)[:-1].mean(axis=0)
+    return (float(x), float(y), z)
 
 
 def scene_bounds(scene: Any) -> tuple[float, float, float, float]:

@@ -356,3 +356,12 @@ def test_status_markdown_lists_message_and_problems(drawn):
     assert controller.wait_idle(10)
     text = status_markdown(controller.frame)
     assert "the start is inside obstacle 1" in text
+
+
+def test_labels_of_a_self_intersecting_obstacle_stay_on_it():
+    from app.view import _label_point
+
+    bowtie = Polygon([(2, 2), (3, 7), (4, 5.5), (2, 5.5)])
+    x, y, _ = _label_point(bowtie, 0.4)
+    x0, y0, x1, y1 = bowtie.bounds
+    assert x0 <= x <= x1 and y0 <= y <= y1

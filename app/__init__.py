@@ -8,19 +8,27 @@ Start it with ``python -m app`` or from Python::
 
 Modules: :mod:`app.controller` (state and edits, no viser), :mod:`app.view` (the 3-D
 scene), :mod:`app.panels` (the GUI panel), :mod:`app.robot` (kinematics glue),
-:mod:`app.server` (wiring) and :mod:`app.headless` (snapshots through a browser).
+:mod:`app.lanes` (the slow planners' process), :mod:`app.server` (wiring) and
+:mod:`app.headless` (snapshots through a browser).
+
+The names below are imported on first use, so that a worker process that needs only
+:mod:`app.controller` does not load viser.
 """
 
 from __future__ import annotations
 
-from app.controller import Controller, Frame, RobotPose, Selection
-from app.server import (
-    DEFAULT_SCENARIO,
-    PlannerApp,
-    list_scenarios,
-    resolve_scenario,
-    start_app,
-)
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from app.controller import Controller, Frame, RobotPose, Selection
+    from app.server import (
+        DEFAULT_SCENARIO,
+        PlannerApp,
+        list_scenarios,
+        resolve_scenario,
+        start_app,
+    )
 
 __all__ = [
     "DEFAULT_SCENARIO",
@@ -33,3 +41,28 @@ __all__ = [
     "resolve_scenario",
     "start_app",
 ]
+
+_WHERE = {
+    "Controller": "app.controller",
+    "Frame": "app.controller",
+    "RobotPose": "app.controller",
+    "Selection": "app.controller",
+    "DEFAULT_SCENARIO": "app.server",
+    "PlannerApp": "app.server",
+    "list_scenarios": "app.server",
+    "resolve_scenario": "app.server",
+    "start_app": "app.server",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'app' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *__all__])

@@ -59,6 +59,7 @@ import shapely
 from shapely import Polygon
 
 import planners
+from app.lanes import ProcessLane, picklable_registry
 from planners import scene as edits
 from planners.scene import ScenarioError, Scene
 
@@ -313,6 +314,9 @@ class Controller:
     slow_names
         Names of the planners ``slow_plan`` computes (default: the registered ones that
         are not in :data:`FAST_PLANNERS`).
+    slow_process
+        Compute the default slow planners in a worker process (see :mod:`app.lanes`);
+        False keeps them in a thread.
     trajectory
         (scene, path) -> timed trajectory (or None); None disables the robot.
     sample
@@ -334,6 +338,7 @@ class Controller:
         plan: PlanFn | None = None,
         slow_plan: PlanFn | None = None,
         slow_names: Sequence[str] | None = None,
+        slow_process: bool = True,
         trajectory: TrajectoryFn | None = None,
         sample: SampleFn | None = None,
         scenarios: Mapping[str, Path] | None = None,
@@ -344,10 +349,19 @@ class Controller:
             list(views) if isinstance(views, Sequence) else [views]
         )
         fast, slow = split_planners(planners.PLANNERS)
+        self._lane: ProcessLane | None = None
         if plan is None:
             self._plan: PlanFn = functools.partial(default_plan, which=fast)
             if slow_plan is None and slow:
                 slow_plan = functools.partial(default_plan, which=slow)
+                registry = (
+                    picklable_registry(planners.PLANNERS) if slow_process else None
+                )
+                if registry is not None:
+                    # A process of its own: TangentBug would otherwise hold the GIL
+                    # against the VG/SVG lane (see app.lanes).
+                    self._lane = ProcessLane(slow_plan, registry)
+                    slow_plan = self._lane
         else:
             self._plan = plan
         self._slow_plan: PlanFn | None = slow_plan
@@ -498,6 +512,8 @@ class Controller:
         with self._wake:
             self._closed = True
             self._wake.notify_all()
+        if self._lane is not None:
+            self._lane.close()
         for thread in (self._worker, self._animator, self._slow_worker):
             if thread is not None and thread is not threading.current_thread():
                 thread.join(timeout=5.0)
@@ -996,11 +1012,19 @@ class Controller:
                     return
                 self._busy = True
                 version, scene = self._version, self._scene
+                # Everything a round depends on is read together with the UI version
+                # it will be recorded under: anything that changes later (an edit, a
+                # setting, a slow planner's result) bumps a version, so the loop runs
+                # again and nothing is missed.
+                ui_version = self._ui_version
                 follow = self._follow
                 want_other = self._layers["other_expansion"]
                 computed = self._computed
+                slow = self._slow
             try:
-                self._round(version, scene, follow, want_other, computed)
+                self._round(
+                    version, ui_version, scene, follow, want_other, computed, slow
+                )
             except Exception:
                 # The server must keep running whatever a planner or a view does.
                 logger.exception("recompute failed")
@@ -1017,10 +1041,12 @@ class Controller:
     def _round(
         self,
         version: int,
+        ui_version: int,
         scene: Scene,
         follow: str,
         want_other: bool,
         computed: tuple[int, Scene, Mapping[str, Any], float] | None,
+        slow_results: tuple[int, Mapping[str, Any]],
     ) -> None:
         if computed is None or computed[0] != version:
             t0 = time.perf_counter()
@@ -1028,8 +1054,7 @@ class Controller:
             ms = (time.perf_counter() - t0) * 1e3
             computed = (version, scene, plans, ms)
         _, scene, fast, ms = computed
-        with self._wake:
-            slow_version, slow = self._slow
+        slow_version, slow = slow_results
         plans = dict(fast)
         for name in self._slow_names:
             # A slow planner's result is shown only for exactly this scene.
@@ -1045,7 +1070,6 @@ class Controller:
         with self._wake:
             self._computed = computed
             frame = self._frame_locked((version, scene, plans, ms), trajectory, other)
-            ui_version = self._ui_version
             duration = self._duration_locked()
             if duration is not None:
                 self._playback.t = min(self._playback.t, duration)

@@ -18,7 +18,7 @@ from numpy.testing import assert_allclose
 import planners
 from app import robot
 from app.controller import Controller, Pending, default_plan
-from tests.app.app_helpers import SCENARIO_DIR, FakeView
+from tests.app.app_helpers import SCENARIO_DIR, FakeView, dsb_planner
 
 
 @dataclasses.dataclass(frozen=True)
@@ -119,18 +119,7 @@ def with_dsb(monkeypatch):
     """planners.PLANNERS with DSB; registers TangentBug itself only if the API does not yet."""
     tangent_bug = pytest.importorskip("planners.tangent_bug")
     if "dsb" not in planners.PLANNERS:
-
-        def dsb(scene, cspace, options):
-            r = (
-                options.sensor_range
-                if options.sensor_range is not None
-                else scene.sensor_range
-            )
-            return tangent_bug.plan_tangent_bug(
-                cspace, scene.start, scene.goal, r, options.leave_rule
-            )
-
-        monkeypatch.setitem(planners.PLANNERS, "dsb", dsb)
+        monkeypatch.setitem(planners.PLANNERS, "dsb", dsb_planner)
     return tangent_bug
 
 

@@ -135,6 +135,8 @@ def test_dragging_the_goal_with_the_mouse_replans_for_every_browser(browser, pla
     grab = CAMERA.pixel((scene.goal[0] + PLANE_OFFSET, scene.goal[1] + PLANE_OFFSET))
     drop = CAMERA.pixel((target[0] + PLANE_OFFSET, target[1] + PLANE_OFFSET))
     mouse_drag(page, grab, drop)
+    # The browser sends the end of the drag after the mouse is released: wait for it.
+    assert wait_until(lambda: planner.controller.frame.dragging == frozenset(), 20)
     assert planner.wait_idle(20)
 
     goal = planner.controller.scene.goal

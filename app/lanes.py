@@ -100,6 +100,7 @@ class ProcessLane:
         with self._lock:
             if self._closed:
                 raise RuntimeError("the planner process is closed")
+            ok, value = False, "the planner process did not answer"
             for attempt in (1, 2):
                 assert self._conn is not None
                 try:

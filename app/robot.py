@@ -182,7 +182,7 @@ def _geometry(
     kind: str, wheel_radius: float, wheel_distance: float
 ) -> kinematics.RobotGeometry:
     params = RobotParams(
-        kind=kind,
+        kind="differential" if kind == "differential" else "holonomic",
         wheel_radius=wheel_radius,
         wheel_distance=wheel_distance,
         radius=_REFERENCE_RADIUS,

@@ -873,8 +873,8 @@ class PlannerView:
                     mount = self.scene.add_frame(
                         f"/robot/wheel{w}",
                         show_axes=False,
-                        position=tuple(float(v) for v in hub),
-                    )  # type: ignore[arg-type]
+                        position=(float(hub[0]), float(hub[1]), float(hub[2])),
+                    )
                     spin = self.scene.add_frame(
                         f"/robot/wheel{w}/spin", show_axes=False
                     )
@@ -975,11 +975,12 @@ def sensing_geometry(
     ``sensing`` is what the app's sampler attached to the pose: a mapping with ``center``,
     ``radius``, ``seen`` and ``tangents``.
     """
-    get = (
-        sensing.get
-        if isinstance(sensing, dict)
-        else lambda k, d=None: getattr(sensing, k, d)
-    )
+
+    def get(key: str, default: Any) -> Any:
+        if isinstance(sensing, dict):
+            return sensing.get(key, default)
+        return getattr(sensing, key, default)
+
     center = tuple(get("center", pose.xy))
     radius = float(get("radius", math.inf))
     seen = np.asarray(get("seen", np.zeros((0, 2, 2))), dtype=np.float64).reshape(
@@ -1010,7 +1011,7 @@ def _segments_2d(segments: FloatArray, z: float) -> FloatArray:
     return out
 
 
-def _cross(at: Sequence[float], size: float, z: float) -> FloatArray:
+def _cross(at: Sequence[float] | FloatArray, size: float, z: float) -> FloatArray:
     x, y = float(at[0]), float(at[1])
     return np.array(
         [
@@ -1052,4 +1053,4 @@ def iter_scene_segments(view: PlannerView) -> Iterator[tuple[str, FloatArray]]:
     """(node name, points) of every visible line-segment layer: what a test can inspect."""
     for attr, layer in vars(view).items():
         if isinstance(layer, _Segments) and layer.handle.visible:
-            yield attr, np.asarray(layer.handle.points)
+            yield attr, np.asarray(layer.handle.points, dtype=np.float64)

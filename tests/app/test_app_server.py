@@ -172,7 +172,8 @@ def test_panel_controls_call_the_controller():
             "differential",
             4.0,
         )
-        assert controller.frame.layers["vg_edges"] is False
+        frame = controller.frame
+        assert frame is not None and frame.layers["vg_edges"] is False
         fire(panels.history, "Undo")
         assert app.wait_idle(20)
         assert controller.scene.sensor_range == pytest.approx(

@@ -20,6 +20,7 @@ import io
 import math
 import os
 import re
+import socket
 from pathlib import Path
 
 import viser
@@ -226,6 +227,13 @@ def start_app(
             f"Mobile-robot planner: open {app.url} in a browser (Ctrl+C to stop).",
             flush=True,
         )
+        if host in ("0.0.0.0", "::", ""):
+            # Shared on the network: say how other machines (students' laptops) reach it.
+            print(
+                f"Other computers: http://{socket.gethostname()}:{app.port}/ "
+                "(or this machine's IP address)",
+                flush=True,
+            )
     return app
 
 

@@ -26,6 +26,9 @@ def make_controller() -> Iterator[Callable[..., tuple[Controller, FakeView]]]:
         kwargs.setdefault(
             "scenarios", {p.stem: p for p in sorted(SCENARIO_DIR.glob("*.json"))}
         )
+        # Slow planners in a thread: a worker process per test costs a second to spawn;
+        # the process lane has its own tests (test_app_dsb.py).
+        kwargs.setdefault("slow_process", False)
         controller = Controller(view, scene, **kwargs)
         made.append(controller)
         assert controller.wait_idle(20), "first frame not drawn"

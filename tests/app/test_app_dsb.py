@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import signal
 import threading
 from typing import Any
 
@@ -192,3 +194,45 @@ def server_view():
     for controller in made:
         controller.close()
     server.stop()
+
+
+def test_slow_planners_run_in_a_worker_process_that_close_stops(with_dsb, scene):
+    view = FakeView()
+    controller = Controller(view, scene)
+    try:
+        lane = controller._lane
+        assert lane is not None and lane.pid is not None and lane.pid != os.getpid()
+        assert controller.wait_idle(60)
+        dsb = view.last.plans["dsb"]
+        assert dsb.status == "reached"
+        assert_allclose(dsb.path[-1], scene.goal)
+        # The result came back with what the robot needs to show what it senses.
+        assert len(dsb.sensing_at(0.5).segments) >= 0
+        pid = lane.pid
+    finally:
+        controller.close()
+    assert not _alive(pid)
+
+
+def test_a_dead_worker_process_is_restarted(with_dsb, scene):
+    view = FakeView()
+    controller = Controller(view, scene)
+    try:
+        assert controller.wait_idle(60)
+        lane = controller._lane
+        assert lane is not None
+        os.kill(lane.pid, signal.SIGKILL)
+        controller.move_goal((9.0, 1.0))
+        assert controller.wait_idle(60)
+        assert view.last.plans["dsb"].status == "reached"
+        assert_allclose(view.last.plans["dsb"].path[-1], (9.0, 1.0))
+    finally:
+        controller.close()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split()[2] != "Z"
+    except FileNotFoundError:
+        return False

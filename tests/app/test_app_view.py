@@ -194,7 +194,11 @@ def drawn(server) -> Iterator[tuple[PlannerView, Controller]]:
     view.robot_model_fn = robot.robot_model
     scene = planners.load_scene(SCENARIO_DIR / "04_convex_nonconvex_b.json")
     controller = Controller(
-        view, scene, trajectory=robot.trajectory, sample=robot.sample
+        view,
+        scene,
+        trajectory=robot.trajectory,
+        sample=robot.sample,
+        slow_process=False,
     )
     assert controller.wait_idle(20)
     yield view, controller

@@ -648,6 +648,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         "--no-lecture", action="store_true", help="skip the lecture budget part"
     )
     parser.add_argument(
+        "--no-random",
+        action="store_true",
+        help="skip the random scenes (lecture budget only)",
+    )
+    parser.add_argument(
         "--profile", action="store_true", help="cProfile ours on the largest size"
     )
     parser.add_argument(
@@ -680,7 +685,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     t_start = time.perf_counter()
     out(f"machine: {machine()}")
-    peers, why = start_peers(args.peers_python)
+    peers, why = (
+        (None, "--no-random") if args.no_random else start_peers(args.peers_python)
+    )
     if peers is not None:
         v = peers.versions
         out(
@@ -695,6 +702,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     out("")
 
     results: list[SizeResult] = []
+    if args.no_random:
+        sizes = ()
+    missed: list[str] = []
     try:
         for k, n in enumerate(sizes):
             scene = scenes.make_scene(n, seed=args.seed + k, queries=args.queries)
@@ -708,25 +718,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         if peers is not None:
             peers.close()
 
-    out("== Random scenes: build + one shortest-path query, median ms over repeats ==")
-    out(
-        f"   ({args.queries} queries per scene, point robot; ratio = peer / ours, above 1 = ours faster)"
-    )
-    print_table(results, out)
-    missed: list[str] = []
-    out("")
     problems = [(r, p) for r in results for p in r.problems]
-    if problems:
-        out("!!!!!!!! PATH LENGTH DISAGREEMENT OR FAILURE !!!!!!!!")
-        for r, p in problems:
-            out(f"!! {r.scene['name']}: {p}")
-        save_problem_scenes(results, Path("/tmp/bench-disagreements"), out)
-        missed.append("path lengths agree")  # also a FAIL line under Targets
-    else:
+    if results:
         out(
-            f"path lengths: all tools agree on every query (relative tolerance {LENGTH_RTOL:g})"
+            "== Random scenes: build + one shortest-path query, median ms over repeats =="
         )
-    out("")
+        out(
+            f"   ({args.queries} queries per scene, point robot; "
+            "ratio = peer / ours, above 1 = ours faster)"
+        )
+        print_table(results, out)
+        out("")
+        if problems:
+            out("!!!!!!!! PATH LENGTH DISAGREEMENT OR FAILURE !!!!!!!!")
+            for r, p in problems:
+                out(f"!! {r.scene['name']}: {p}")
+            save_problem_scenes(results, Path("/tmp/bench-disagreements"), out)
+        else:
+            out(
+                f"path lengths: all tools agree on every query (relative tolerance {LENGTH_RTOL:g})"
+            )
+        out("")
 
     rows: list[LectureRow] = []
     has_dsb = False
@@ -737,11 +749,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         out("")
 
     out("== Targets (judged on wall-time medians; other statistics in brackets) ==")
-    worst_diff = max((r.max_rel_diff or 0.0 for r in results), default=0.0)
-    label = "path lengths agree (ours VG, ours SVG, pyvisgraph, extremitypathfinder)"
-    out(
-        f"{'FAIL' if problems else 'PASS'}  {label}: max relative difference {worst_diff:.1e}"
-    )
+    if results:
+        worst_diff = max((r.max_rel_diff or 0.0 for r in results), default=0.0)
+        label = (
+            "path lengths agree (ours VG, ours SVG, pyvisgraph, extremitypathfinder)"
+        )
+        out(
+            f"{'FAIL' if problems else 'PASS'}  {label}: max relative difference {worst_diff:.1e}"
+        )
+        if problems:
+            missed.append(label)
     by_size = {r.scene["vertices"]: r for r in results}
     for n in VG_TARGET_SIZES:
         r = by_size.get(n)

@@ -6,6 +6,11 @@ fast lane's p50 went from about 7 ms to 30 ms). The planners are pure functions 
 picklable values (scenes, shapely polygons, frozen results), so one worker process per
 app computes them on another core; a scene goes in, the results come back pickled
 (about 1 ms each way).
+
+The worker is a plain ``python -c`` subprocess talking pickles over its stdin and stdout,
+not :mod:`multiprocessing`: "spawn" would re-run the caller's main script in the child
+(a lecturer's notebook or a script without a ``__main__`` guard), and "fork" is unsafe in
+a process that runs threads (viser, the controller).
 """
 
 from __future__ import annotations
@@ -13,16 +18,18 @@ from __future__ import annotations
 __all__ = ["ProcessLane", "picklable_registry"]
 
 import logging
-import multiprocessing
+import os
 import pickle
+import subprocess
+import sys
 import threading
 from collections.abc import Callable, Mapping
-from multiprocessing.connection import Connection
-from typing import Any
-
-import planners
+from pathlib import Path
+from typing import IO, Any
 
 logger = logging.getLogger(__name__)
+
+_CHILD = "from app.lanes import _child_main; _child_main()"
 
 
 def picklable_registry(registry: Mapping[str, Any]) -> dict[str, Any] | None:
@@ -38,26 +45,30 @@ def picklable_registry(registry: Mapping[str, Any]) -> dict[str, Any] | None:
     return dict(registry)
 
 
-def _serve(
-    conn: Connection, fn: Callable[[Any], Any], registry: Mapping[str, Any]
-) -> None:
-    """Child process: register the parent's planners, then answer scenes until closed."""
+def _child_main() -> None:
+    """Worker process: read (fn, registry), then answer scenes until stdin closes."""
+    import planners  # noqa: PLC0415 - only the child needs it here
+
+    stdin, stdout = sys.stdin.buffer, sys.stdout.buffer
+    # Anything a planner prints must not corrupt the pickles on stdout.
+    sys.stdout = sys.stderr
+    try:
+        fn, registry = pickle.load(stdin)
+    except EOFError:
+        return
     planners.PLANNERS.update(registry)
     while True:
         try:
-            scene = conn.recv()
+            scene = pickle.load(stdin)
         except (EOFError, OSError):
             return
         try:
             reply: tuple[bool, Any] = (True, fn(scene))
+            data = pickle.dumps(reply, protocol=pickle.HIGHEST_PROTOCOL)
         except Exception as error:  # sent back and shown in the panel
-            reply = (False, f"{type(error).__name__}: {error}")
-        try:
-            conn.send(reply)
-        except Exception as error:  # an unpicklable result
-            conn.send(
-                (False, f"cannot send the result back: {type(error).__name__}: {error}")
-            )
+            data = pickle.dumps((False, f"{type(error).__name__}: {error}"))
+        stdout.write(data)
+        stdout.flush()
 
 
 class ProcessLane:
@@ -73,41 +84,47 @@ class ProcessLane:
     """
 
     def __init__(self, fn: Callable[[Any], Any], registry: Mapping[str, Any]) -> None:
-        self._fn = fn
-        self._registry = dict(registry)
+        self._payload = pickle.dumps((fn, dict(registry)))
         self._lock = threading.Lock()
-        self._conn: Connection | None = None
-        self._proc: Any = None
+        self._proc: subprocess.Popen[bytes] | None = None
         self._closed = False
         self._start()
 
     def _start(self) -> None:
-        # "spawn": the parent runs threads (viser, the controller); forking it is unsafe.
-        ctx = multiprocessing.get_context("spawn")
-        parent, child = ctx.Pipe()
-        proc = ctx.Process(
-            target=_serve,
-            args=(child, self._fn, self._registry),
-            name="slow-planners",
-            daemon=True,
+        # The child finds the same modules as we do (the project, a test's helpers).
+        paths = [p for p in sys.path if p and Path(p).is_dir()]
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
+        self._proc = subprocess.Popen(
+            [sys.executable, "-c", _CHILD],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            env=env,
+            cwd=os.getcwd(),
         )
-        proc.start()
-        child.close()
-        self._conn, self._proc = parent, proc
+        stdin = self._pipe("stdin")
+        stdin.write(self._payload)
+        stdin.flush()
+
+    def _pipe(self, name: str) -> IO[bytes]:
+        assert self._proc is not None
+        pipe = getattr(self._proc, name)
+        assert pipe is not None
+        return pipe
 
     def __call__(self, scene: Any) -> Any:
         """Compute ``fn(scene)`` in the worker; restart it once if it has died."""
         with self._lock:
-            if self._closed:
-                raise RuntimeError("the planner process is closed")
             ok, value = False, "the planner process did not answer"
             for attempt in (1, 2):
-                assert self._conn is not None
+                if self._closed:
+                    raise RuntimeError("the planner process is closed")
                 try:
-                    self._conn.send(scene)
-                    ok, value = self._conn.recv()
+                    stdin = self._pipe("stdin")
+                    pickle.dump(scene, stdin, protocol=pickle.HIGHEST_PROTOCOL)
+                    stdin.flush()
+                    ok, value = pickle.load(self._pipe("stdout"))
                     break
-                except (EOFError, OSError, BrokenPipeError):
+                except (EOFError, OSError, pickle.UnpicklingError, ValueError):
                     if attempt == 2 or self._closed:
                         raise RuntimeError("the planner process stopped") from None
                     logger.warning("the planner process stopped; starting a new one")
@@ -118,12 +135,22 @@ class ProcessLane:
             return value
 
     def _stop_process(self) -> None:
-        if self._conn is not None:
-            self._conn.close()
-        if self._proc is not None:
-            self._proc.terminate()
-            self._proc.join(timeout=5)
-        self._conn, self._proc = None, None
+        proc, self._proc = self._proc, None
+        if proc is None:
+            return
+        if proc.poll() is None:
+            proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=5)
+        for pipe in (proc.stdin, proc.stdout):
+            if pipe is not None:
+                try:
+                    pipe.close()
+                except OSError:
+                    pass
 
     @property
     def pid(self) -> int | None:
@@ -133,11 +160,6 @@ class ProcessLane:
     def close(self) -> None:
         """Stop the worker process (a call in progress ends with an error)."""
         self._closed = True
-        # Not under the lock: a call may be waiting for the child; terminating the child
+        # Not under the lock: a call may be waiting for the child; stopping the child
         # ends that wait with EOFError.
-        proc, conn = self._proc, self._conn
-        if proc is not None:
-            proc.terminate()
-            proc.join(timeout=5)
-        if conn is not None:
-            conn.close()
+        self._stop_process()

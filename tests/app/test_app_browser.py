@@ -16,6 +16,7 @@ from numpy.testing import assert_allclose
 from shapely import LineString
 
 from app import start_app
+from app.controller import TOOLS
 from tests.app.app_helpers import TopCamera, launch_chromium
 
 WIDTH, HEIGHT = 1280, 800
@@ -87,6 +88,19 @@ def click(page: Any, xy: tuple[float, float]) -> None:
     page.mouse.click(*CAMERA.pixel(xy))
 
 
+def choose(page: Any, current: str, option: str) -> None:
+    """Pick ``option`` in the panel's dropdown that now shows ``current``."""
+    boxes = page.locator("input[role=combobox]")
+    matching = [
+        boxes.nth(k)
+        for k in range(boxes.count())
+        if boxes.nth(k).input_value() == current
+    ]
+    assert matching, f"no dropdown shows {current!r}"
+    matching[0].click()
+    page.get_by_role("option", name=option).click()
+
+
 def node_xy(page: Any, name: str) -> tuple[float, float]:
     return tuple(
         page.evaluate(
@@ -156,8 +170,17 @@ def test_dragging_the_goal_with_the_mouse_replans_for_every_browser(browser, pla
     assert_allclose(
         after_nodes[-1, 1, :2], goal, atol=1e-5
     )  # the drawn path ends at the new goal
-    # One drag is one undo step.
+    # One drag is one undo step, and the panel's Undo button takes it back.
     assert frame.can_undo
+    page.get_by_role("button", name="Undo").click()
+    assert wait_until(lambda: planner.controller.scene.goal == scene.goal), (
+        planner.controller.scene.goal
+    )
+    assert planner.wait_idle(20)
+    assert_allclose(vg_path(planner), before_path)
+    page.get_by_role("button", name="Redo").click()
+    assert wait_until(lambda: planner.controller.scene.goal == goal)
+    assert planner.wait_idle(20)
 
     # The other browser shows the goal where it now is (the dragging one moved its own).
     assert wait_until(
@@ -176,7 +199,11 @@ def test_clicking_the_floor_adds_an_obstacle_the_planners_avoid(browser, planner
     legs = np.linalg.norm(np.diff(path, axis=0), axis=1)
     k = int(np.argmax(legs))
     spot = (path[k] + path[k + 1]) / 2
-    controller.set_tool("block")
+    # The lecturer picks the tool in the panel.
+    choose(page, TOOLS["drag"], TOOLS["block"])
+    assert wait_until(lambda: controller.frame.tool == "block"), (
+        "the panel did not switch the tool"
+    )
     assert planner.wait_idle(10)
     click(page, spot)
     assert wait_until(
@@ -195,6 +222,10 @@ def test_clicking_the_floor_adds_an_obstacle_the_planners_avoid(browser, planner
         assert result.status == "ok", result.reason
         assert not LineString(result.path).intersects(keep_out), name
         assert result.length > before.plans[name].length + 1e-6
+    dsb = frame.plans.get("dsb")
+    if dsb is not None:  # the sensor-based robot walks around it too
+        assert dsb.status == "reached", dsb.reason
+        assert not LineString(dsb.path).intersects(keep_out)
     # And the drawn obstacle prisms now include it: more triangles than before.
     assert len(planner.view.obstacles.handle.faces) > 0
     page.close()

@@ -60,8 +60,10 @@ def legend_html() -> str:
             "DSB path: goal seeking / boundary following",
         ),
         (
-            _swatch(COLORS["sensing"], "thin"),
-            "DSB sensor range R and local tangent graph",
+            _swatch(COLORS["sensing"], "thin")
+            + _swatch(COLORS["sensed"])
+            + _swatch(COLORS["tangents"], "thin"),
+            "DSB robot: sensor range R / border it sees / lines to the O_i",
         ),
         (
             _swatch(COLORS["start"], "box") + _swatch(COLORS["goal"], "box"),

@@ -84,7 +84,8 @@ COLORS: dict[str, RGB] = {
     "robot_mark": ORANGE,
     "robot_heading": BLUE,
     "sensing": DARK_PURPLE,
-    "sensed": VERMILLION,
+    "sensed": SKY,
+    "tangents": (45, 45, 45),
 }
 """Colour of each thing drawn, by role."""
 

@@ -24,6 +24,7 @@ __all__ = [
     "prism_mesh",
     "rings_to_segments",
     "scene_bounds",
+    "vertex_colors",
     "wall_mesh",
     "yaw_quaternion",
 ]
@@ -276,6 +277,24 @@ def disk_mesh(radius: float, z: float = 0.0, n: int = 48) -> Mesh:
     return vertices, faces
 
 
+def vertex_colors(rgb: npt.ArrayLike) -> npt.NDArray[np.uint8]:
+    """Encode sRGB colours (0-255) for viser's per-vertex colour arrays.
+
+    three.js treats per-vertex colours as linear and brightens them on output (a single
+    layer colour is converted properly), so (170, 68, 153) came out as (214, 161, 205) in
+    the browser. Sending the linear value makes a per-segment colour look like the same
+    colour given for a whole layer.
+
+    Examples
+    --------
+    >>> vertex_colors([[0, 170, 255]]).tolist()
+    [[0, 103, 255]]
+    """
+    c = np.asarray(rgb, dtype=np.float64) / 255.0
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return np.clip(np.round(linear * 255.0), 0, 255).astype(np.uint8)
+
+
 def yaw_quaternion(angle: float) -> tuple[float, float, float, float]:
     """Quaternion (w, x, y, z) of a rotation by ``angle`` [rad] about +z.
 
@@ -331,7 +350,7 @@ class _Segments:
             return
         # A layer keeps its single colour, shape (3,), unless given one per segment end.
         if colors is not None:
-            self.handle.colors = colors
+            self.handle.colors = vertex_colors(colors)
         self.handle.points = segments.astype(np.float32)
         self.handle.visible = visible
 
@@ -532,7 +551,7 @@ class PlannerView:
             s, "/sensing/range", COLORS["sensing"], WIDTHS["sensing"]
         )
         self.sensing_graph = _Segments(
-            s, "/sensing/tangents", COLORS["sensing"], WIDTHS["sensing"] * 1.5
+            s, "/sensing/tangents", COLORS["tangents"], WIDTHS["sensing"]
         )
         self.sensing_seen = _Segments(
             s, "/sensing/seen", COLORS["sensed"], WIDTHS["sensing"] * 3

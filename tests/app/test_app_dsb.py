@@ -135,9 +135,11 @@ def test_real_dsb_run_is_drawn_by_mode_with_its_events(with_dsb, server_view):
     assert len(segments) == len(trace.path) - 1
     colors = np.asarray(view.dsb_path.handle.colors)
     from app.style import COLORS
+    from app.view import vertex_colors
 
     for mode, color in zip(trace.modes, colors[:, 0], strict=True):
-        assert tuple(color) == COLORS["dsb_seek" if mode == "seek" else "dsb_follow"]
+        want = vertex_colors(COLORS["dsb_seek" if mode == "seek" else "dsb_follow"])
+        assert tuple(color) == tuple(want)
     shown = " ".join(h.text for h in view.dsb_labels.handles if h.visible).split()
     assert shown == [e.label for e in trace.events]
 

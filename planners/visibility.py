@@ -122,6 +122,26 @@ class _Border:
         return shapely.STRtree(lines)
 
     @functools.cached_property
+    def ex(self) -> FloatArray:
+        return np.ascontiguousarray(self.edge_a[:, 0])
+
+    @functools.cached_property
+    def ey(self) -> FloatArray:
+        return np.ascontiguousarray(self.edge_a[:, 1])
+
+    @functools.cached_property
+    def edx(self) -> FloatArray:
+        return np.ascontiguousarray(self.edge_b[:, 0] - self.edge_a[:, 0])
+
+    @functools.cached_property
+    def edy(self) -> FloatArray:
+        return np.ascontiguousarray(self.edge_b[:, 1] - self.edge_a[:, 1])
+
+    @functools.cached_property
+    def elength(self) -> FloatArray:
+        return np.hypot(self.edx, self.edy)
+
+    @functools.cached_property
     def edge_boxes(self) -> tuple[FloatArray, FloatArray]:
         return np.minimum(self.edge_a, self.edge_b), np.maximum(
             self.edge_a, self.edge_b
@@ -300,14 +320,17 @@ def _segments_free(
     free = np.ones(s, dtype=bool)
     touch_seg: list[IntArray] = []
     touch_t: list[FloatArray] = []
+    starts = _runs_of_equal_starts(a)
     if s * m <= _DENSE_LIMIT:
         chunks = [_overlapping_boxes(a, b, border, cspace.eps)]
+    elif len(starts) - 1 <= s // 4:
+        # Many segments share each start (a visibility graph): sweep angles per start.
+        chunks = _angular_chunks(border, a, b, starts, cspace.eps)
     else:
         chunks = _index_chunks(border, a, b)
+    segs = _Segments.of(a, b)
     for seg, edge in chunks:
-        blocked, t_seg, t_val = _crossings(
-            a, b, border.edge_a, border.edge_b, seg, edge, cspace.eps
-        )
+        blocked, t_seg, t_val = _crossings(segs, border, seg, edge, cspace.eps)
         free[blocked] = False
         touch_seg.append(t_seg)
         touch_t.append(t_val)
@@ -345,6 +368,101 @@ def _overlapping_boxes(
     return seg.astype(np.intp), edge.astype(np.intp)
 
 
+def _runs_of_equal_starts(a: FloatArray) -> IntArray:
+    """Boundaries of the runs of consecutive segments that start at the same point."""
+    change = np.flatnonzero(np.any(a[1:] != a[:-1], axis=1)) + 1
+    return np.concatenate([[0], change, [len(a)]]).astype(np.intp)
+
+
+def _angular_chunks(
+    border: _Border, a: FloatArray, b: FloatArray, starts: IntArray, eps: float
+):
+    """Yield (segment, edge) pairs where the edge spans the segment's direction.
+
+    Seen from a start point p, a border edge covers an arc of directions. Only a
+    segment from p whose direction lies in that arc can cross the edge or pass
+    through its first vertex, so with the segments' directions sorted, each edge meets
+    a contiguous range of them (found by binary search). The arcs are widened by the
+    angle that ``eps`` subtends, so every pair the exact test could flag is produced.
+    Pairs whose segment has both ends strictly on one side of the edge's line are
+    dropped: such a segment can neither cross the edge nor pass through its vertex.
+
+    All starts are handled at once: the segments are sorted by the key
+    ``start_index * 8 + angle`` (angles shifted into [0, 2 pi]), so one binary search
+    serves a whole batch of starts.
+    """
+    m = len(border.ex)
+    two_pi = 2.0 * np.pi
+    n_src = len(starts) - 1
+    src_of_seg = np.repeat(np.arange(n_src), np.diff(starts))
+    tvx, tvy = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
+    key = src_of_seg * 8.0 + (np.arctan2(tvy, tvx) + np.pi)
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    sources = a[starts[:-1]]
+    # Line of each edge: side(x) = normal . x - offset, |side| / length = distance.
+    nx_, ny_ = -border.edy, border.edx
+    offset = nx_ * border.ex + ny_ * border.ey
+    on_line = eps * border.elength
+    ex, ey, fx, fy = (
+        border.ex,
+        border.ey,
+        border.ex + border.edx,
+        border.ey + border.edy,
+    )
+    batch = max(1, 200_000 // max(m, 1))
+    for b0 in range(0, n_src, batch):
+        b1 = min(n_src, b0 + batch)
+        px, py = sources[b0:b1, 0:1], sources[b0:b1, 1:2]
+        cvx, cvy, dvx, dvy = ex - px, ey - py, fx - px, fy - py  # (B, m)
+        rc, rd = np.hypot(cvx, cvy), np.hypot(dvx, dvy)
+        ac, ad = np.arctan2(cvy, cvx), np.arctan2(dvy, dvx)
+        diff = (ad - ac + np.pi) % two_pi - np.pi
+        lo = np.where(diff >= 0, ac, ad)
+        span = np.abs(diff)
+        # An edge with an end at p, or passing through p, cannot be crossed properly by
+        # a segment from p; only its first vertex can lie on one: a single direction.
+        through = (rc <= eps) | (rd <= eps)
+        through |= (np.abs(cvx * dvy - cvy * dvx) <= eps * (rc + rd)) & (
+            cvx * dvx + cvy * dvy < 0
+        )
+        lo = np.where(through, np.where(rc <= eps, ad, ac), lo)
+        span = np.where(through, 0.0, span)
+        near = np.minimum(np.where(rc <= eps, rd, rc), np.where(rd <= eps, rc, rd))
+        slack = np.minimum(eps / np.maximum(near, eps) + 1e-9, np.pi)
+        lo = (lo - slack + np.pi) % two_pi  # shifted into [0, 2 pi)
+        hi = lo + span + 2.0 * slack
+        base = (np.arange(b0, b1) * 8.0)[:, None]
+        first = np.searchsorted(sorted_key, (base + lo).ravel(), side="left")
+        last = np.searchsorted(
+            sorted_key, (base + np.minimum(hi, two_pi)).ravel(), side="right"
+        )
+        # Arcs that run past 2 pi continue from 0.
+        wraps = (hi > two_pi).ravel()
+        first2 = np.searchsorted(
+            sorted_key, np.broadcast_to(base, hi.shape).ravel(), side="left"
+        )
+        last2 = np.where(
+            wraps,
+            np.searchsorted(sorted_key, (base + hi - two_pi).ravel(), side="right"),
+            first2,
+        )
+        side_p = (nx_ * px + ny_ * py - offset).ravel()  # (B * m,)
+        for begin, end in ((first, last), (first2, last2)):
+            count = np.maximum(end - begin, 0)
+            total = int(count.sum())
+            if total == 0:
+                continue
+            offsets = np.repeat(np.cumsum(count) - count, count)
+            pair = np.repeat(np.arange(len(count)), count)  # index into the (B, m) grid
+            seg = order[np.repeat(begin, count) + (np.arange(total) - offsets)]
+            edge = pair % m
+            sp, tol = side_p[pair], on_line[edge]
+            side_q = nx_[edge] * tvx[seg] + ny_[edge] * tvy[seg] + sp
+            keep = ~(((sp > tol) & (side_q > tol)) | ((sp < -tol) & (side_q < -tol)))
+            yield seg[keep], edge[keep]
+
+
 def _index_chunks(border: _Border, a: FloatArray, b: FloatArray):
     """Yield (segment, edge) index pairs whose bounding boxes overlap, in bounded chunks."""
     tree = border.edge_tree
@@ -356,13 +474,7 @@ def _index_chunks(border: _Border, a: FloatArray, b: FloatArray):
 
 
 def _crossings(
-    a: FloatArray,
-    b: FloatArray,
-    ea: FloatArray,
-    eb: FloatArray,
-    seg: IntArray,
-    edge: IntArray,
-    eps: float,
+    segs: _Segments, border: _Border, seg: IntArray, edge: IntArray, eps: float
 ) -> tuple[IntArray, IntArray, FloatArray]:
     """Proper crossings and touching vertices for (segment, edge) index pairs.
 
@@ -370,16 +482,18 @@ def _crossings(
     border vertex (the edge's start) lying inside a segment: the segment and the
     parameter t in (0, 1) where it lies.
     """
-    p, q = a[seg], b[seg]
-    c, d = ea[edge], eb[edge]
-    pq = q - p
-    cd = d - c
-    len_pq = np.hypot(pq[:, 0], pq[:, 1])
-    len_cd = np.hypot(cd[:, 0], cd[:, 1])
-    oc = _cross(pq, c - p)
-    od = _cross(pq, d - p)
-    op = _cross(cd, p - c)
-    oq = _cross(cd, q - c)
+    # Plain 1-D arrays: gathers and arithmetic on them are several times faster than on
+    # (N, 2) rows, and this loop runs over millions of pairs on large scenes.
+    px, py = segs.ax[seg], segs.ay[seg]
+    ux, uy, len_pq = segs.dx[seg], segs.dy[seg], segs.length[seg]
+    cx, cy = border.ex[edge], border.ey[edge]
+    vx, vy, len_cd = border.edx[edge], border.edy[edge], border.elength[edge]
+    cpx, cpy = cx - px, cy - py
+    oc = ux * cpy - uy * cpx  # side of c from the line p -> q, times |pq|
+    w = ux * vy - uy * vx
+    od = oc + w  # side of d
+    op = cpx * vy - cpy * vx  # side of p from the line c -> d, times |cd|
+    oq = op - w  # side of q
     # |cross| / length is the distance to the line; within eps counts as on it.
     tol_pq = eps * len_pq
     tol_cd = eps * len_cd
@@ -387,10 +501,36 @@ def _crossings(
     split_pq = ((op > tol_cd) & (oq < -tol_cd)) | ((op < -tol_cd) & (oq > tol_cd))
     blocked = np.flatnonzero(split_cd & split_pq)
     # Border vertex c on the open segment p -> q.
-    t = np.einsum("ij,ij->i", c - p, pq) / np.where(len_pq > 0, len_pq * len_pq, 1.0)
-    along = t * len_pq
-    on = (np.abs(oc) <= tol_pq) & (along > eps) & (along < len_pq - eps)
-    return seg[blocked], seg[on], t[on]
+    near = np.flatnonzero(np.abs(oc) <= tol_pq)
+    t = (cpx[near] * ux[near] + cpy[near] * uy[near]) / np.where(
+        len_pq[near] > 0, len_pq[near] ** 2, 1.0
+    )
+    along = t * len_pq[near]
+    on = (along > eps) & (along < len_pq[near] - eps)
+    return seg[blocked], seg[near[on]], t[on]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Segments:
+    """Segments as 1-D coordinate arrays (start, direction, length)."""
+
+    ax: FloatArray
+    ay: FloatArray
+    dx: FloatArray
+    dy: FloatArray
+    length: FloatArray
+
+    @classmethod
+    def of(cls, a: FloatArray, b: FloatArray) -> _Segments:
+        d = b - a
+        dx, dy = np.ascontiguousarray(d[:, 0]), np.ascontiguousarray(d[:, 1])
+        return cls(
+            np.ascontiguousarray(a[:, 0]),
+            np.ascontiguousarray(a[:, 1]),
+            dx,
+            dy,
+            np.hypot(dx, dy),
+        )
 
 
 # --------------------------------------------------------------------------- graphs

@@ -1,3 +1,4 @@
+import contextlib
 import dataclasses
 import itertools
 import math
@@ -10,7 +11,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from shapely import Polygon
 
-from planners import load_scene, plan_all
+from planners import load_scene, plan_all, visibility
 from planners.expansion import configuration_space
 from planners.visibility import (
     segments_free,
@@ -414,6 +415,21 @@ def random_scenes(draw, grid=False):
     return scene
 
 
+@contextlib.contextmanager
+def candidate_search(kind):
+    """Force how segment/edge candidates are found: small scenes use the dense box test."""
+    saved = visibility._DENSE_LIMIT
+    visibility._DENSE_LIMIT = {"dense": 10**12, "sweep": 0}[kind]
+    try:
+        yield
+    finally:
+        visibility._DENSE_LIMIT = saved
+
+
+def _edge_set(graph):
+    return {frozenset(e) for e in graph.edges}
+
+
 def _check_against_reference(scene):
     plans = plan_all(scene)
     vg, svg = plans["vg"], plans["svg"]
@@ -434,6 +450,15 @@ def _check_against_reference(scene):
     for a, b in vg.graph.edges:
         assert reference_segment_free(space, a, b)
     assert svg.edges <= vg.edges
+    # The angular sweep used on large scenes finds exactly the same graphs.
+    for kind in ("dense", "sweep"):
+        with candidate_search(kind):
+            assert _edge_set(
+                visibility_graph(space, scene.start, scene.goal)
+            ) == _edge_set(vg.graph)
+            assert _edge_set(
+                simplified_visibility_graph(space, scene.start, scene.goal)
+            ) == _edge_set(svg.graph)
 
 
 @given(scene=random_scenes())
@@ -453,7 +478,9 @@ def test_vg_has_exactly_the_reference_edges_on_grid_scenes(scene):
     )
     assume(plans["vg"].status != "invalid")
     space = plans["cspace"]
-    graph = plans["vg"].graph
+    with candidate_search("sweep"):
+        graph = visibility_graph(space, scene.start, scene.goal)
+    assert _edge_set(graph) == _edge_set(plans["vg"].graph)
     nodes = list(graph.nodes)
     for i, a in enumerate(nodes):
         for b in nodes[i + 1 :]:

@@ -33,9 +33,10 @@ $(STAMP): pyproject.toml
 	touch $@
 
 # The peers pin numpy<2, so they live in their own environment; the project never imports them.
+# pyvisgraph imports tqdm without declaring it.
 $(PEERS)/.installed:
 	python3 -m venv $(PEERS)
-	$(PEERS)/bin/pip install -q pyvisgraph extremitypathfinder "numpy<2" shapely
+	$(PEERS)/bin/pip install -q pyvisgraph tqdm extremitypathfinder "numpy<2" shapely
 	touch $@
 
 clean:

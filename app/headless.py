@@ -109,6 +109,23 @@ body * { visibility: hidden !important; }
 canvas { visibility: visible !important; }
 """
 
+# viser 1.1.1's line layers do not recompile their shader when a layer switches from one
+# colour to per-segment colours (three.js needs `material.needsUpdate` when `vertexColors`
+# changes): depending on message timing, such a layer is then drawn white. Recompiling
+# every material once before the pictures are taken makes them show what the server holds,
+# every time.
+_RECOMPILE_MATERIALS_JS = """() => {
+    const m = window.__viserMutable;
+    if (!m || !m.scene) return 0;
+    let n = 0;
+    m.scene.traverse(o => {
+        const mats = Array.isArray(o.material) ? o.material : o.material ? [o.material] : [];
+        for (const mat of mats) { mat.needsUpdate = true; n += 1; }
+    });
+    if (m.requestRender) m.requestRender();
+    return n;
+}"""
+
 _SETTLE_INTERVAL = 0.15  # s between screenshots while waiting for the picture to settle
 _SETTLE_MATCHES = 2  # identical consecutive screenshots needed after the first
 
@@ -603,6 +620,7 @@ def capture(
             shown.page.evaluate("() => document.fonts.ready.then(() => true)")
             _apply_camera(shown.client, pose, deadline)
             _wait_idle(planner_app, deadline)
+            shown.page.evaluate(_RECOMPILE_MATERIALS_JS)
             return _settle(shown.page, deadline)
         except PlaywrightError as error:
             raise SnapshotError(f"the browser failed: {_first_line(error)}") from None

@@ -208,6 +208,8 @@ class Frame:
     """Key of the scenario the scene came from ('' when loaded from elsewhere)."""
     compute_ms: float
     """Time to compute the plans [ms]."""
+    lagging: frozenset[str] = frozenset()
+    """Slow planners whose result shown is for a slightly older scene (during a drag)."""
 
 
 FAST_PLANNERS = ("vg", "svg")
@@ -235,6 +237,21 @@ def default_plan(scene: Scene, which: Iterable[str] | None = None) -> dict[str, 
                 name, f"{name.upper()} failed: {type(error).__name__}: {error}"
             )
     return results
+
+
+def _may_lag(fast: Mapping[str, Any], shown: Scene, current: Scene) -> bool:
+    """Whether a slow result for ``shown`` may stand in for ``current`` while it computes.
+
+    Only during an edit of the same setting (same walls and number of obstacles, so not
+    a new scenario) and only while every fast planner finds a path: when the scene is
+    invalid or the goal is cut off, the slow planner shows no path rather than an old one.
+    """
+    if shown.boundary != current.boundary or len(shown.obstacles) != len(
+        current.obstacles
+    ):
+        return False
+    statuses = [getattr(r, "status", None) for n, r in fast.items() if n != "cspace"]
+    return bool(statuses) and all(status == "ok" for status in statuses)
 
 
 def split_planners(names: Iterable[str]) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -405,7 +422,8 @@ class Controller:
         # Results.
         self._computed: tuple[int, Scene, Mapping[str, Any], float] | None = None
         self._computed_trajectory: tuple[Any, Any] = (None, None)  # (key, trajectory)
-        self._slow: tuple[int, Mapping[str, Any]] = (-1, {})  # newest slow results
+        # Newest slow results: (version, scene, results).
+        self._slow: tuple[int, Scene | None, Mapping[str, Any]] = (-1, None, {})
         self._slow_tried = -1  # newest version the slow lane has started on
         self._slow_busy = False
         self._other: tuple[Any, tuple[Polygon, ...] | None] = (None, None)
@@ -1046,7 +1064,7 @@ class Controller:
         follow: str,
         want_other: bool,
         computed: tuple[int, Scene, Mapping[str, Any], float] | None,
-        slow_results: tuple[int, Mapping[str, Any]],
+        slow_results: tuple[int, Scene | None, Mapping[str, Any]],
     ) -> None:
         if computed is None or computed[0] != version:
             t0 = time.perf_counter()
@@ -1054,22 +1072,29 @@ class Controller:
             ms = (time.perf_counter() - t0) * 1e3
             computed = (version, scene, plans, ms)
         _, scene, fast, ms = computed
-        slow_version, slow = slow_results
+        slow_version, slow_scene, slow = slow_results
         plans = dict(fast)
+        lagging: set[str] = set()
+        show_older = slow_scene is not None and _may_lag(fast, slow_scene, scene)
         for name in self._slow_names:
-            # A slow planner's result is shown only for exactly this scene.
-            plans[name] = (
-                slow.get(name, Pending(name))
-                if slow_version == version
-                else Pending(name)
-            )
+            if name in slow and slow_version == version:
+                plans[name] = slow[name]
+            elif name in slow and show_older:
+                # During a drag the slow planner (~30-100 ms) falls behind the mouse:
+                # show its newest result, marked as lagging, rather than nothing.
+                plans[name] = slow[name]
+                lagging.add(name)
+            else:
+                plans[name] = Pending(name)
         plans.pop("cspace", None)
         plans["cspace"] = fast.get("cspace")
         trajectory = self._trajectory_for(version, scene, plans, follow)
         other = self._other_expansion(scene) if want_other else None
         with self._wake:
             self._computed = computed
-            frame = self._frame_locked((version, scene, plans, ms), trajectory, other)
+            frame = self._frame_locked(
+                (version, scene, plans, ms), trajectory, other, frozenset(lagging)
+            )
             duration = self._duration_locked()
             if duration is not None:
                 self._playback.t = min(self._playback.t, duration)
@@ -1134,10 +1159,12 @@ class Controller:
                 }
             with self._wake:
                 self._slow_busy = False
-                if version == self._version:
-                    self._slow = (version, results)
+                # Keep it if nothing newer is known. If a newer edit arrived meanwhile,
+                # the result may still be shown (marked as lagging) until the round
+                # for the newest scene, which starts next, replaces it.
+                if version > self._slow[0]:
+                    self._slow = (version, scene, results)
                     self._ui_version += 1  # redraw the frame with them
-                # else: a newer edit arrived meanwhile; its own round is next.
                 self._wake.notify_all()
 
     def _other_expansion(self, scene: Scene) -> tuple[Polygon, ...] | None:
@@ -1162,11 +1189,12 @@ class Controller:
         computed: tuple[int, Scene, Mapping[str, Any], float],
         trajectory: Any,
         other: tuple[Polygon, ...] | None,
+        lagging: frozenset[str] = frozenset(),
     ) -> Frame:
         version, scene, plans, ms = computed
         problems = list(edits.scene_problems(scene))
         for name, result in plans.items():
-            if name == "cspace":
+            if name == "cspace" or name in lagging:
                 continue
             reason = getattr(result, "reason", None)
             status = getattr(result, "status", "")
@@ -1196,6 +1224,7 @@ class Controller:
             other_expanded=other,
             scenario=self._scenario,
             compute_ms=ms,
+            lagging=lagging,
         )
 
     # ------------------------------------------------------------------ internals: robot

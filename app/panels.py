@@ -11,7 +11,7 @@ from __future__ import annotations
 __all__ = ["Panels", "legend_html", "results_markdown", "wheel_rate_plot_data"]
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from typing import Any
 
 import numpy as np
@@ -77,7 +77,7 @@ def legend_html() -> str:
     return f'<div style="padding:2px 4px">{body}<div style="font-size:0.8em;color:#555">Events: H hit an obstacle, M local minimum, L leave it, D goal free again.</div></div>'
 
 
-def results_markdown(plans: Mapping[str, Any]) -> str:
+def results_markdown(plans: Mapping[str, Any], lagging: Collection[str] = ()) -> str:
     """Return a markdown table of each planner's status, length, graph size and time.
 
     Examples
@@ -98,6 +98,8 @@ def results_markdown(plans: Mapping[str, Any]) -> str:
         edges = graph.number_of_edges() if graph is not None else None
         status = str(getattr(result, "status", "?"))
         mark = {"ok": "ok", "reached": "reached"}.get(status, f"**{status}**")
+        if name in lagging:
+            mark += " (updating)"
         lines.append(
             f"| {name.upper()} | {mark} | "
             f"{'-' if length is None or not math.isfinite(length) else f'{length:.2f}'} | "
@@ -311,7 +313,7 @@ class Panels:
         self.title.content = f"### {title}"
         self.description.content = scene.description or ""
         self.status.content = status_markdown(frame)
-        self.results.content = results_markdown(frame.plans)
+        self.results.content = results_markdown(frame.plans, frame.lagging)
 
         # Settings are pushed only from the newest frame: while a slider is being dragged
         # the frames lag behind it, and pushing an older value would make it jump back.

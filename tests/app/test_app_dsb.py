@@ -11,6 +11,7 @@ import math
 import os
 import signal
 import threading
+import time
 from typing import Any
 
 import numpy as np
@@ -20,6 +21,7 @@ from numpy.testing import assert_allclose
 import planners
 from app import robot
 from app.controller import Controller, Pending, default_plan
+from app.panels import results_markdown
 from tests.app.app_helpers import SCENARIO_DIR, FakeView, dsb_planner
 
 
@@ -77,25 +79,72 @@ def test_fast_planners_are_drawn_while_the_slow_one_computes(scene):
         controller.close()
 
 
-def test_a_stale_slow_result_is_never_drawn(scene):
+def test_a_stale_slow_result_never_replaces_a_newer_one(scene):
     gate, calls = threading.Event(), []
     controller, view = make(scene, slow_plan=gated_slow_plan(gate, calls))
     try:
-        for k in range(5):
-            controller.move_goal((9.0, 6.0 - 0.5 * k))
+        goals = [scene.goal] + [(9.0, 6.0 - 0.5 * k) for k in range(5)]
+        for goal in goals[1:]:
+            controller.move_goal(goal)
         gate.set()
         assert controller.wait_idle(10)
-        # Every frame's DSB result, when there is one, belongs to that frame's own scene.
+        shown = []
         for frame in view.frames:
             dsb = frame.plans["dsb"]
-            if not isinstance(dsb, Pending):
+            if isinstance(dsb, Pending):
+                continue
+            if "dsb" in frame.lagging:
+                # An older scene's result, shown while the newest computes.
+                assert dsb.goal != frame.scene.goal
+            else:
                 assert dsb.goal == frame.scene.goal
-        assert view.last.plans["dsb"].goal == (9.0, 4.0)
+            shown.append(goals.index(dsb.goal))
+        assert shown == sorted(shown)  # never an older result after a newer one
+        assert view.last.plans["dsb"].goal == goals[-1] and not view.last.lagging
         # The slow lane skipped the versions that were outdated before it got to them.
-        assert len(calls) < 6
+        assert len(calls) < len(goals)
     finally:
         gate.set()
         controller.close()
+
+
+def test_a_lagging_slow_result_is_shown_during_a_drag_but_not_after_a_bad_edit(scene):
+    release = threading.Event()
+    calls: list[tuple[float, float]] = []
+
+    def slow(s):
+        calls.append(s.goal)
+        if len(calls) > 1:
+            release.wait(10)
+        return {"dsb": FakeTrace(s.goal, np.array([s.start, s.goal]))}
+
+    controller, view = make(scene, slow_plan=slow)
+    try:
+        assert controller.wait_idle(10)  # the first scene's result is in
+        controller.move_goal((9.0, 6.0))
+        assert wait_for(lambda: view.last.version == controller.version)
+        frame = view.last
+        assert "dsb" in frame.lagging and frame.plans["dsb"].goal == scene.goal
+        assert "updating" in results_markdown(frame.plans, frame.lagging)
+        # The goal dragged into an obstacle: no DSB path at all, not the old one.
+        controller.move_goal((3.0, 3.0))
+        assert wait_for(lambda: view.last.version == controller.version)
+        assert isinstance(view.last.plans["dsb"], Pending) and not view.last.lagging
+        release.set()
+        assert controller.wait_idle(10)
+        assert view.last.plans["dsb"].goal == (3.0, 3.0) and not view.last.lagging
+    finally:
+        release.set()
+        controller.close()
+
+
+def wait_for(predicate, timeout: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return False
 
 
 def test_a_failing_slow_planner_shows_an_error_not_a_path(scene):

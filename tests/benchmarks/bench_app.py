@@ -63,7 +63,9 @@ class Probe:
 
     def render(self, frame: Frame) -> None:
         now = time.perf_counter()
-        complete = all(not isinstance(frame.plans.get(n), Pending) for n in self.slow)
+        complete = not frame.lagging and all(
+            not isinstance(frame.plans.get(n), Pending) for n in self.slow
+        )
         with self.cond:
             self.fast.setdefault(frame.version, now)
             if complete:

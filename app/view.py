@@ -328,16 +328,25 @@ class _Segments:
         color: tuple[int, int, int],
         thickness: float,
         units: Literal["world", "screen"] = "world",
+        per_segment: bool = False,
     ) -> None:
+        # A layer is created either with one colour, shape (3,), or with one colour per
+        # segment end, and keeps that mode for ever: three.js must recompile a material
+        # whose vertex colours are switched on, and viser 1.1.1 does not, so a layer that
+        # switched could be drawn white.
+        self.per_segment = per_segment
+        self.color = np.asarray(color, dtype=np.uint8)
         self.handle = scene.add_line_segments(
             name,
             _NO_SEGMENTS,
-            color,
+            self._spread(len(_NO_SEGMENTS)) if per_segment else color,
             thickness=thickness,
             thickness_units=units,
             visible=False,
         )
-        self.color = np.asarray(color, dtype=np.uint8)
+
+    def _spread(self, n: int) -> npt.NDArray[np.uint8]:
+        return vertex_colors(np.broadcast_to(self.color, (n, 2, 3)))
 
     def set(
         self,
@@ -348,9 +357,10 @@ class _Segments:
         if len(segments) == 0:
             self.handle.visible = False
             return
-        # A layer keeps its single colour, shape (3,), unless given one per segment end.
-        if colors is not None:
-            self.handle.colors = vertex_colors(colors)
+        if self.per_segment:
+            self.handle.colors = (
+                self._spread(len(segments)) if colors is None else vertex_colors(colors)
+            )
         self.handle.points = segments.astype(np.float32)
         self.handle.visible = visible
 
@@ -489,7 +499,9 @@ class PlannerView:
         )
         self.vg_path = _Segments(s, "/vg/path", COLORS["vg"], WIDTHS["vg_path"])
         self.svg_path = _Segments(s, "/svg/path", COLORS["svg"], WIDTHS["svg_path"])
-        self.dsb_path = _Segments(s, "/dsb/path", COLORS["dsb"], WIDTHS["dsb_path"])
+        self.dsb_path = _Segments(
+            s, "/dsb/path", COLORS["dsb"], WIDTHS["dsb_path"], per_segment=True
+        )
         self.dsb_marks = _Segments(
             s, "/dsb/marks", COLORS["marker_edge"], WIDTHS["outline"]
         )

@@ -132,7 +132,9 @@ def test_a_lagging_slow_result_is_shown_during_a_drag_but_not_after_a_bad_edit(s
         assert isinstance(view.last.plans["dsb"], Pending) and not view.last.lagging
         release.set()
         assert controller.wait_idle(10)
-        assert view.last.plans["dsb"].goal == (3.0, 3.0) and not view.last.lagging
+        final = view.last.plans["dsb"]
+        assert isinstance(final, FakeTrace) and final.goal == (3.0, 3.0)
+        assert not view.last.lagging
     finally:
         release.set()
         controller.close()
@@ -272,6 +274,7 @@ def test_a_dead_worker_process_is_restarted(with_dsb, scene):
         assert controller.wait_idle(60)
         lane = controller._lane
         assert lane is not None
+        assert lane.pid is not None
         os.kill(lane.pid, signal.SIGKILL)
         controller.move_goal((9.0, 1.0))
         assert controller.wait_idle(60)

@@ -369,3 +369,22 @@ def test_labels_of_a_self_intersecting_obstacle_stay_on_it():
     x, y, _ = _label_point(bowtie, 0.4)
     x0, y0, x1, y1 = bowtie.bounds
     assert x0 <= x <= x1 and y0 <= y <= y1
+
+
+def test_line_layers_never_switch_colour_mode(server):
+    # three.js must recompile a material when vertex colours are switched on; viser 1.1.1
+    # does not, so a layer that switched could be drawn white.
+    server.scene.reset()
+    view = PlannerView(server)
+    assert np.asarray(view.dsb_path.handle.colors).shape == (1, 2, 3)
+    assert np.asarray(view.vg_path.handle.colors).shape == (3,)
+    scene = planners.load_scene(SCENARIO_DIR / "01_two_convex.json")
+    controller = Controller(view, scene, slow_process=False)
+    try:
+        assert controller.wait_idle(30)
+        assert np.asarray(view.vg_path.handle.colors).shape == (3,)
+        dsb = np.asarray(view.dsb_path.handle.colors)
+        if view.dsb_path.handle.visible:
+            assert dsb.shape == np.asarray(view.dsb_path.handle.points).shape
+    finally:
+        controller.close()

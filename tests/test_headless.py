@@ -54,8 +54,8 @@ def run_cli(
     )
 
 
-def chromium_pids() -> set[int]:
-    """Browser processes that belong to this test process (or were orphaned by it)."""
+def our_processes() -> set[int]:
+    """Children of this test process, and browsers it may have orphaned (now under init)."""
     pids = set()
     for entry in Path("/proc").iterdir():
         if not entry.name.isdigit():
@@ -65,7 +65,7 @@ def chromium_pids() -> set[int]:
             ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
         except (OSError, ValueError, IndexError):
             continue
-        if b"chrom" in cmdline and ppid in (os.getpid(), 1):
+        if ppid == os.getpid() or (ppid == 1 and b"chrom" in cmdline):
             pids.add(int(entry.name))
     return pids
 
@@ -109,13 +109,14 @@ def test_cli_and_python_give_the_same_picture_and_stop_everything(
         return started[-1]
 
     monkeypatch.setattr(app, "start_app", spy)
-    before = chromium_pids()
+    before = our_processes()
     out_py = tmp_path / "py.png"
     assert snapshot(NAME, out_py, width=640, height=400) == 0
     assert np.array_equal(pixels(out_py), cli), "two runs gave different pictures"
 
-    # Everything it started is gone: the browser and the app's server.
-    assert not (chromium_pids() - before), "Chromium still running after snapshot()"
+    # Everything it started is gone: the browser, playwright's driver, the app's planner\n    # process and its server.
+    left = our_processes() - before
+    assert not left, f"processes left running after snapshot(): {sorted(left)}"
     (planner_app,) = started
     assert not port_open(planner_app.port), "the app's server still listens"
 

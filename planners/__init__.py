@@ -10,7 +10,7 @@ Pure functions on plain data: no viser, no drawing, no clocks inside the algorit
 
 from __future__ import annotations
 
-from planners import api, expansion, scene, visibility
+from planners import api, expansion, scene, sensor, tangent_bug, visibility
 from planners.api import PLANNERS, PlanOptions, plan_all, result_to_json
 from planners.expansion import (
     ConfigurationSpace,
@@ -27,6 +27,14 @@ from planners.scene import (
     save_scene,
     scene_problems,
 )
+from planners.sensor import Sensing, sense
+from planners.tangent_bug import (
+    BugEvent,
+    BugParams,
+    BugState,
+    BugTrace,
+    plan_tangent_bug,
+)
 from planners.visibility import (
     VisibilityResult,
     plan_visibility,
@@ -38,11 +46,16 @@ from planners.visibility import (
 
 __all__ = [
     "PLANNERS",
+    "BugEvent",
+    "BugParams",
+    "BugState",
+    "BugTrace",
     "ConfigurationSpace",
     "PlanOptions",
     "Robot",
     "ScenarioError",
     "Scene",
+    "Sensing",
     "VisibilityResult",
     "api",
     "configuration_space",
@@ -52,14 +65,18 @@ __all__ = [
     "expansion",
     "load_scene",
     "plan_all",
+    "plan_tangent_bug",
     "plan_visibility",
     "result_to_json",
     "save_scene",
     "scene",
     "scene_problems",
     "segments_free",
+    "sense",
+    "sensor",
     "shortest_path",
     "simplified_visibility_graph",
+    "tangent_bug",
     "visibility",
     "visibility_graph",
 ]

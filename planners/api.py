@@ -14,6 +14,7 @@ import numpy as np
 
 from planners.expansion import DEFAULT_ARC_STEP, ConfigurationSpace, configuration_space
 from planners.scene import Scene, scene_problems
+from planners.tangent_bug import BugTrace, plan_tangent_bug
 from planners.visibility import VisibilityResult, plan_visibility
 
 
@@ -57,7 +58,16 @@ def _svg(
     return plan_visibility(cspace, scene.start, scene.goal, simplified=True)
 
 
-PLANNERS: dict[str, Planner] = {"vg": _vg, "svg": _svg}
+def _dsb(scene: Scene, cspace: ConfigurationSpace, options: PlanOptions) -> BugTrace:
+    radius = (
+        scene.sensor_range if options.sensor_range is None else options.sensor_range
+    )
+    return plan_tangent_bug(
+        cspace, scene.start, scene.goal, radius, leave_rule=options.leave_rule
+    )
+
+
+PLANNERS: dict[str, Planner] = {"vg": _vg, "svg": _svg, "dsb": _dsb}
 """Every planner by its short name, in the order they are drawn and reported."""
 
 

@@ -1,0 +1,902 @@
+"""A simulated 360-degree range sensor in the configuration space (section 9.6).
+
+The robot is a point in the configuration space of :mod:`planners.expansion`. Its sensor
+sees the border of the free space (expanded obstacles and shrunk walls) up to a range R.
+:func:`sense` returns what it sees, computed exactly on the polygons:
+
+- the visible border within R: the part of the border that a straight segment from the
+  robot reaches without entering blocked space (a visibility polygon clipped to the
+  sensing disk), as line segments;
+- the discontinuity points O_i of the range function: the ends of every continuous piece of
+  visible border, where the range jumps (an occluding vertex, or the occluded point behind
+  it) or where the visible border meets the circle of radius R. With the robot they form
+  the local tangent graph of the chapter (Fig. 9.16) and of TangentBug.
+
+How. The border is a set of directed edges with blocked space on their left, so an edge
+can be seen only from its right (it "faces" the robot). Around the robot, the angles of the
+facing edges' end points and of their crossings with the sensing circle cut the full turn
+into intervals inside which the order of the edges along a ray cannot change (edges of the
+border never cross). One ray through the middle of each interval finds the nearest edge;
+the interval's visible piece is that edge between the two bounding angles. This is an
+exact angular sweep over the critical angles, vectorised as (intervals x edges), which is
+fast for the few hundred edges of a lecture scene. A robot standing on the border (it may
+touch it) cannot look into the blocked wedge at its feet; the two edges along the wedge's
+sides are seen edge-on and are added as pieces running straight away from the robot.
+
+References
+----------
+I. Kamon, E. Rivlin and E. Rimon, "TangentBug: A range-sensor-based navigation algorithm",
+International Journal of Robotics Research 17(9), 1998.
+H. Choset et al., Principles of Robot Motion, MIT Press, 2005, section 2.3.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "RingGeometry",
+    "Sensing",
+    "free_extent",
+    "ring_geometry",
+    "sense",
+]
+
+import dataclasses
+import functools
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from planners.expansion import ConfigurationSpace
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
+
+TAU = 2.0 * math.pi
+# Angular intervals narrower than this [rad] are dropped: what they could show is below
+# 1e-12 * range, far under the joining tolerance below.
+_ANGLE_TOL = 1e-12
+# Two visible pieces whose ends are closer than this (relative to the scene's size) are
+# one continuous piece of border: the range function does not jump there.
+_JOIN_REL = 1e-7
+
+
+# --------------------------------------------------------------------------- the border
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class RingGeometry:
+    """The free space's border as flat edge arrays with arclength along each ring.
+
+    Rings are those of :attr:`ConfigurationSpace.rings` (blocked space on the left of each
+    directed edge) with repeated and collinear vertices removed, so that every vertex is a
+    real corner. Edge ``e`` of ring ``k`` is edge ``offset[k] + i`` of the flat arrays; it
+    starts at vertex ``i`` of the ring.
+    """
+
+    rings: tuple[FloatArray, ...]
+    """Open rings, shape (n_k, 2) [m]."""
+    start: FloatArray
+    """(m, 2) start of each edge [m]."""
+    end: FloatArray
+    """(m, 2) end of each edge [m]."""
+    length: FloatArray
+    """(m,) edge lengths [m]."""
+    ring: IntArray
+    """(m,) ring of each edge."""
+    offset: IntArray
+    """(n_rings + 1,) index of each ring's first edge; the last entry is m."""
+    cum: tuple[FloatArray, ...]
+    """Per ring, (n_k + 1,) arclength at each vertex; the last entry is the perimeter [m]."""
+    perimeter: FloatArray
+    """(n_rings,) ring lengths [m]."""
+    area: FloatArray
+    """(n_rings,) signed areas: > 0 when the ring encloses blocked space (an obstacle),
+    < 0 when it encloses free space (the walls, or a pocket) [m^2]."""
+    prev_dir: FloatArray
+    """(m, 2) unit direction from each edge's start vertex back to the previous vertex."""
+    step: FloatArray
+    """(m, 2) end - start of each edge [m]."""
+    unit: FloatArray
+    """(m, 2) unit direction of each edge."""
+    len2: FloatArray
+    """(m,) squared edge lengths [m^2]."""
+    prev_edge: IntArray
+    """(m,) flat index of the previous edge of the same ring."""
+    eps: float
+    """Touching tolerance [m] (that of the configuration space)."""
+    scale: float
+    """Size of the scene [m] (largest extent of the border, at least 1)."""
+
+    @functools.cached_property
+    def join_tol(self) -> float:
+        """Ends of visible pieces closer than this [m] are one continuous piece."""
+        return max(_JOIN_REL * self.scale, 100.0 * self.eps)
+
+    @functools.cached_property
+    def step_x(self) -> FloatArray:
+        """(m,) x component of each edge's step (contiguous, for speed)."""
+        return np.ascontiguousarray(self.step[:, 0])
+
+    @functools.cached_property
+    def step_y(self) -> FloatArray:
+        """(m,) y component of each edge's step."""
+        return np.ascontiguousarray(self.step[:, 1])
+
+    @functools.cached_property
+    def start_list(self) -> list[tuple[float, float]]:
+        """Edge starts as Python float pairs [m]."""
+        return [(float(a), float(b)) for a, b in self.start]
+
+    @functools.cached_property
+    def length_list(self) -> list[float]:
+        """Edge lengths as Python floats [m]."""
+        return [float(v) for v in self.length]
+
+    def edge_index(self, ring: int, i: int) -> int:
+        """Flat index of edge ``i`` (taken cyclically) of ``ring``."""
+        n = int(self.offset[ring + 1] - self.offset[ring])
+        return int(self.offset[ring]) + i % n
+
+    def sigma(self, edge: int, t: float) -> float:
+        """Arclength along its ring of the point at parameter ``t`` of flat edge ``edge``."""
+        k = int(self.ring[edge])
+        return float(self.cum[k][edge - int(self.offset[k])] + t * self.length[edge])
+
+    def locate(self, ring: int, sigma: float) -> tuple[FloatArray, int, float]:
+        """Point, flat edge index and edge parameter at arclength ``sigma`` of ``ring``."""
+        cum = self.cum[ring]
+        sigma = float(sigma) % float(cum[-1])
+        i = int(np.searchsorted(cum, sigma, side="right")) - 1
+        i = min(max(i, 0), len(cum) - 2)
+        e = int(self.offset[ring]) + i
+        t = min(max((sigma - float(cum[i])) / float(self.length[e]), 0.0), 1.0)
+        return self.start[e] + t * (self.end[e] - self.start[e]), e, t
+
+    def walk(
+        self, ring: int, sigma: float, direction: int, distance: float
+    ) -> tuple[FloatArray, float]:
+        """Walk ``distance`` along ``ring`` from arclength ``sigma`` (+1 forward, -1 back).
+
+        Returns the polyline walked, shape (n, 2) with both ends, and the arclength reached.
+        Forward means with blocked space on the left.
+        """
+        cum = self.cum[ring]
+        perimeter = float(cum[-1])
+        verts = self.rings[ring]
+        n = len(verts)
+        s0 = float(sigma) % perimeter
+        points = [self.locate(ring, s0)[0]]
+        if direction > 0:
+            # Vertices strictly ahead, in order, until the distance is used up.
+            i = int(
+                np.searchsorted(cum, s0, side="right")
+            )  # next vertex index (may be n)
+            travelled = 0.0
+            at = s0
+            while True:
+                nxt = float(cum[i]) if i <= n else perimeter
+                gap = nxt - at
+                if travelled + gap >= distance:
+                    break
+                travelled += gap
+                points.append(verts[i % n])
+                at = nxt
+                if i >= n:
+                    at = 0.0
+                    i = 1
+                else:
+                    i += 1
+        else:
+            i = (
+                int(np.searchsorted(cum, s0, side="left")) - 1
+            )  # previous vertex index (may be -1)
+            travelled = 0.0
+            at = s0
+            while True:
+                prv = float(cum[i]) if i >= 0 else 0.0
+                gap = at - prv
+                if i < 0:  # wrap: s0 was exactly at vertex 0
+                    i = n - 1
+                    at = perimeter
+                    continue
+                if travelled + gap >= distance:
+                    break
+                travelled += gap
+                points.append(verts[i])
+                at = prv
+                if i == 0:
+                    at = perimeter
+                    i = n - 1
+                else:
+                    i -= 1
+        s1 = (s0 + direction * distance) % perimeter
+        points.append(self.locate(ring, s1)[0])
+        return np.asarray(points, dtype=np.float64), s1
+
+    def ring_distance(
+        self, ring: int, sigma0: float, sigma1: float, direction: int
+    ) -> float:
+        """Arclength from ``sigma0`` to ``sigma1`` walking in ``direction`` along ``ring``."""
+        perimeter = float(self.perimeter[ring])
+        return ((sigma1 - sigma0) * direction) % perimeter
+
+
+def _clean_ring(ring: FloatArray, tol: float) -> FloatArray:
+    """Drop repeated vertices and vertices that lie on the segment joining their neighbours."""
+    pts = np.asarray(ring, dtype=np.float64)
+    changed = True
+    while changed and len(pts) > 3:
+        changed = False
+        step = np.roll(pts, -1, axis=0) - pts
+        short = np.hypot(step[:, 0], step[:, 1]) <= tol
+        if short.any():
+            pts = pts[~short]
+            changed = True
+            continue
+        prev, nxt = np.roll(pts, 1, axis=0), np.roll(pts, -1, axis=0)
+        chord = nxt - prev
+        length = np.hypot(chord[:, 0], chord[:, 1])
+        cross = chord[:, 0] * (pts[:, 1] - prev[:, 1]) - chord[:, 1] * (
+            pts[:, 0] - prev[:, 0]
+        )
+        between = np.einsum("ij,ij->i", pts - prev, chord) > 0
+        flat = (np.abs(cross) <= tol * np.maximum(length, tol)) & between
+        flat &= ~np.roll(flat, 1)  # never two neighbours at once
+        if flat.any():
+            pts = pts[~flat]
+            changed = True
+    return pts
+
+
+@functools.lru_cache(maxsize=64)
+def ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
+    """Build (once per configuration space) the border arrays the sensor and planner use.
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
+    >>> geo = ring_geometry(space)
+    >>> len(geo.rings), float(geo.perimeter[0]), float(geo.area[0])
+    (1, 4.0, 1.0)
+    """
+    rings = []
+    for r in cspace.rings:
+        cleaned = _clean_ring(r, cspace.eps)
+        if len(cleaned) >= 3:
+            rings.append(cleaned)
+    if not rings:
+        empty = np.zeros((0, 2))
+        none = np.zeros(0, dtype=np.intp)
+        return RingGeometry(
+            (), empty, empty, np.zeros(0), none, np.zeros(1, dtype=np.intp),
+            (), np.zeros(0), np.zeros(0), empty, empty, empty, np.zeros(0), none, cspace.eps, 1.0,
+        )  # fmt: skip
+    start = np.vstack(rings)
+    end = np.vstack([np.roll(r, -1, axis=0) for r in rings])
+    prev = np.vstack([np.roll(r, 1, axis=0) for r in rings])
+    step = end - start
+    length = np.hypot(step[:, 0], step[:, 1])
+    back = prev - start
+    prev_dir = back / np.hypot(back[:, 0], back[:, 1])[:, None]
+    sizes = [len(r) for r in rings]
+    offset = np.concatenate([[0], np.cumsum(sizes)]).astype(np.intp)
+    ring = np.repeat(np.arange(len(rings)), sizes).astype(np.intp)
+    cum = tuple(
+        np.concatenate([[0.0], np.cumsum(length[offset[k] : offset[k + 1]])])
+        for k in range(len(rings))
+    )
+    perimeter = np.array([c[-1] for c in cum])
+    area = np.array(
+        [
+            0.5
+            * float(
+                np.sum(r[:, 0] * np.roll(r[:, 1], -1) - np.roll(r[:, 0], -1) * r[:, 1])
+            )
+            for r in rings
+        ]
+    )
+    scale = max(1.0, float(np.abs(start).max()))
+    prev_edge = np.concatenate(
+        [np.roll(np.arange(offset[k], offset[k + 1]), 1) for k in range(len(rings))]
+    ).astype(np.intp)
+    return RingGeometry(
+        tuple(rings), start, end, length, ring, offset, cum, perimeter, area, prev_dir,
+        step, step / length[:, None], length * length, prev_edge, cspace.eps, scale,
+    )  # fmt: skip
+
+
+# --------------------------------------------------------------------------- what the sensor sees
+
+
+OCCLUDING = "occluding"
+OCCLUDED = "occluded"
+RANGE = "range"
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Sensing:
+    """What the range sensor sees from one position: plain arrays, ready to draw.
+
+    Pieces and discontinuity points are listed counter-clockwise around the robot.
+    """
+
+    position: FloatArray
+    """Where the robot stands, shape (2,) [m]."""
+    radius: float
+    """Sensing range R [m]; ``math.inf`` when unlimited."""
+    segments: FloatArray
+    """Visible border within R, shape (K, 2, 2): each piece from its first to its last
+    point counter-clockwise [m]. Pieces along the border the robot stands on included."""
+    segment_ring: IntArray
+    """(K,) ring (index into :attr:`RingGeometry.rings`) of each piece."""
+    segment_edge: IntArray
+    """(K,) flat edge index of each piece."""
+    points: FloatArray
+    """The discontinuity points O_i, shape (M, 2) [m]."""
+    kinds: tuple[str, ...]
+    """For each O_i: ``"occluding"`` (the near end of a range jump, e.g. a corner seen
+    edge-on), ``"occluded"`` (the far end of a jump, behind an occluding corner) or
+    ``"range"`` (where the visible border meets the circle of radius R)."""
+    ring: IntArray
+    """(M,) ring of each O_i."""
+    edge: IntArray
+    """(M,) flat edge index of each O_i."""
+    t: FloatArray
+    """(M,) parameter of each O_i along its edge, in [0, 1]."""
+    follow: IntArray
+    """(M,) ring direction (+1 forward, -1 backward) that leads from the visible piece
+    along the border to this O_i: the boundary-following direction "toward O_i"."""
+    chain: IntArray
+    """(M,) which continuous piece of visible border each O_i ends (its two ends share it)."""
+    segment_chain: IntArray
+    """(K,) the continuous piece of visible border each segment belongs to."""
+
+    @property
+    def blocked(self) -> bool:
+        """Whether any border is in view."""
+        return len(self.segments) > 0
+
+
+def _cross(u: FloatArray, v: FloatArray) -> FloatArray:
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+@dataclasses.dataclass
+class _Item:
+    """One angular interval of the sweep: a visible piece, free range, or the blocked wedge."""
+
+    kind: str  # "piece" | "free" | "blocked"
+    lo: float
+    hi: float
+    edge: int = -1
+    t0: float = 0.0  # edge parameter at the counter-clockwise first point
+    t1: float = 0.0  # ... and at the last point
+    p0: tuple[float, float] = (0.0, 0.0)
+    p1: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Occurrence:
+    """The robot touching the border: a blocked wedge counter-clockwise from ``n`` to ``q``."""
+
+    n: tuple[float, float]  # unit direction along the border ahead (ring forward)
+    q: tuple[float, float]  # unit direction along the border behind (ring backward)
+    edge_n: int  # edge running along n, from the robot
+    edge_q: int  # edge running along q, toward the robot
+    t_n: float  # parameter of the robot on edge_n
+    t_q: float  # parameter of the robot on edge_q
+
+    @property
+    def narrow(self) -> bool:
+        """Whether the blocked wedge is narrower than a half turn (a convex corner)."""
+        return self.n[0] * self.q[1] - self.n[1] * self.q[0] > 0
+
+
+_Near = tuple[FloatArray, FloatArray, FloatArray, list["_Occurrence"]]
+# The last measurement, for the planner's habit of asking two questions (one ray, then
+# the full view) from the same position: (geometry, x, y, result), replaced as a whole so
+# that concurrent readers see a consistent entry.
+_LAST_NEAR: tuple[RingGeometry, float, float, _Near] | None = None
+
+
+def _near(geo: RingGeometry, x: FloatArray) -> _Near:
+    """Measure the border from ``x``.
+
+    Returns the edge starts relative to ``x``, the distance from ``x`` to each edge,
+    cross(a, b) (negative when the edge faces ``x``), and where the robot touches the
+    border.
+    """
+    global _LAST_NEAR  # noqa: PLW0603 - a one-entry cache of a pure function
+    last = _LAST_NEAR
+    x0, y0 = float(x[0]), float(x[1])
+    if last is not None and last[0] is geo and last[1] == x0 and last[2] == y0:
+        return last[3]
+    result = _measure(geo, x)
+    _LAST_NEAR = (geo, x0, y0, result)
+    return result
+
+
+def _measure(geo: RingGeometry, x: FloatArray) -> _Near:
+    a = geo.start - x
+    ax, ay = a[:, 0], a[:, 1]
+    dx, dy = geo.step_x, geo.step_y
+    t = np.minimum(np.maximum(-(ax * dx + ay * dy) / geo.len2, 0.0), 1.0)
+    dist = np.hypot(ax + t * dx, ay + t * dy)
+    cr = ax * dy - ay * dx
+    touching = np.flatnonzero(dist <= geo.eps)
+    occ: list[_Occurrence] = []
+    for e in touching.tolist():
+        ax, ay = float(a[e, 0]), float(a[e, 1])
+        ux, uy = float(geo.unit[e, 0]), float(geo.unit[e, 1])
+        length = float(geo.length[e])
+        if math.hypot(ax, ay) <= geo.eps:
+            p = int(geo.prev_edge[e])
+            occ.append(
+                _Occurrence(
+                    (ux, uy),
+                    (float(geo.prev_dir[e, 0]), float(geo.prev_dir[e, 1])),
+                    e,
+                    p,
+                    0.0,
+                    1.0,
+                )
+            )
+        elif math.hypot(ax + length * ux, ay + length * uy) > geo.eps:
+            # On the edge's interior (its end vertex is the next edge's start: counted there).
+            tt = min(max(-(ax * ux + ay * uy) / length, 0.0), 1.0)
+            occ.append(_Occurrence((ux, uy), (-ux, -uy), e, e, tt, tt))
+    return a, dist, cr, occ
+
+
+def _in_wedges(occ: list[_Occurrence], ux: FloatArray, uy: FloatArray) -> BoolArray:
+    """Tell, for unit directions (ux, uy), whether each points strictly into a blocked wedge."""
+    inside = np.zeros(len(ux), dtype=bool)
+    for o in occ:
+        (nx, ny), (qx, qy) = o.n, o.q
+        if o.narrow:
+            inside |= (nx * uy - ny * ux > 0) & (ux * qy - uy * qx > 0)
+        else:
+            inside |= ~((qx * uy - qy * ux >= 0) & (ux * ny - uy * nx >= 0))
+    return inside
+
+
+def sense(
+    cspace: ConfigurationSpace | RingGeometry,
+    position: npt.ArrayLike,
+    sensor_range: float,
+) -> Sensing:
+    """Compute what a 360-degree range sensor of range R sees from ``position``.
+
+    Parameters
+    ----------
+    cspace
+        The configuration space (or its :func:`ring_geometry`).
+    position
+        The robot, shape (2,), in closed free space (it may touch the border) [m].
+    sensor_range
+        R [m], positive; ``math.inf`` for an unlimited sensor.
+
+    Returns
+    -------
+    Sensing
+        The visible border pieces and the discontinuity points O_i.
+
+    Examples
+    --------
+    A unit square seen from (-1, 0.5): its left side is visible, and its two left corners
+    are occluding corners (the range jumps to "nothing" beyond them).
+
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
+    >>> seen = sense(space, (-1.0, 0.5), 5.0)
+    >>> seen.segments.tolist()
+    [[[0.0, 0.0], [0.0, 1.0]]]
+    >>> seen.points.tolist(), seen.kinds
+    ([[0.0, 0.0], [0.0, 1.0]], ('occluding', 'occluding'))
+
+    From (-0.6, 0.5) with R = 0.75 only the middle of that side is within range; the O_i
+    are where it meets the circle.
+
+    >>> seen = sense(space, (-0.6, 0.5), 0.75)
+    >>> seen.points.round(9).tolist(), seen.kinds
+    ([[0.0, 0.05], [0.0, 0.95]], ('range', 'range'))
+
+    References
+    ----------
+    I. Kamon, E. Rivlin and E. Rimon, "TangentBug: A range-sensor-based navigation
+    algorithm", International Journal of Robotics Research 17(9), 1998.
+    """
+    geo = cspace if isinstance(cspace, RingGeometry) else ring_geometry(cspace)
+    x = np.asarray(position, dtype=np.float64).reshape(2)
+    radius = float(sensor_range)
+    if not radius > 0:
+        raise ValueError(f"sensor_range must be positive, got {sensor_range}")
+    items = _sweep(geo, x, radius)
+    return _assemble(geo, x, radius, items)
+
+
+def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
+    """Cut the full turn at the critical angles and say what each interval sees."""
+    finite = math.isfinite(radius)
+    if len(geo.start) == 0:
+        return []
+    a, dist, cr, occ = _near(geo, x)
+    front = cr < -geo.eps * geo.length
+    if finite:
+        front &= dist < radius
+    f = np.flatnonzero(front)
+    ax, ay = a[f, 0], a[f, 1]
+    dx, dy = geo.step_x[f], geo.step_y[f]
+    crf = cr[f]
+    # The part of each facing edge inside the sensing disk: t in [t_in, t_out].
+    if finite and len(f):
+        qa = geo.len2[f]
+        qb = 2.0 * (ax * dx + ay * dy)
+        qc = ax * ax + ay * ay - radius * radius
+        disc = np.sqrt(np.maximum(qb * qb - 4.0 * qa * qc, 0.0))
+        t_in = np.maximum(0.0, (-qb - disc) / (2.0 * qa))
+        t_out = np.minimum(1.0, (-qb + disc) / (2.0 * qa))
+        keep = (t_out - t_in) * geo.length[f] > geo.eps
+        if not keep.all():
+            f, ax, ay, dx, dy, crf, t_in, t_out = (
+                f[keep],
+                ax[keep],
+                ay[keep],
+                dx[keep],
+                dy[keep],
+                crf[keep],
+                t_in[keep],
+                t_out[keep],
+            )
+    else:
+        t_in = np.zeros(len(f))
+        t_out = np.ones(len(f))
+    inx, iny = ax + t_in * dx, ay + t_in * dy
+    outx, outy = ax + t_out * dx, ay + t_out * dy
+
+    angles = [np.arctan2(iny, inx), np.arctan2(outy, outx)]
+    if occ:
+        angles.append(
+            np.array(
+                [math.atan2(o.n[1], o.n[0]) for o in occ]
+                + [math.atan2(o.q[1], o.q[0]) for o in occ]
+            )
+        )
+    theta = np.concatenate(angles) % TAU
+    if len(theta) == 0:
+        return []
+    theta.sort()
+    theta = theta[np.concatenate(([True], np.diff(theta) > _ANGLE_TOL))]
+    if len(theta) > 1 and theta[0] + TAU - theta[-1] <= _ANGLE_TOL:
+        theta = theta[:-1]
+    lo = theta
+    hi = np.append(theta[1:], theta[0] + TAU)
+    mid = 0.5 * (lo + hi)
+    ux, uy = np.cos(mid), np.sin(mid)
+    blocked = _in_wedges(occ, ux, uy) if occ else np.zeros(len(mid), dtype=bool)
+    if len(f):
+        # Ray through the middle of each interval against every facing edge (intervals x edges).
+        U, V = ux[:, None], uy[:, None]
+        spans = (outx * V - outy * U > 0) & (U * iny - V * inx > 0)
+        denom = U * dy - V * dx
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.where(spans, crf / denom, np.inf)
+        s[~(s > 0)] = np.inf
+        best = s.argmin(axis=1)
+        hit = np.isfinite(s[np.arange(len(mid)), best])
+    else:
+        best = np.zeros(len(mid), dtype=np.intp)
+        hit = np.zeros(len(mid), dtype=bool)
+
+    items: list[_Item] = []
+    lo_l, hi_l, blocked_l, hit_l, best_l = (
+        lo.tolist(),
+        hi.tolist(),
+        blocked.tolist(),
+        hit.tolist(),
+        best.tolist(),
+    )
+    f_l = f.tolist()
+    for j in range(len(lo_l)):
+        kind = "blocked" if blocked_l[j] else "piece" if hit_l[j] else "free"
+        if kind != "piece":
+            if items and items[-1].kind == kind:
+                items[-1].hi = hi_l[j]
+            else:
+                items.append(_Item(kind, lo_l[j], hi_l[j]))
+            continue
+        k = best_l[j]
+        e = f_l[k]
+        if items and items[-1].kind == "piece" and items[-1].edge == e:
+            items[-1].hi = hi_l[j]
+        else:
+            items.append(_Item("piece", lo_l[j], hi_l[j], e))
+    # The first and last intervals meet across angle 0: merge them when they are alike.
+    if len(items) > 1:
+        first, last = items[0], items[-1]
+        if first.kind == last.kind and (
+            first.kind != "piece" or first.edge == last.edge
+        ):
+            last.hi = first.hi + TAU
+            items.pop(0)
+    index = {e: k for k, e in enumerate(f_l)}
+    cols = (
+        ax.tolist(),
+        ay.tolist(),
+        dx.tolist(),
+        dy.tolist(),
+        t_in.tolist(),
+        t_out.tolist(),
+    )
+    for it in items:
+        if it.kind == "piece":
+            k = index[it.edge]
+            args = (
+                cols[0][k],
+                cols[1][k],
+                cols[2][k],
+                cols[3][k],
+                cols[4][k],
+                cols[5][k],
+                geo.length_list[it.edge],
+                geo.eps,
+            )
+            it.t0 = _t_at(it.lo, *args)
+            it.t1 = _t_at(it.hi, *args)
+            sx, sy = geo.start_list[it.edge]
+            it.p0 = (sx + it.t0 * args[2], sy + it.t0 * args[3])
+            it.p1 = (sx + it.t1 * args[2], sy + it.t1 * args[3])
+    if occ:
+        items = _add_edge_on_pieces(geo, radius, items, occ)
+    return items
+
+
+def _t_at(
+    angle: float,
+    ax: float,
+    ay: float,
+    dx: float,
+    dy: float,
+    t_in: float,
+    t_out: float,
+    length: float,
+    eps: float,
+) -> float:
+    """Return the parameter along an edge where the ray at ``angle`` meets it.
+
+    The edge starts at (ax, ay) relative to the robot and has step (dx, dy).
+    """
+    ux, uy = math.cos(angle), math.sin(angle)
+    denom = ux * dy - uy * dx
+    t = (ax * uy - ay * ux) / denom if denom != 0 else t_in
+    t = min(max(t, t_in), t_out)
+    # The sweep's angles come from these very end points: snap to them exactly.
+    if abs(t - t_in) * length <= 1e3 * eps:
+        return t_in
+    if abs(t - t_out) * length <= 1e3 * eps:
+        return t_out
+    return t
+
+
+def _add_edge_on_pieces(
+    geo: RingGeometry, radius: float, items: list[_Item], occ: list[_Occurrence]
+) -> list[_Item]:
+    """Insert, at each side of a blocked wedge, the border running straight away from the robot."""
+    out: list[_Item] = []
+    n = len(items)
+    for i, it in enumerate(items):
+        nxt = items[(i + 1) % n]
+        out.append(it)
+        if it.kind == "blocked" and nxt.kind != "blocked":
+            # Leaving the wedge counter-clockwise: the border behind the robot (along q).
+            o = min(occ, key=lambda o: _angle_gap(math.atan2(o.q[1], o.q[0]), it.hi))
+            e = o.edge_q
+            reach = radius / float(geo.length[e]) if math.isfinite(radius) else math.inf
+            out.append(_radial(geo, e, o.t_q, max(0.0, o.t_q - reach), it.hi))
+        elif it.kind != "blocked" and nxt.kind == "blocked":
+            # Entering the wedge: the border ahead of the robot (along n), walked inward.
+            o = min(occ, key=lambda o: _angle_gap(math.atan2(o.n[1], o.n[0]), it.hi))
+            e = o.edge_n
+            reach = radius / float(geo.length[e]) if math.isfinite(radius) else math.inf
+            out.append(_radial(geo, e, min(1.0, o.t_n + reach), o.t_n, it.hi))
+    return out
+
+
+def _radial(geo: RingGeometry, e: int, t0: float, t1: float, angle: float) -> _Item:
+    sx, sy = geo.start_list[e]
+    dx, dy = float(geo.step[e, 0]), float(geo.step[e, 1])
+    return _Item(
+        "piece",
+        angle,
+        angle,
+        e,
+        t0,
+        t1,
+        (sx + t0 * dx, sy + t0 * dy),
+        (sx + t1 * dx, sy + t1 * dy),
+    )
+
+
+def _angle_gap(a: float, b: float) -> float:
+    return abs((a - b + math.pi) % TAU - math.pi)
+
+
+def _assemble(
+    geo: RingGeometry, x: FloatArray, radius: float, items: list[_Item]
+) -> Sensing:
+    """Join consecutive pieces into continuous chains; their ends are the O_i."""
+    x0, y0 = float(x[0]), float(x[1])
+    n = len(items)
+    tol = geo.join_tol
+    finite = math.isfinite(radius)
+    here = (x0, y0)
+
+    def first(it: _Item) -> tuple[float, float]:
+        return here if it.kind == "blocked" else it.p0
+
+    def last(it: _Item) -> tuple[float, float]:
+        return here if it.kind == "blocked" else it.p1
+
+    def depth(p: tuple[float, float]) -> float:
+        return math.hypot(p[0] - x0, p[1] - y0)
+
+    # Consecutive items join when neither is free range and their ends meet.
+    joined = [False] * n
+    if n > 1:
+        for i in range(n):
+            it, nxt = items[i], items[(i + 1) % n]
+            if it.kind != "free" and nxt.kind != "free":
+                p, q = last(it), first(nxt)
+                joined[i] = math.hypot(p[0] - q[0], p[1] - q[1]) <= tol
+    chain_id = [0] * n
+    breaks = [i for i in range(n) if not joined[i]]
+    begin = (breaks[0] + 1) % n if breaks else 0
+    current = 0
+    for k in range(n):
+        i = (begin + k) % n
+        chain_id[i] = current
+        if not joined[i]:
+            current += 1
+
+    def kind_of(
+        p: tuple[float, float], other: _Item, other_point: tuple[float, float]
+    ) -> str:
+        dp = depth(p)
+        if finite and dp >= radius * (1.0 - 1e-9) - geo.eps:
+            return RANGE
+        if other.kind == "free":
+            return OCCLUDING
+        return OCCLUDING if dp < depth(other_point) else OCCLUDED
+
+    pts: list[tuple[float, float]] = []
+    chain_of_o: list[int] = []
+    kinds: list[str] = []
+    edges: list[int] = []
+    ts: list[float] = []
+    follow: list[int] = []
+    for i in range(n):
+        if joined[i]:
+            continue  # continuous: no O here
+        it, nxt = items[i], items[(i + 1) % n]
+        if it.kind == "piece":
+            pts.append(it.p1)
+            chain_of_o.append(chain_id[i])
+            kinds.append(kind_of(it.p1, nxt, first(nxt)))
+            edges.append(it.edge)
+            ts.append(it.t1)
+            follow.append(-1)
+        if nxt.kind == "piece" and n > 1:
+            pts.append(nxt.p0)
+            chain_of_o.append(chain_id[(i + 1) % n])
+            kinds.append(kind_of(nxt.p0, it, last(it)))
+            edges.append(nxt.edge)
+            ts.append(nxt.t0)
+            follow.append(1)
+    pieces = [it for it in items if it.kind == "piece"]
+    seg_edge = np.array([it.edge for it in pieces], dtype=np.intp)
+    edge_arr = np.array(edges, dtype=np.intp)
+    return Sensing(
+        position=x.copy(),
+        radius=radius,
+        segments=np.array([(it.p0, it.p1) for it in pieces], dtype=np.float64).reshape(
+            -1, 2, 2
+        ),
+        segment_ring=geo.ring[seg_edge],
+        segment_edge=seg_edge,
+        points=np.array(pts, dtype=np.float64).reshape(-1, 2),
+        kinds=tuple(kinds),
+        ring=geo.ring[edge_arr],
+        edge=edge_arr,
+        t=np.array(ts, dtype=np.float64),
+        follow=np.array(follow, dtype=np.intp),
+        chain=np.array(chain_of_o, dtype=np.intp),
+        segment_chain=np.array(
+            [chain_id[i] for i, it in enumerate(items) if it.kind == "piece"],
+            dtype=np.intp,
+        ),
+    )
+
+
+# --------------------------------------------------------------------------- one ray
+
+
+def free_extent(
+    geo: RingGeometry, position: npt.ArrayLike, direction: npt.ArrayLike, limit: float
+) -> tuple[float, int]:
+    """How far the robot can go from ``position`` along a unit ``direction``, up to ``limit``.
+
+    Exact on the polygons: the segment may run along the border or touch a vertex (that is
+    free), it stops where it would enter blocked space.
+
+    Returns
+    -------
+    tuple
+        (distance [m], ring that stops it or -1 when nothing does within ``limit``).
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> geo = ring_geometry(configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0))
+    >>> free_extent(geo, (-1.0, 0.5), (1.0, 0.0), 5.0)
+    (1.0, 0)
+    >>> free_extent(geo, (-1.0, 0.0), (1.0, 0.0), 5.0)  # along the bottom side: free
+    (5.0, -1)
+    """
+    x = np.asarray(position, dtype=np.float64).reshape(2)
+    u = np.asarray(direction, dtype=np.float64).reshape(2)
+    if len(geo.start) == 0 or limit <= 0:
+        return max(float(limit), 0.0), -1
+    tol = geo.eps
+    a, _, _, occ = _near(geo, x)
+    # At the robot's feet: touching the border, it may look straight into blocked space.
+    ux, uy = float(u[0]), float(u[1])
+    for o in occ:
+        if _in_wedges([o], np.array([ux]), np.array([uy]))[0]:
+            return 0.0, int(geo.ring[o.edge_n])
+    best, ring = float(limit), -1
+    # Proper crossings of the segment x -> x + limit * u with an edge.
+    dx, dy = geo.step[:, 0], geo.step[:, 1]
+    ax, ay = a[:, 0], a[:, 1]
+    yx, yy = limit * ux, limit * uy
+    oa = yx * ay - yy * ax
+    ob = yx * (ay + dy) - yy * (ax + dx)
+    ox = -(dx * ay - dy * ax)
+    oy = dx * (yy - ay) - dy * (yx - ax)
+    tol_y = tol * limit
+    tol_d = tol * geo.length
+    proper = (((oa > tol_y) & (ob < -tol_y)) | ((oa < -tol_y) & (ob > tol_y))) & (
+        ((ox > tol_d) & (oy < -tol_d)) | ((ox < -tol_d) & (oy > tol_d))
+    )
+    if proper.any():
+        idx = np.flatnonzero(proper)
+        s = (ax[idx] * dy[idx] - ay[idx] * dx[idx]) / (ux * dy[idx] - uy * dx[idx])
+        k = int(np.argmin(s))
+        if s[k] < best:
+            best, ring = float(s[k]), int(geo.ring[idx[k]])
+    # Vertices on the segment where it would turn into blocked space.
+    along = ax * ux + ay * uy
+    off = np.abs(ux * ay - uy * ax)
+    on = (off <= tol) & (along > tol) & (along < best + tol)
+    if on.any():
+        idx = np.flatnonzero(on)
+        nxt = geo.unit[idx]
+        prv = geo.prev_dir[idx]
+        narrow = _cross(nxt, prv) > 0
+        uu = np.broadcast_to(u, nxt.shape)
+        inside = np.where(
+            narrow,
+            (_cross(nxt, uu) > 1e-12) & (_cross(uu, prv) > 1e-12),
+            ~((_cross(prv, uu) >= -1e-12) & (_cross(uu, nxt) >= -1e-12)),
+        )
+        if inside.any():
+            cand = idx[inside]
+            k = int(np.argmin(along[cand]))
+            if along[cand][k] < best:
+                best, ring = float(along[cand][k]), int(geo.ring[cand[k]])
+    return best, ring

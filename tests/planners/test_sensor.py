@@ -1,0 +1,276 @@
+"""The simulated range sensor of the DSB planner: exact visible border and O_i."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import assume, given
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+from shapely import LineString, Polygon
+
+from planners.expansion import configuration_space
+from planners.sensor import free_extent, ring_geometry, sense
+from tests.conftest import _eroded_blocked, reference_segment_free, square
+
+UNIT = square(0, 0, 1, 1)
+
+
+def space_of(*obstacles, boundary=None, radius=0.0):
+    return configuration_space(tuple(obstacles), radius, "disk", boundary)
+
+
+def as_set(points):
+    return sorted(tuple(np.round(p, 9)) for p in np.asarray(points).reshape(-1, 2))
+
+
+# --------------------------------------------------------------------------- by hand
+
+
+def test_square_seen_from_outside():
+    seen = sense(space_of(UNIT), (-1.0, 0.5), 5.0)
+    assert_allclose(seen.segments, [[[0, 0], [0, 1]]], atol=1e-12)
+    assert as_set(seen.points) == [(0.0, 0.0), (0.0, 1.0)]
+    assert seen.kinds == ("occluding", "occluding")
+    assert seen.radius == 5.0 and seen.blocked
+
+
+def test_visible_border_is_clipped_at_the_range():
+    # Half-chord sqrt(0.75^2 - 0.6^2) = 0.45 about y = 0.5 on the side x = 0.
+    seen = sense(space_of(UNIT), (-0.6, 0.5), 0.75)
+    assert as_set(seen.segments) == [(0.0, 0.05), (0.0, 0.95)]
+    assert seen.kinds == ("range", "range")
+    assert_allclose(np.hypot(*(seen.points - (-0.6, 0.5)).T), 0.75, atol=1e-12)
+
+
+def test_nothing_in_range_sees_nothing():
+    seen = sense(space_of(UNIT), (-3.0, 0.5), 1.0)
+    assert seen.segments.shape == (0, 2, 2) and seen.points.shape == (0, 2)
+    assert not seen.blocked
+
+
+def test_two_corners_of_a_square_seen_diagonally():
+    # From (-1, -1) two sides are visible, joined at the corner (0, 0): one piece of
+    # border whose ends are the corners (1, 0) and (0, 1).
+    seen = sense(space_of(UNIT), (-1.0, -1.0), 10.0)
+    assert len(seen.segments) == 2
+    assert as_set(seen.points) == [(0.0, 1.0), (1.0, 0.0)]
+    assert len(set(seen.chain.tolist())) == 1
+
+
+def test_occlusion_gives_an_occluding_and_an_occluded_point():
+    # A wide wall at x = 3 behind the unit square: the square hides y in [0, 1] of it,
+    # more precisely the shadow between the rays through the square's left corners.
+    wall = square(3, -3, 4, 4)
+    seen = sense(space_of(UNIT, wall), (-1.0, 0.5), 100.0)
+    kinds = {
+        tuple(np.round(p, 9)): kind
+        for p, kind in zip(seen.points, seen.kinds, strict=True)
+    }
+    # Rays from (-1, 0.5) through (0, 0) and (0, 1) meet x = 3 at y = -1.5 and 2.5.
+    assert kinds[(0.0, 0.0)] == "occluding" and kinds[(0.0, 1.0)] == "occluding"
+    assert kinds[(3.0, -1.5)] == "occluded" and kinds[(3.0, 2.5)] == "occluded"
+    # The wall's ends are visible corners too.
+    assert kinds[(3.0, -3.0)] == "occluding" and kinds[(3.0, 4.0)] == "occluding"
+    # The hidden part of the wall, y in (-1.5, 2.5) at x = 3, is not returned.
+    for a, b in seen.segments:
+        if a[0] == b[0] == 3.0:
+            lo, hi = sorted((a[1], b[1]))
+            assert hi <= -1.5 + 1e-9 or lo >= 2.5 - 1e-9
+
+
+def test_follow_direction_of_each_end():
+    # The piece x = 0, y in [0, 1] is walked forward (blocked space on the left, i.e.
+    # counter-clockwise round the square) from (0, 1) down to (0, 0): so the end at
+    # (0, 0) lies forward and the one at (0, 1) backward.
+    geo = ring_geometry(space_of(UNIT))
+    seen = sense(geo, (-1.0, 0.5), 5.0)
+    follow = {
+        tuple(np.round(p, 9)): int(f)
+        for p, f in zip(seen.points, seen.follow, strict=True)
+    }
+    ring = geo.rings[int(seen.ring[0])]
+    forward_after = {
+        tuple(ring[(i + 1) % len(ring)])
+        for i in range(len(ring))
+        if tuple(ring[i]) == (0.0, 1.0)
+    }
+    direction_to_00 = 1 if (0.0, 0.0) in forward_after else -1
+    assert follow[(0.0, 0.0)] == direction_to_00
+    assert follow[(0.0, 1.0)] == -direction_to_00
+
+
+def test_robot_on_a_side_sees_along_it():
+    # Standing on the bottom side: the side itself runs away on both sides (edge-on),
+    # the square's interior is a blocked wedge, the ends are the bottom corners.
+    seen = sense(space_of(UNIT), (0.5, 0.0), 10.0)
+    assert as_set(seen.points) == [(0.0, 0.0), (1.0, 0.0)]
+    assert sorted(set(as_set(seen.segments))) == [(0.0, 0.0), (0.5, 0.0), (1.0, 0.0)]
+    assert len(set(seen.chain.tolist())) == 1
+
+
+def test_robot_at_a_corner_sees_both_sides_edge_on():
+    seen = sense(space_of(UNIT), (1.0, 0.0), 10.0)
+    assert as_set(seen.points) == [(0.0, 0.0), (1.0, 1.0)]
+    lengths = sorted(np.hypot(*(seen.segments[:, 1] - seen.segments[:, 0]).T))
+    assert_allclose(lengths, [1.0, 1.0])
+
+
+def test_robot_on_a_side_with_short_range():
+    seen = sense(space_of(UNIT), (0.5, 0.0), 0.2)
+    assert as_set(seen.points) == [(0.3, 0.0), (0.7, 0.0)]
+    assert seen.kinds == ("range", "range")
+
+
+def test_inside_a_room_within_range_sees_one_closed_border():
+    room = Polygon([(0, 0), (4, 0), (4, 3), (0, 3)])
+    space = configuration_space((), 0.0, "disk", room)
+    seen = sense(space, (1.0, 1.0), 100.0)
+    assert seen.points.shape == (0, 2)  # no discontinuity at all
+    assert_allclose(
+        np.hypot(*(seen.segments[:, 1] - seen.segments[:, 0]).T).sum(), 14.0
+    )
+
+
+def test_pocket_corner_does_not_break_the_border():
+    # The inside corner of an L is seen from inside the bend: no O there.
+    ell = Polygon([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)])
+    seen = sense(space_of(ell), (2.0, 2.0), 100.0)
+    assert (1.0, 1.0) not in as_set(seen.points)
+    assert as_set(seen.points) == [(1.0, 3.0), (3.0, 1.0)]
+
+
+def test_unlimited_range_equals_a_huge_one():
+    space = space_of(UNIT, square(3, -3, 4, 4), square(-2, 2, -1, 5))
+    a = sense(space, (-1.5, 0.2), math.inf)
+    b = sense(space, (-1.5, 0.2), 1e6)
+    assert_allclose(a.segments, b.segments, atol=1e-9)
+    assert a.kinds == b.kinds
+
+
+def test_sensor_range_must_be_positive():
+    with pytest.raises(ValueError, match="positive"):
+        sense(space_of(UNIT), (-1.0, 0.5), 0.0)
+
+
+# --------------------------------------------------------------------------- one ray
+
+
+@pytest.mark.parametrize(
+    ("start", "direction", "expected"),
+    [
+        ((-1.0, 0.5), (1.0, 0.0), 1.0),  # into a side
+        ((-1.0, 0.0), (1.0, 0.0), 5.0),  # along the bottom side: free
+        ((-1.0, -1.0), (1.0, 1.0), math.sqrt(2)),  # into the corner (0, 0) head on
+        ((-1.0, 1.0), (1.0, -1.0), 5.0),  # grazes the corner (0, 0)
+        ((0.5, 0.0), (0.0, 1.0), 0.0),  # from the bottom side into the square
+        ((0.5, 0.0), (0.0, -1.0), 5.0),  # ... and away from it
+        ((1.0, 1.0), (-1.0, 0.0), 5.0),  # from a corner along the top side
+    ],
+)
+def test_free_extent_by_hand(start, direction, expected):
+    u = np.asarray(direction, dtype=float) / np.hypot(*direction)
+    extent, _ = free_extent(ring_geometry(space_of(UNIT)), start, u, 5.0)
+    assert extent == pytest.approx(expected, abs=1e-12)
+
+
+# --------------------------------------------------------------------------- exactness
+
+
+@st.composite
+def scenes_and_points(draw):
+    k = draw(st.integers(1, 3))
+    obstacles = []
+    for _ in range(k):
+        n = draw(st.integers(3, 7))
+        cx, cy = draw(st.floats(1, 9)), draw(st.floats(1, 9))
+        angles = np.linspace(0, 2 * math.pi, n, endpoint=False) + draw(st.floats(0, 1))
+        radii = np.array(draw(st.lists(st.floats(0.4, 2.0), min_size=n, max_size=n)))
+        obstacles.append(
+            Polygon(
+                list(
+                    zip(
+                        cx + radii * np.cos(angles),
+                        cy + radii * np.sin(angles),
+                        strict=True,
+                    )
+                )
+            )
+        )
+    boundary = (
+        Polygon([(-2, -2), (12, -2), (12, 12), (-2, 12)])
+        if draw(st.booleans())
+        else None
+    )
+    radius = draw(st.sampled_from([0.0, 0.3]))
+    space = configuration_space(
+        tuple(o for o in obstacles if o.is_valid), radius, "disk", boundary
+    )
+    x = np.array([draw(st.floats(-1, 11)), draw(st.floats(-1, 11))])
+    if draw(st.booleans()) and space.rings:
+        # On the border: a vertex or a point of an edge, where the robot may stand.
+        ring = space.rings[draw(st.integers(0, len(space.rings) - 1))]
+        i = draw(st.integers(0, len(ring) - 1))
+        t = draw(st.sampled_from([0.0, 0.5, draw(st.floats(0, 1))]))
+        x = ring[i] + t * (ring[(i + 1) % len(ring)] - ring[i])
+    sensor_range = draw(st.sampled_from([0.7, 2.0, 5.0, math.inf]))
+    return space, x, sensor_range
+
+
+@given(case=scenes_and_points())
+def test_sensor_is_exact_against_shapely(case):
+    space, x, sensor_range = case
+    assume(not space.contains_blocked(x)[0])
+    seen = sense(space, x, sensor_range)
+    tol = 1e-7
+    # Everything returned is visible (the segment from the robot stays in closed free
+    # space) and within range, and lies on the border.
+    border = (
+        shapely.MultiLineString([np.vstack([r, r[:1]]) for r in space.rings])
+        if space.rings
+        else None
+    )
+    for a, b in seen.segments:
+        for t in (0.0, 0.25, 0.5, 0.75, 1.0):
+            p = a + t * (b - a)
+            assert math.dist(p, x) <= sensor_range + tol
+            assert shapely.distance(border, shapely.Point(p)) <= tol
+            if math.dist(p, x) > 1e-6:
+                q = x + (1 - 1e-7) * (p - x)  # stop a hair before the border point
+                assert reference_segment_free(space, x, q), (x, p)
+    for p, kind in zip(seen.points, seen.kinds, strict=True):
+        assert (
+            min(math.dist(p, s[0]) for s in seen.segments) <= tol
+            or min(math.dist(p, s[1]) for s in seen.segments) <= tol
+        )
+        if kind == "range":
+            assert math.dist(p, x) == pytest.approx(sensor_range, abs=1e-6)
+    # Nothing visible is missing: along 360 rays the first border point within range
+    # (found by shapely) lies on a returned piece.
+    if border is None:
+        assert len(seen.segments) == 0
+        return
+    blocked: Any = _eroded_blocked(space)
+    pieces = (
+        shapely.MultiLineString([list(s) for s in seen.segments])
+        if len(seen.segments)
+        else None
+    )
+    reach = min(sensor_range, 40.0)
+    for angle in np.linspace(0, 2 * math.pi, 360, endpoint=False) + 0.0123:
+        u = np.array([math.cos(angle), math.sin(angle)])
+        ray = LineString([x, x + reach * u])
+        hit = shapely.intersection(ray, blocked)
+        if hit.is_empty:
+            continue
+        s = shapely.distance(shapely.Point(x), hit)
+        if s < 1e-6 or s > reach - 1e-6:
+            continue
+        p = x + s * u
+        assert (
+            pieces is not None and shapely.distance(pieces, shapely.Point(p)) <= 1e-6
+        ), (angle, p)

@@ -215,6 +215,33 @@ class RingGeometry:
         points.append(self.locate(ring, s1)[0])
         return np.asarray(points, dtype=np.float64), s1
 
+    @functools.cached_property
+    def convex(self) -> tuple[FloatArray, ...]:
+        """Per ring, the arclengths of its corners.
+
+        A corner is a vertex where the border turns round blocked space (the blocked
+        wedge there is narrower than a half turn): the robot rounds it.
+        """
+        out = []
+        for k in range(len(self.rings)):
+            lo, hi = int(self.offset[k]), int(self.offset[k + 1])
+            nxt, prv = self.unit[lo:hi], self.prev_dir[lo:hi]
+            turn = nxt[:, 0] * prv[:, 1] - nxt[:, 1] * prv[:, 0]
+            out.append(self.cum[k][:-1][turn > 0])
+        return tuple(out)
+
+    def to_corner(self, ring: int, sigma: float, direction: int, gap: float) -> float:
+        """Return the arclength from ``sigma`` to the next corner in ``direction``.
+
+        Corners closer than ``gap`` are skipped; ``inf`` when there is none.
+        """
+        corners = self.convex[ring]
+        if len(corners) == 0:
+            return math.inf
+        ahead = ((corners - sigma) * direction) % float(self.perimeter[ring])
+        ahead = ahead[ahead >= gap]
+        return float(ahead.min()) if len(ahead) else math.inf
+
     def ring_distance(
         self, ring: int, sigma0: float, sigma1: float, direction: int
     ) -> float:
@@ -676,9 +703,9 @@ def _t_at(
     t = (ax * uy - ay * ux) / denom if denom != 0 else t_in
     t = min(max(t, t_in), t_out)
     # The sweep's angles come from these very end points: snap to them exactly.
-    if abs(t - t_in) * length <= 1e3 * eps:
+    if abs(t - t_in) * length <= 10.0 * eps:
         return t_in
-    if abs(t - t_out) * length <= 1e3 * eps:
+    if abs(t - t_out) * length <= 10.0 * eps:
         return t_out
     return t
 

@@ -397,7 +397,7 @@ def _context(cspace: ConfigurationSpace, params: BugParams) -> _Context:
     goal = np.asarray(params.goal, dtype=np.float64)
     pts = np.vstack([geo.start, goal[None, :]]) if len(geo.start) else goal[None, :]
     extent = float(np.hypot(*(pts.max(axis=0) - pts.min(axis=0))))
-    extent = max(extent, geo.scale * 1e-3, 1e-9)
+    extent = max(extent, 1e3 * cspace.eps)
     finite = math.isfinite(radius)
     seek_step = params.step_fraction * radius if finite else extent / 4.0
     seek_step = min(seek_step, extent / 4.0)
@@ -935,6 +935,10 @@ def _follow_step(ctx: _Context, state: BugState) -> BugState:
     s = min(ctx.follow_step, max(remaining, 0.0))
     if ctx.rule == "chapter":
         s = max(remaining, 0.0)  # the crossing d(r, g) = d(M, g) is found exactly below
+    else:
+        # New border comes into view as the robot rounds a corner: look there (though
+        # not at every vertex of a polygonal arc).
+        s = min(s, geo.to_corner(f.ring, f.sigma, f.direction, 0.25 * ctx.follow_step))
     path, _ = geo.walk(f.ring, f.sigma, f.direction, s)
     return _walk_and_check(ctx, state, path, walked=s)
 

@@ -12,9 +12,12 @@ from numpy.testing import assert_allclose
 
 from planners import PlanOptions, load_scene, plan_all, result_to_json
 from planners.__main__ import main
+from planners.sensor import ring_geometry
 from planners.tangent_bug import (
     BugParams,
+    BugState,
     BugTrace,
+    Follow,
     initial_state,
     plan_tangent_bug,
     run,
@@ -383,3 +386,31 @@ def test_cli_sensor_range_reaches_dsb(capsys):
     assert set(out) == {"scene", "dsb"}
     assert out["dsb"]["status"] == "unreachable" and out["dsb"]["length"] is None
     assert "enclosed" in out["dsb"]["reason"]
+
+
+def test_a_futile_round_that_encloses_nothing_falls_back_to_the_closest_point():
+    # Bug1's safety net, driven through the pure step: a robot following the square with
+    # an unbeatable d_followed goes once round, finds that the square does not enclose
+    # the goal, walks on to the square's point closest to the goal and leaves there.
+    scene = load_scene(scene_dict([box(0, 0, 2, 2)], (-1, 1), (3, 1)))
+    space = plan_all(scene, ())["cspace"]
+    geo = ring_geometry(space)
+    here = np.array([0.0, 1.0])
+    a, b = geo.start, geo.end
+    t = np.einsum("ij,ij->i", here - a, b - a) / np.einsum("ij,ij->i", b - a, b - a)
+    e = int(np.argmin(np.hypot(*(a + np.clip(t, 0, 1)[:, None] * (b - a) - here).T)))
+    follow = Follow(
+        ring=0, direction=1, local_min=(0.0, 1.0), d_local_min=3.0, d_followed=0.0,
+        target=None, target_sigma=0.0, sigma=geo.sigma(e, float(t[e])), walked=0.0, obstacle=1,
+    )  # fmt: skip
+    state = BugState(position=(0.0, 1.0), mode="follow", follow=follow)
+    params = BugParams(goal=scene.goal, sensor_range=1.0)
+    events = []
+    while state.mode in ("seek", "follow") and state.steps < 100:
+        state = step(state, space, params)
+        events.extend(state.events)
+    assert state.mode == "reached"
+    assert [e.label for e in events] == ["L1"]
+    assert_allclose(events[0].at, (2.0, 1.0), atol=1e-9)  # closest to the goal (3, 1)
+    # One round (8 m), then on round the bottom to (2, 1) (1 + 2 + 1 m).
+    assert events[0].s == pytest.approx(8.0 + 4.0)

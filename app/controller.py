@@ -111,6 +111,8 @@ _CLOSE_POLYGON_M = 0.25
 _PICK_VERTEX_M = 0.3
 _PICK_EDGE_M = 0.2
 _BLOCK_SIZE_M = 1.0
+# The slow lane starts on a new scene once the fast lane has drawn it, or after this [s].
+_SLOW_LANE_YIELD_S = 0.03
 
 
 class View(Protocol):
@@ -210,6 +212,8 @@ class Frame:
     """Time to compute the plans [ms]."""
     lagging: frozenset[str] = frozenset()
     """Slow planners whose result shown is for a slightly older scene (during a drag)."""
+    slow_version: int = -1
+    """Scene version the slow planners' results shown were computed for (-1: none)."""
 
 
 FAST_PLANNERS = ("vg", "svg")
@@ -1076,14 +1080,17 @@ class Controller:
         plans = dict(fast)
         lagging: set[str] = set()
         show_older = slow_scene is not None and _may_lag(fast, slow_scene, scene)
+        shown_slow = -1
         for name in self._slow_names:
             if name in slow and slow_version == version:
                 plans[name] = slow[name]
+                shown_slow = slow_version
             elif name in slow and show_older:
                 # During a drag the slow planner (~30-100 ms) falls behind the mouse:
                 # show its newest result, marked as lagging, rather than nothing.
                 plans[name] = slow[name]
                 lagging.add(name)
+                shown_slow = slow_version
             else:
                 plans[name] = Pending(name)
         plans.pop("cspace", None)
@@ -1095,6 +1102,7 @@ class Controller:
             frame = self._frame_locked(
                 (version, scene, plans, ms), trajectory, other, frozenset(lagging)
             )
+            frame = dataclasses.replace(frame, slow_version=shown_slow)
             duration = self._duration_locked()
             if duration is not None:
                 self._playback.t = min(self._playback.t, duration)
@@ -1142,6 +1150,16 @@ class Controller:
             with self._wake:
                 while not self._closed and self._slow_tried == self._version:
                     self._wake.wait()
+                # Let the fast lane draw the newest scene first (on 2 cores the two
+                # lanes slow each other down), but never wait more than a moment, so
+                # that during a drag the slow result keeps coming.
+                deadline = time.monotonic() + _SLOW_LANE_YIELD_S
+                while (
+                    not self._closed
+                    and self._rendered[0] < self._version
+                    and time.monotonic() < deadline
+                ):
+                    self._wake.wait(max(0.0, deadline - time.monotonic()))
                 if self._closed:
                     return
                 version, scene = self._version, self._scene
@@ -1150,6 +1168,8 @@ class Controller:
             try:
                 results = dict(self._slow_plan(scene))
             except Exception as error:
+                if self._closed:
+                    return  # the planner process was stopped by close()
                 logger.exception("slow planners failed")
                 results = {
                     n: _failed(

@@ -79,7 +79,7 @@ def _timed(result: Any, ms: float) -> Any:
 
 def plan_all(
     scene: Scene,
-    which: Iterable[str] = ("vg", "svg"),
+    which: Iterable[str] | None = None,
     options: PlanOptions | None = None,
 ) -> dict[str, Any]:
     """Run the chosen planners on ``scene``.
@@ -94,7 +94,8 @@ def plan_all(
     scene
         The scene.
     which
-        Planner names, a subset of :data:`PLANNERS`.
+        Planner names, a subset of :data:`PLANNERS`; None runs them all
+        (``("vg", "svg", "dsb")``).
     options
         Shared settings; None for the defaults.
 
@@ -114,9 +115,11 @@ def plan_all(
     >>> plans = plan_all(scene)
     >>> plans["vg"].status, round(plans["vg"].length, 6), round(plans["svg"].length, 6)
     ('ok', 4.828427, 4.828427)
+    >>> plans["dsb"].status, [e.kind for e in plans["dsb"].events]
+    ('reached', ['hit', 'leave'])
     """
     options = options or PlanOptions()
-    names = list(which)
+    names = list(PLANNERS if which is None else which)
     unknown = [n for n in names if n not in PLANNERS]
     if unknown:
         raise ValueError(

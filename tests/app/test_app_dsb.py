@@ -203,8 +203,14 @@ def test_following_dsb_shows_what_the_robot_senses(with_dsb, server_view):
     assert controller.wait_idle(30)
     trajectory = controller.frame.trajectory
     assert trajectory is not None
-    controller.set_robot_time(trajectory.duration / 3)
-    assert controller.wait_idle(10)
+    # A moment of the run when the robot sees some O_i (the tangent graph is drawn).
+    for fraction in (1 / 3, 0.25, 0.4, 0.15, 0.5, 0.1, 0.6):
+        controller.set_robot_time(trajectory.duration * fraction)
+        assert controller.wait_idle(10)
+        if view.sensing_graph.handle.visible:
+            break
+    else:
+        pytest.fail("the local tangent graph was never shown along the DSB run")
     assert view.sensing_circle.handle.visible
     circle = np.asarray(view.sensing_circle.handle.points)[:, 0, :2]
     center = circle.mean(axis=0)

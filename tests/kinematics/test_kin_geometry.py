@@ -10,7 +10,6 @@ import networkx as nx
 import numpy as np
 import pytest
 import trimesh
-from tests.kinematics.kin_helpers import DIFFERENTIAL, HOLONOMIC
 from numpy.testing import assert_allclose
 
 from kinematics import geometry, holonomic, plan_trajectory
@@ -24,6 +23,7 @@ from kinematics.geometry import (
     wheel_transform,
     yaw_wxyz,
 )
+from tests.kinematics.kin_helpers import DIFFERENTIAL, HOLONOMIC
 
 Z = np.array([0.0, 0.0, 1.0])
 

@@ -6,11 +6,16 @@ import math
 
 import numpy as np
 import pytest
-from tests.kinematics.kin_helpers import DIFFERENTIAL, HOLONOMIC, LECTURE_PATH, dense_trace
 from numpy.testing import assert_allclose
 
 from kinematics import RobotParams, TrajectoryOptions, plan_trajectory
 from kinematics.odometry import integrate_rates, integrate_wheel_rates
+from tests.kinematics.kin_helpers import (
+    DIFFERENTIAL,
+    HOLONOMIC,
+    LECTURE_PATH,
+    dense_trace,
+)
 
 
 # The fixtures are defined per module rather than in a conftest.py: with --doctest-modules

@@ -9,13 +9,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from tests.kinematics.kin_helpers import (
-    DIFFERENTIAL,
-    HOLONOMIC,
-    LECTURE_PATH,
-    dense_trace,
-    distance_to_polyline,
-)
 from numpy.testing import assert_allclose
 
 from kinematics import (
@@ -28,6 +21,13 @@ from kinematics import (
     trapezoidal_profile,
 )
 from kinematics.odometry import integrate_wheel_rates
+from tests.kinematics.kin_helpers import (
+    DIFFERENTIAL,
+    HOLONOMIC,
+    LECTURE_PATH,
+    dense_trace,
+    distance_to_polyline,
+)
 
 STOP = TrajectoryOptions(continuous=False)
 CONTINUOUS = TrajectoryOptions(continuous=True)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import shapely
 from shapely import LineString, Polygon
+from shapely.geometry.base import BaseGeometry
 
 from planners.expansion import ConfigurationSpace
 
@@ -49,13 +50,13 @@ def reference_segment_free(cspace: ConfigurationSpace, a, b) -> bool:
     """
     if tuple(a) == tuple(b):
         return not cspace.contains_blocked(np.asarray(a))[0]
-    return not shapely.intersects(_eroded_blocked(cspace), LineString([a, b]))
+    return not _eroded_blocked(cspace).intersects(LineString([a, b]))
 
 
-_ERODED: dict[int, tuple[ConfigurationSpace, object]] = {}
+_ERODED: dict[int, tuple[ConfigurationSpace, BaseGeometry]] = {}
 
 
-def _eroded_blocked(cspace: ConfigurationSpace):
+def _eroded_blocked(cspace: ConfigurationSpace) -> BaseGeometry:
     """Blocked space shrunk by eps (cached per configuration space)."""
     key = id(cspace)
     if key not in _ERODED or _ERODED[key][0] is not cspace:

@@ -72,14 +72,14 @@ TOOLS = ("ours_vg", "ours_svg", "pyvisgraph", "extremitypathfinder")
 ONE_ENTRY_CACHES = ("_LAST_ALL_PAIRS",)
 
 
-def planner_caches() -> list[tuple[str, Callable[[], None]]]:
+def planner_caches() -> list[tuple[str, Callable[[], object]]]:
     """Every cache in the planners' modules: (name, function that clears it).
 
     The planners cache by value (expanded obstacles, configuration spaces, borders, the
     last all-pairs visibility), so a repeated run on the same scene would time a lookup.
     Collected by introspection, so a cache added later is cleared too.
     """
-    caches: list[tuple[str, Callable[[], None]]] = []
+    caches: list[tuple[str, Callable[[], object]]] = []
     for module_name, module in sorted(sys.modules.items()):
         if module is None or not (
             module_name == "planners" or module_name.startswith("planners.")
@@ -94,14 +94,14 @@ def planner_caches() -> list[tuple[str, Callable[[], None]]]:
     return caches
 
 
-def _resetter(module: Any, name: str) -> Callable[[], None]:
+def _resetter(module: Any, name: str) -> Callable[[], object]:
     def reset() -> None:
         setattr(module, name, None)
 
     return reset
 
 
-_CACHES: list[tuple[str, Callable[[], None]]] = []
+_CACHES: list[tuple[str, Callable[[], object]]] = []
 
 
 def clear_caches() -> None:
@@ -613,7 +613,7 @@ def profile_ours(
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """Parse the command line."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument(
         "--peers-python", help="interpreter with pyvisgraph and extremitypathfinder"
     )

@@ -202,7 +202,7 @@ def test_inside_an_obstacle_is_invalid_and_names_it(which):
         square(0, 0, 1, 1).exterior.coords[:-1],
         square(3, 0, 4, 1).exterior.coords[:-1],
     ]
-    points = {"start": (-1, -1), "goal": (5, 5)}
+    points: dict[str, tuple[float, float]] = {"start": (-1, -1), "goal": (5, 5)}
     points[which] = (3.5, 0.5)
     for result in plan(obstacles, points["start"], points["goal"]).values():
         if hasattr(result, "status"):
@@ -310,6 +310,7 @@ def test_pocket_with_an_inner_convex_vertex_is_kept_by_the_svg():
     assert vg.status == "ok"
     assert svg.length == pytest.approx(vg.length, abs=1e-12)
     hull = assume_valid.convex_hull
+    assert isinstance(hull, Polygon)
     inner_bends = [
         p for p in svg.path[1:-1] if hull.exterior.distance(shapely.Point(p)) > 1e-9
     ]

@@ -184,6 +184,20 @@ class _Border:
         return sectors
 
     @functools.cached_property
+    def wedge_angles(self) -> tuple[FloatArray, FloatArray, BoolArray]:
+        """Per vertex: where its blocked wedge starts [rad], its width, one ring only.
+
+        The wedge turns counter-clockwise from the direction of the next ring vertex;
+        the last array is False where rings touch (the wedge alone does not tell).
+        """
+        occ = self.first_occurrence
+        start = np.arctan2(self.occ_next[occ, 1], self.occ_next[occ, 0])
+        end = np.arctan2(self.occ_prev[occ, 1], self.occ_prev[occ, 0])
+        single = np.ones(len(self.points), dtype=bool)
+        single[self.occ_node[self.extra_occurrences]] = False
+        return start, (end - start) % (2.0 * np.pi), single
+
+    @functools.cached_property
     def convex_nodes(self) -> BoolArray:
         convex = np.zeros(len(self.points), dtype=bool)
         convex[self.occ_node[self.occ_convex]] = True
@@ -437,16 +451,14 @@ def _angular_chunks(
         last = np.searchsorted(
             sorted_key, (base + np.minimum(hi, two_pi)).ravel(), side="right"
         )
-        # Arcs that run past 2 pi continue from 0.
-        wraps = (hi > two_pi).ravel()
-        first2 = np.searchsorted(
-            sorted_key, np.broadcast_to(base, hi.shape).ravel(), side="left"
-        )
-        last2 = np.where(
-            wraps,
-            np.searchsorted(sorted_key, (base + hi - two_pi).ravel(), side="right"),
-            first2,
-        )
+        # Arcs that run past 2 pi continue from 0, that is from the start's first segment
+        # (segments are sorted by start, so start k's block begins at starts[k]).
+        wraps = np.flatnonzero((hi > two_pi).ravel())
+        first2 = np.repeat(starts[b0:b1], m)
+        last2 = first2.copy()
+        if len(wraps):
+            tail = (base + hi - two_pi).ravel()[wraps]
+            last2[wraps] = np.searchsorted(sorted_key, tail, side="right")
         side_p = (nx_ * px + ny_ * py - offset).ravel()  # (B * m,)
         for begin, end in ((first, last), (first2, last2)):
             count = np.maximum(end - begin, 0)
@@ -578,9 +590,20 @@ def _build_graph(q: _Query, i: IntArray, j: IntArray) -> nx.Graph:
 def _visible(
     cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray, j: IntArray
 ) -> BoolArray:
-    d = _unit(q.points[j] - q.points[i])
     # Cheap first: a segment that leaves a vertex straight into its obstacle is blocked.
-    ok = ~_into_blocked(border, q.node[i], d) & ~_into_blocked(border, q.node[j], -d)
+    # This only saves work (the exact test below decides), so it is done on angles and
+    # skips vertices where rings touch.
+    d = q.points[j] - q.points[i]
+    theta = np.arctan2(d[:, 1], d[:, 0])
+    ok = np.ones(len(i), dtype=bool)
+    start_angle, width, single = border.wedge_angles
+    for nodes, direction in ((q.node[i], theta), (q.node[j], theta + np.pi)):
+        if not len(single):  # no border at all
+            break
+        at = np.flatnonzero((nodes >= 0) & single[np.maximum(nodes, 0)])
+        k = nodes[at]
+        rel = (direction[at] - start_angle[k]) % (2.0 * np.pi)
+        ok[at[(rel > _ANGLE_TOL) & (rel < width[k] - _ANGLE_TOL)]] = False
     idx = np.flatnonzero(ok)
     ok[idx] = _segments_free(cspace, border, q.points[i[idx]], q.points[j[idx]])
     return ok

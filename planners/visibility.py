@@ -556,11 +556,16 @@ class _Query:
     goal: int
 
 
-def _query(border: _Border, start: FloatArray, goal: FloatArray, eps: float) -> _Query:
+def _query(
+    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
+) -> tuple[_Border, _Query]:
+    """Return the border and the graph nodes: its vertices plus start and goal."""
+    border = _border(cspace)
+    eps = cspace.eps
     points = border.points
     node = np.arange(len(points), dtype=np.intp)
     ends = []
-    for p in (start, goal):
+    for p in (np.asarray(start, dtype=np.float64), np.asarray(goal, dtype=np.float64)):
         hit = np.flatnonzero(np.hypot(*(points - p).T) <= eps) if len(points) else []
         if len(hit):
             ends.append(int(hit[0]))
@@ -570,7 +575,7 @@ def _query(border: _Border, start: FloatArray, goal: FloatArray, eps: float) -> 
             points = np.vstack([points, p[None, :]])
             node = np.append(node, -1)
             ends.append(len(points) - 1)
-    return _Query(points, node, ends[0], ends[1])
+    return border, _Query(points, node, ends[0], ends[1])
 
 
 def _build_graph(q: _Query, i: IntArray, j: IntArray) -> nx.Graph:
@@ -635,13 +640,7 @@ def visibility_graph(
     >>> g.number_of_nodes(), g.number_of_edges()
     (6, 8)
     """
-    border = _border(cspace)
-    q = _query(
-        border,
-        np.asarray(start, dtype=np.float64),
-        np.asarray(goal, dtype=np.float64),
-        cspace.eps,
-    )
+    border, q = _query(cspace, start, goal)
     i, j = np.triu_indices(len(q.points), 1)
     ok = _visible(cspace, border, q, i, j)
     global _LAST_ALL_PAIRS  # noqa: PLW0603 - a one-entry cache, keyed by value below
@@ -685,13 +684,7 @@ def simplified_visibility_graph(
     >>> g.number_of_nodes(), g.number_of_edges()
     (6, 8)
     """
-    border = _border(cspace)
-    q = _query(
-        border,
-        np.asarray(start, dtype=np.float64),
-        np.asarray(goal, dtype=np.float64),
-        cspace.eps,
-    )
+    border, q = _query(cspace, start, goal)
     # Index -1 (start, goal) reads the appended False.
     convex = np.append(border.convex_nodes, False)
     pinch = np.append(border.pinch_nodes, False)

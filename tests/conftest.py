@@ -10,9 +10,11 @@ import networkx as nx
 import numpy as np
 import pytest
 import shapely
+from hypothesis import strategies as st
 from shapely import LineString, Polygon
 from shapely.geometry.base import BaseGeometry
 
+from planners import load_scene
 from planners.expansion import ConfigurationSpace
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -91,6 +93,69 @@ def reference_shortest_length(cspace: ConfigurationSpace, start, goal) -> float 
         )
     except nx.NetworkXNoPath:
         return None
+
+
+@st.composite
+def random_scenes(draw, grid=False):
+    """A few random polygons (convex or star-shaped, or on a small grid), maybe walls."""
+    k = draw(st.integers(1, 4))
+    obstacles = []
+    for _ in range(k):
+        if grid:
+            # Small integer grid: collinear vertices, touching and shared corners abound.
+            x0, y0 = draw(st.integers(0, 6)), draw(st.integers(0, 6))
+            w, h = draw(st.integers(1, 3)), draw(st.integers(1, 3))
+            shape = draw(st.sampled_from(["rect", "tri", "L"]))
+            if shape == "rect":
+                pts = [(x0, y0), (x0 + w, y0), (x0 + w, y0 + h), (x0, y0 + h)]
+            elif shape == "tri":
+                pts = [(x0, y0), (x0 + w, y0), (x0, y0 + h)]
+            else:
+                pts = [
+                    (x0, y0),
+                    (x0 + w + 1, y0),
+                    (x0 + w + 1, y0 + 1),
+                    (x0 + 1, y0 + 1),
+                    (x0 + 1, y0 + h + 1),
+                    (x0, y0 + h + 1),
+                ]
+        else:
+            n = draw(st.integers(3, 7))
+            cx, cy = draw(st.floats(1, 9)), draw(st.floats(1, 9))
+            angles = np.linspace(0, 2 * math.pi, n, endpoint=False) + draw(
+                st.floats(0, 1)
+            )
+            radii = np.array(
+                draw(st.lists(st.floats(0.4, 2.0), min_size=n, max_size=n))
+            )
+            pts = list(
+                zip(
+                    cx + radii * np.cos(angles),
+                    cy + radii * np.sin(angles),
+                    strict=True,
+                )
+            )
+        obstacles.append(pts)
+    if grid:
+        radius = draw(st.sampled_from([0.0, 0.0, 0.5]))
+        pick = st.integers(-1, 10).map(float)
+    else:
+        radius = draw(st.sampled_from([0.0, 0.15, 0.4]))
+        pick = st.floats(-1, 11)
+    expansion = draw(st.sampled_from(["disk", "square"]))
+    boundary = [(-2, -2), (12, -2), (12, 12), (-2, 12)] if draw(st.booleans()) else None
+    start, goal = (draw(pick), draw(pick)), (draw(pick), draw(pick))
+    scene = load_scene(
+        scene_dict(
+            obstacles,
+            start,
+            goal,
+            radius=radius,
+            expansion=expansion,
+            boundary=boundary,
+        )
+    )
+    return scene
 
 
 @pytest.fixture(params=SCENARIOS, ids=[p.stem for p in SCENARIOS])

@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 import shapely
 from hypothesis import assume, given
-from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from shapely import Polygon
 
@@ -19,6 +18,7 @@ from planners.visibility import (
     visibility_graph,
 )
 from tests.conftest import (
+    random_scenes,
     reference_segment_free,
     reference_shortest_length,
     scene_dict,
@@ -351,69 +351,6 @@ def test_narrow_gap_scenario_disk_passes_square_blocks():
 
 
 # --------------------------------------------------------------------------- properties
-
-
-@st.composite
-def random_scenes(draw, grid=False):
-    """A few random polygons (convex or star-shaped), maybe walls, a free start and goal."""
-    k = draw(st.integers(1, 4))
-    obstacles = []
-    for _ in range(k):
-        if grid:
-            # Small integer grid: collinear vertices, touching and shared corners abound.
-            x0, y0 = draw(st.integers(0, 6)), draw(st.integers(0, 6))
-            w, h = draw(st.integers(1, 3)), draw(st.integers(1, 3))
-            shape = draw(st.sampled_from(["rect", "tri", "L"]))
-            if shape == "rect":
-                pts = [(x0, y0), (x0 + w, y0), (x0 + w, y0 + h), (x0, y0 + h)]
-            elif shape == "tri":
-                pts = [(x0, y0), (x0 + w, y0), (x0, y0 + h)]
-            else:
-                pts = [
-                    (x0, y0),
-                    (x0 + w + 1, y0),
-                    (x0 + w + 1, y0 + 1),
-                    (x0 + 1, y0 + 1),
-                    (x0 + 1, y0 + h + 1),
-                    (x0, y0 + h + 1),
-                ]
-        else:
-            n = draw(st.integers(3, 7))
-            cx, cy = draw(st.floats(1, 9)), draw(st.floats(1, 9))
-            angles = np.linspace(0, 2 * math.pi, n, endpoint=False) + draw(
-                st.floats(0, 1)
-            )
-            radii = np.array(
-                draw(st.lists(st.floats(0.4, 2.0), min_size=n, max_size=n))
-            )
-            pts = list(
-                zip(
-                    cx + radii * np.cos(angles),
-                    cy + radii * np.sin(angles),
-                    strict=True,
-                )
-            )
-        obstacles.append(pts)
-    if grid:
-        radius = draw(st.sampled_from([0.0, 0.0, 0.5]))
-        pick = st.integers(-1, 10).map(float)
-    else:
-        radius = draw(st.sampled_from([0.0, 0.15, 0.4]))
-        pick = st.floats(-1, 11)
-    expansion = draw(st.sampled_from(["disk", "square"]))
-    boundary = [(-2, -2), (12, -2), (12, 12), (-2, 12)] if draw(st.booleans()) else None
-    start, goal = (draw(pick), draw(pick)), (draw(pick), draw(pick))
-    scene = load_scene(
-        scene_dict(
-            obstacles,
-            start,
-            goal,
-            radius=radius,
-            expansion=expansion,
-            boundary=boundary,
-        )
-    )
-    return scene
 
 
 @contextlib.contextmanager

@@ -90,17 +90,19 @@ COLORS: dict[str, RGB] = {
 """Colour of each thing drawn, by role."""
 
 HEIGHTS: dict[str, float] = {
-    # 2 cm apart: at a few millimetres a tilted camera 15 m away cannot separate the
-    # layers in its depth buffer and the VG and SVG paths flicker against each other.
-    "expanded_fill": 0.01,
-    "expanded_edge": 0.02,
-    "vg_edges": 0.03,
-    "svg_edges": 0.04,
-    "vg_path": 0.05,
-    "svg_path": 0.07,
-    "dsb_path": 0.09,
-    "marker": 0.11,
-    "sensing": 0.13,
+    # The paths are 15-20 mm apart: at a few millimetres a tilted camera 15 m away cannot
+    # separate them in its depth buffer and they flicker as dashes (VG and SVG, which
+    # often coincide, get the widest gap). Every flat layer stays below the top of the
+    # robot's body (7.5 cm), so the robot is never hidden.
+    "expanded_fill": 0.004,
+    "expanded_edge": 0.008,
+    "vg_edges": 0.012,
+    "svg_edges": 0.016,
+    "vg_path": 0.02,
+    "svg_path": 0.04,
+    "dsb_path": 0.055,
+    "marker": 0.062,
+    "sensing": 0.068,
     "obstacle": 0.4,
     "wall": 0.3,
 }

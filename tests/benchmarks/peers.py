@@ -26,18 +26,18 @@ Scenes are the dicts of ``scenes.make_scene``: counter-clockwise obstacle rings,
 
 from __future__ import annotations
 
-import gc
 import importlib
 import itertools
 import json
 import math
 import sys
-import time
 import traceback
 import types
 import warnings
 from pathlib import Path
 from typing import Any
+
+from clock import Clock  # tests/benchmarks/clock.py, shared with run.py
 
 TOOLS = ("pyvisgraph", "extremitypathfinder")
 
@@ -56,21 +56,6 @@ def _install_tqdm_stub() -> None:
 
 def _path_length(points: list[tuple[float, float]]) -> float:
     return float(sum(math.dist(p, q) for p, q in itertools.pairwise(points)))
-
-
-class Clock:
-    """Wall-clock and CPU time (of this process) since creation, in ms."""
-
-    def __init__(self) -> None:
-        gc.collect()  # the same for every tool: no garbage left over from the last run
-        self.wall = time.perf_counter()
-        self.cpu = time.process_time()
-
-    def stop(self) -> tuple[float, float]:
-        """Return (wall ms, CPU ms) since creation."""
-        return (time.perf_counter() - self.wall) * 1e3, (
-            time.process_time() - self.cpu
-        ) * 1e3
 
 
 def _result(

@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import cProfile
 import dataclasses
-import gc
 import io
 import json
 import math
@@ -47,6 +46,7 @@ from typing import Any
 import numpy as np
 import scenes  # tests/benchmarks/scenes.py: sys.path[0] when run as a script
 import shapely
+from clock import Clock  # tests/benchmarks/clock.py, shared with peers.py
 
 import planners
 from planners.expansion import configuration_space
@@ -197,21 +197,6 @@ class Timing:
     def cpu_median(self) -> float | None:
         """Median CPU time over repeats, or None."""
         return statistics.median(self.cpu_ms) if self.cpu_ms else None
-
-
-class Clock:
-    """Wall-clock and CPU time (of this process) since creation, in ms."""
-
-    def __init__(self) -> None:
-        gc.collect()  # the same for every tool: no garbage left over from the last run
-        self.wall = time.perf_counter()
-        self.cpu = time.process_time()
-
-    def stop(self) -> tuple[float, float]:
-        """Return (wall ms, CPU ms) since creation."""
-        return (time.perf_counter() - self.wall) * 1e3, (
-            time.process_time() - self.cpu
-        ) * 1e3
 
 
 def run_ours(

@@ -112,7 +112,14 @@ def test_cli_and_python_give_the_same_picture_and_stop_everything(
     before = our_processes()
     out_py = tmp_path / "py.png"
     assert snapshot(NAME, out_py, width=640, height=400) == 0
-    assert np.array_equal(pixels(out_py), cli), "two runs gave different pictures"
+    # The same picture, up to the anti-aliasing of a few text pixels: the browser's text
+    # rendering varies by one level of 255 between runs (measured: 5 of 256,000 pixels
+    # in about 1 run of 3). Anything the planners draw differs by far more.
+    diff = np.abs(pixels(out_py).astype(int) - cli.astype(int)).max(axis=2)
+    assert diff.max() <= 2 and np.count_nonzero(diff) <= 50, (
+        f"two runs gave different pictures: {np.count_nonzero(diff)} pixels differ, "
+        f"by up to {diff.max()} levels"
+    )
 
     # Everything it started is gone: the browser, playwright's driver, the app's planner\n    # process and its server.
     left = our_processes() - before

@@ -641,27 +641,71 @@ def visibility_graph(
     (6, 8)
     """
     border, q = _query(cspace, start, goal)
-    i, j = np.triu_indices(len(q.points), 1)
+    i, j = np.nonzero(np.triu(_visibility(cspace, border, q), 1))
+    return _build_graph(q, i, j)
+
+
+@functools.lru_cache(maxsize=16)
+def _vertex_visibility(cspace: ConfigurationSpace) -> BoolArray:
+    """Which border vertices see each other: (n, n), symmetric, False on the diagonal.
+
+    It depends on the configuration space alone, so while the start or the goal is
+    dragged it is computed once, and each query only adds its start's and goal's rows.
+    Visibility is a function of the two points (the exact segment test decides), so the
+    rows of a vertex the start or goal sits on hold for them too.
+    """
+    border = _border(cspace)
+    n = len(border.points)
+    q = _Query(border.points, np.arange(n, dtype=np.intp), -1, -1)
+    i, j = np.triu_indices(n, 1)
     ok = _visible(cspace, border, q, i, j)
-    global _LAST_ALL_PAIRS  # noqa: PLW0603 - a one-entry cache, keyed by value below
-    _LAST_ALL_PAIRS = (cspace, q.points.tobytes(), ok)
-    return _build_graph(q, i[ok], j[ok])
+    vis = np.zeros((n, n), dtype=bool)
+    vis[i[ok], j[ok]] = True
+    vis |= vis.T
+    vis.setflags(write=False)
+    return vis
 
 
-# The last all-pairs visibility the full VG computed: when the SVG of the same scene is
-# asked for next (as plan_all does), it reads visibility from here instead of testing
-# its candidate segments again. Keyed by the configuration space and the node array.
-_LAST_ALL_PAIRS: tuple[ConfigurationSpace, bytes, BoolArray] | None = None
+def _visibility(cspace: ConfigurationSpace, border: _Border, q: _Query) -> BoolArray:
+    """Which of the query's nodes (border vertices, then start and goal) see each other.
+
+    Returns the (N, N) symmetric matrix; it is kept for the SVG of the same query.
+    """
+    global _LAST_VISIBILITY  # noqa: PLW0603 - a one-entry cache, keyed by value below
+    key = q.points.tobytes()
+    last = _LAST_VISIBILITY
+    if last is not None and last[0] is cspace and last[1] == key:
+        return last[2]
+    base = _vertex_visibility(cspace)
+    n, total = len(base), len(q.points)
+    vis = np.zeros((total, total), dtype=bool)
+    vis[:n, :n] = base
+    if total > n:
+        # The new nodes' rows: each against every node before it.
+        new = np.arange(n, total)
+        i = np.concatenate([np.arange(a) for a in new.tolist()])
+        j = np.repeat(new, new)
+        ok = _visible(cspace, border, q, i, j)
+        vis[i[ok], j[ok]] = True
+        vis[j[ok], i[ok]] = True
+    vis.setflags(write=False)
+    _LAST_VISIBILITY = (cspace, key, vis)
+    return vis
+
+
+# The last query's visibility matrix: the SVG of the same scene (asked for right after the
+# VG, as plan_all does) reads it instead of testing its candidate segments again. Keyed
+# by the configuration space and the node array.
+_LAST_VISIBILITY: tuple[ConfigurationSpace, bytes, BoolArray] | None = None
 
 
 def _known_visibility(
     cspace: ConfigurationSpace, q: _Query, i: IntArray, j: IntArray
 ) -> BoolArray | None:
-    last = _LAST_ALL_PAIRS
+    last = _LAST_VISIBILITY
     if last is None or last[0] is not cspace or last[1] != q.points.tobytes():
         return None
-    n = len(q.points)
-    return last[2][i * n - i * (i + 1) // 2 + (j - i - 1)]
+    return last[2][i, j]
 
 
 def simplified_visibility_graph(

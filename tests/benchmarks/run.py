@@ -69,14 +69,14 @@ TOOLS = ("ours_vg", "ours_svg", "pyvisgraph", "extremitypathfinder")
 
 # Module-level one-entry caches of the planners (not functools caches) that let a later
 # call reuse an earlier call's work; reset to None so that each timed run starts cold.
-ONE_ENTRY_CACHES = ("_LAST_ALL_PAIRS",)
+ONE_ENTRY_CACHES = ("_LAST_VISIBILITY", "_LAST_NEAR")
 
 
 def planner_caches() -> list[tuple[str, Callable[[], object]]]:
     """Every cache in the planners' modules: (name, function that clears it).
 
     The planners cache by value (expanded obstacles, configuration spaces, borders, the
-    last all-pairs visibility), so a repeated run on the same scene would time a lookup.
+    last visibility matrix), so a repeated run on the same scene would time a lookup.
     Collected by introspection, so a cache added later is cleared too.
     """
     caches: list[tuple[str, Callable[[], object]]] = []

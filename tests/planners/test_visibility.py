@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import shapely
 from hypothesis import assume, given
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from shapely import Polygon
 
@@ -355,13 +356,24 @@ def test_narrow_gap_scenario_disk_passes_square_blocks():
 
 @contextlib.contextmanager
 def candidate_search(kind):
-    """Force how segment/edge candidates are found: small scenes use the dense box test."""
+    """Force how segment/edge candidates are found: small scenes use the dense box test.
+
+    The visibility caches are emptied on the way in and out, so that the forced search
+    really runs (and its answers are not kept for other tests).
+    """
     saved = visibility._DENSE_LIMIT
+    forget_visibility()
     visibility._DENSE_LIMIT = {"dense": 10**12, "sweep": 0}[kind]
     try:
         yield
     finally:
         visibility._DENSE_LIMIT = saved
+        forget_visibility()
+
+
+def forget_visibility():
+    visibility._vertex_visibility.cache_clear()
+    visibility._LAST_VISIBILITY = None
 
 
 def _edge_set(graph):
@@ -423,6 +435,36 @@ def test_vg_has_exactly_the_reference_edges_on_grid_scenes(scene):
     for i, a in enumerate(nodes):
         for b in nodes[i + 1 :]:
             assert graph.has_edge(a, b) == reference_segment_free(space, a, b), (a, b)
+
+
+@given(scene=random_scenes(grid=True), picks=st.data())
+def test_later_queries_in_the_same_space_reuse_the_vertex_visibility_exactly(
+    scene, picks
+):
+    """While the start or goal is dragged, only their rows are tested again: still exact."""
+    scene = dataclasses.replace(
+        scene, robot=dataclasses.replace(scene.robot, radius=0.0)
+    )
+    plans = plan_all(scene)  # fills the cache of vertex-to-vertex visibility
+    assume(plans["vg"].status != "invalid")
+    space = plans["cspace"]
+    vertices = [tuple(p) for p in visibility._border(space).points.tolist()]
+    grid = [(x, y) for x in range(-1, 11) for y in range(-1, 11)]
+    grid = [p for p, b in zip(grid, space.contains_blocked(grid), strict=True) if not b]
+    for _ in range(3):
+        # A start or goal on a border vertex, on a free grid point, or where it was.
+        start = picks.draw(st.sampled_from([scene.start, *vertices, *grid]))
+        goal = picks.draw(st.sampled_from([scene.goal, *vertices, *grid]))
+        graph = visibility_graph(space, start, goal)
+        svg = simplified_visibility_graph(space, start, goal)
+        nodes = list(graph.nodes)
+        for i, a in enumerate(nodes):
+            for b in nodes[i + 1 :]:
+                assert graph.has_edge(a, b) == reference_segment_free(space, a, b)
+        forget_visibility()
+        assert _edge_set(svg) == _edge_set(
+            simplified_visibility_graph(space, start, goal)
+        )
 
 
 def test_hole_touching_the_outer_ring_at_a_vertex():

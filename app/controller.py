@@ -111,7 +111,9 @@ _CLOSE_POLYGON_M = 0.25
 _PICK_VERTEX_M = 0.3
 _PICK_EDGE_M = 0.2
 _BLOCK_SIZE_M = 1.0
-# The slow lane starts on a new scene once the fast lane has drawn it, or after this [s].
+# A slow lane in a thread of this process (planners that cannot be sent to a worker
+# process) shares the interpreter lock with the fast lane: it starts on a new scene once
+# the fast lane has drawn it, or after this [s]. A worker process starts at once.
 _SLOW_LANE_YIELD_S = 0.03
 
 
@@ -243,19 +245,50 @@ def default_plan(scene: Scene, which: Iterable[str] | None = None) -> dict[str, 
     return results
 
 
-def _may_lag(fast: Mapping[str, Any], shown: Scene, current: Scene) -> bool:
-    """Whether a slow result for ``shown`` may stand in for ``current`` while it computes.
+def _outcome(status: str | None) -> str | None:
+    """Say what a status tells of the goal: reached ("path"), cut off ("none"), or neither."""
+    if status in ("ok", "reached"):
+        return "path"
+    if status == "unreachable":
+        return "none"
+    return None
+
+
+def _may_lag(
+    fast: Mapping[str, Any], shown: Scene, current: Scene, result: Any
+) -> bool:
+    """Whether a slow ``result`` for ``shown`` may stand in for ``current`` while it computes.
 
     Only during an edit of the same setting (same walls and number of obstacles, so not
-    a new scenario) and only while every fast planner finds a path: when the scene is
-    invalid or the goal is cut off, the slow planner shows no path rather than an old one.
+    a new scenario), and only when it tells the same story as the fast planners do for
+    the current scene: a path when they find one, "unreachable" when the goal is cut
+    off. When the scene is invalid, or the goal was just cut off (or freed), the slow
+    planner shows no path rather than an old one that would contradict the others.
     """
     if shown.boundary != current.boundary or len(shown.obstacles) != len(
         current.obstacles
     ):
         return False
-    statuses = [getattr(r, "status", None) for n, r in fast.items() if n != "cspace"]
-    return bool(statuses) and all(status == "ok" for status in statuses)
+    outcomes = {
+        _outcome(getattr(r, "status", None)) for n, r in fast.items() if n != "cspace"
+    }
+    return (
+        len(outcomes) == 1
+        and None not in outcomes
+        and outcomes == {_outcome(getattr(result, "status", None))}
+    )
+
+
+def _invalid_reason(fast: Mapping[str, Any]) -> str | None:
+    """Return why the scene cannot be planned at all, if the fast planners found a reason.
+
+    Such a verdict (start or goal inside an obstacle, a self-intersecting polygon) is the
+    same for every planner, so the slow planners need not be waited for.
+    """
+    for name, result in fast.items():
+        if name != "cspace" and getattr(result, "status", None) == "invalid":
+            return str(getattr(result, "reason", None) or "the scene is not valid")
+    return None
 
 
 def split_planners(names: Iterable[str]) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -1079,14 +1112,22 @@ class Controller:
         slow_version, slow_scene, slow = slow_results
         plans = dict(fast)
         lagging: set[str] = set()
-        show_older = slow_scene is not None and _may_lag(fast, slow_scene, scene)
+        invalid = _invalid_reason(fast)
         shown_slow = -1
         for name in self._slow_names:
             if name in slow and slow_version == version:
                 plans[name] = slow[name]
                 shown_slow = slow_version
-            elif name in slow and show_older:
-                # During a drag the slow planner (~30-100 ms) falls behind the mouse:
+            elif invalid is not None:
+                # Not plannable: every planner gives this answer, no need to wait for it.
+                plans[name] = planners.InvalidResult(name, invalid)
+                shown_slow = version
+            elif (
+                name in slow
+                and slow_scene is not None
+                and _may_lag(fast, slow_scene, scene, slow[name])
+            ):
+                # During a drag the slow planner (~20-50 ms) falls behind the mouse:
                 # show its newest result, marked as lagging, rather than nothing.
                 plans[name] = slow[name]
                 lagging.add(name)
@@ -1150,10 +1191,12 @@ class Controller:
             with self._wake:
                 while not self._closed and self._slow_tried == self._version:
                     self._wake.wait()
-                # Let the fast lane draw the newest scene first (on 2 cores the two
-                # lanes slow each other down), but never wait more than a moment, so
-                # that during a drag the slow result keeps coming.
-                deadline = time.monotonic() + _SLOW_LANE_YIELD_S
+                # In a thread, let the fast lane draw the newest scene first (the two
+                # would take turns with the interpreter lock), but never wait more than
+                # a moment, so that during a drag the slow result keeps coming. A worker
+                # process runs on the other core next to the fast lane: no waiting.
+                yield_s = 0.0 if self._lane is not None else _SLOW_LANE_YIELD_S
+                deadline = time.monotonic() + yield_s
                 while (
                     not self._closed
                     and self._rendered[0] < self._version

@@ -11,7 +11,7 @@ Pure functions on plain data: no viser, no drawing, no clocks inside the algorit
 from __future__ import annotations
 
 from planners import api, expansion, scene, sensor, tangent_bug, visibility
-from planners.api import PLANNERS, PlanOptions, plan_all, result_to_json
+from planners.api import PLANNERS, InvalidResult, PlanOptions, plan_all, result_to_json
 from planners.expansion import (
     ConfigurationSpace,
     configuration_space,
@@ -51,6 +51,7 @@ __all__ = [
     "BugState",
     "BugTrace",
     "ConfigurationSpace",
+    "InvalidResult",
     "PlanOptions",
     "Robot",
     "ScenarioError",

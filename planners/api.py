@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["PLANNERS", "PlanOptions", "plan_all", "result_to_json"]
+__all__ = ["PLANNERS", "InvalidResult", "PlanOptions", "plan_all", "result_to_json"]
 
 import dataclasses
 import math

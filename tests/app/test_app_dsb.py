@@ -126,14 +126,59 @@ def test_a_lagging_slow_result_is_shown_during_a_drag_but_not_after_a_bad_edit(s
         frame = view.last
         assert "dsb" in frame.lagging and frame.plans["dsb"].goal == scene.goal
         assert "updating" in results_markdown(frame.plans, frame.lagging)
-        # The goal dragged into an obstacle: no DSB path at all, not the old one.
+        # The goal dragged into an obstacle: no DSB path at all, not the old one, and
+        # the reason at once (it is the same for every planner).
         controller.move_goal((3.0, 3.0))
         assert wait_for(lambda: view.last.version == controller.version)
-        assert isinstance(view.last.plans["dsb"], Pending) and not view.last.lagging
+        dsb = view.last.plans["dsb"]
+        assert dsb.status == "invalid" and len(dsb.path) == 0 and not view.last.lagging
+        assert dsb.reason == view.last.plans["vg"].reason
+        assert "inside obstacle" in dsb.reason
         release.set()
         assert controller.wait_idle(10)
         final = view.last.plans["dsb"]
         assert isinstance(final, FakeTrace) and final.goal == (3.0, 3.0)
+        assert not view.last.lagging
+    finally:
+        release.set()
+        controller.close()
+
+
+def test_a_lagging_result_must_tell_the_same_story_as_the_fast_planners():
+    """Dragging an enclosed goal: the last "unreachable" walk stands in, a "reached" never."""
+    scene = planners.load_scene(SCENARIO_DIR / "07_goal_enclosed.json")
+    release = threading.Event()
+    calls: list[tuple[float, float]] = []
+    inside = (6.5, 4.0)  # enclosed: VG says unreachable
+
+    def slow(s):
+        calls.append(s.goal)
+        if len(calls) > 1:
+            release.wait(10)
+        status = (
+            "unreachable" if s.goal[0] > 5.5 and 3.5 < s.goal[1] < 4.5 else "reached"
+        )
+        return {"dsb": FakeTrace(s.goal, np.array([s.start, s.goal]), status)}
+
+    controller, view = make(scene, slow_plan=slow)
+    try:
+        assert controller.wait_idle(10)
+        assert view.last.plans["dsb"].status == "unreachable"
+        # Within the enclosure: the old "unreachable" walk is shown, marked as updating.
+        controller.move_goal((inside[0] + 0.2, inside[1]))
+        assert wait_for(lambda: view.last.version == controller.version)
+        assert view.last.plans["vg"].status == "unreachable"
+        assert "dsb" in view.last.lagging
+        assert view.last.plans["dsb"].status == "unreachable"
+        # Out of the enclosure: VG finds a path, so the old walk would contradict it.
+        controller.move_goal((2.0, 7.0))
+        assert wait_for(lambda: view.last.version == controller.version)
+        assert view.last.plans["vg"].status == "ok"
+        assert isinstance(view.last.plans["dsb"], Pending) and not view.last.lagging
+        release.set()
+        assert controller.wait_idle(10)
+        final = view.last.plans["dsb"]
+        assert isinstance(final, FakeTrace) and final.goal == (2.0, 7.0)
         assert not view.last.lagging
     finally:
         release.set()

@@ -54,7 +54,9 @@ scenarios, stops a run that would not end and says so (status ``"unreachable"``,
 Stepping is event-driven: the robot moves straight until the next point where its
 decision can change (the obstacle ahead coming into range, arriving at O_i, the closest
 approach to the goal) or at most a fraction of R; where the decision changes within a
-move, a bisection on the sensor locates the switch point. Where two choices are equally
+move, a bisection on the sensor locates the switch point (its first probes are where the
+chosen range point would turn into a corner, the most common switch, which is then
+found exactly rather than to a bisection step). Where two choices are equally
 good the continuous algorithm would chatter between them; the robot then moves like a
 sliding mode, along the combination of both headings that keeps them equal. A run is
 :func:`run`, a loop over the pure :func:`step`; it returns a :class:`BugTrace` that the
@@ -132,7 +134,7 @@ class BugParams:
     """Longest straight move between two sensor readings, as a fraction of R."""
     refine: int = 7
     """Bisection iterations that locate where a decision changes within a step (to
-    within 1/128 of the step)."""
+    within 1/128 of the step; exactly where a range point turns into a corner)."""
     max_steps: int | None = None
     """Hard cap on steps; None derives a generous one from the scene's size."""
 
@@ -719,10 +721,26 @@ def _seek_step(ctx: _Context, state: BugState) -> BugState:
     nxt = _decide(ctx, y, dec.key)
     if nxt.key != dec.key:
         # The decision changes within this move: find where (bisection on the sensor).
-        before = s - max(100.0 * ctx.tol, 1e-6 * s)
+        gap = max(100.0 * ctx.tol, 1e-6 * s)
+        before = s - gap
         if before > 0 and _decide(ctx, x + before * w, dec.key).key != dec.key:
             lo, hi, at_hi = 0.0, before, None
-            for _ in range(ctx.refine):
+            # Most often the chosen range point turns into the corner that ends its
+            # border as that corner enters the sensing disk: look there first.
+            guess = _corner_in_range(ctx, x, w, dec, before)
+            if guess is not None and lo < guess - gap and guess + gap < hi:
+                d_lo = _decide(ctx, x + (guess - gap) * w, dec.key)
+                if d_lo.key != dec.key:
+                    hi, at_hi = guess - gap, d_lo
+                else:
+                    lo = guess - gap
+                    d_hi = _decide(ctx, x + (guess + gap) * w, dec.key)
+                    if d_hi.key != dec.key:
+                        hi, at_hi = guess + gap, d_hi
+                    else:
+                        lo = guess + gap
+            resolution = before / 2.0**ctx.refine
+            while hi - lo > resolution:
                 mid = 0.5 * (lo + hi)
                 d_mid = _decide(ctx, x + mid * w, dec.key)
                 if d_mid.key == dec.key:
@@ -733,6 +751,54 @@ def _seek_step(ctx: _Context, state: BugState) -> BugState:
             nxt = at_hi if at_hi is not None else _decide(ctx, y, dec.key)
     out = _moved(base, (Move(SEEK, np.array([x, y]), _pt(dec.target)),), tuple(events))
     return dataclasses.replace(out, cache=nxt, heading=_pt(w))
+
+
+def _corner_in_range(
+    ctx: _Context, x: FloatArray, w: FloatArray, dec: _Seek, limit: float
+) -> float | None:
+    """Where, moving from ``x`` along ``w``, the chosen range point becomes a corner.
+
+    The range point slides along the border, away from the piece in view, as the robot
+    advances. It turns into an occluding corner (another O_i) when the first vertex
+    beyond it after which the border turns away from the robot comes within R. Returns
+    the distance along ``w`` at which that happens, or None (not a range point, or not
+    before ``limit``). It is only a first guess for the search: the sensor decides.
+    """
+    seen = dec.sensing
+    if seen is None or dec.index < 0 or seen.kinds[dec.index] != RANGE:
+        return None
+    geo = ctx.geo
+    e, follow = int(seen.edge[dec.index]), int(seen.follow[dec.index])
+    ring = int(geo.ring[e])
+    local = e - int(geo.offset[ring])
+    radius2 = ctx.radius * ctx.radius
+    for _ in range(int(geo.offset[ring + 1] - geo.offset[ring])):
+        # The vertex at the far end of edge e (in the direction of travel along the ring)
+        # and the edge after it.
+        if follow > 0:
+            corner = geo.end[e]
+            local += 1
+        else:
+            corner = geo.start[e]
+            local -= 1
+        after = geo.edge_index(ring, local)
+        rel = x - corner
+        b = float(np.dot(w, rel))
+        c = float(np.dot(rel, rel)) - radius2
+        disc = b * b - c
+        if disc < 0:
+            return None  # never comes within R on this line
+        t = -b - math.sqrt(disc)
+        if t > limit:
+            return None
+        p = x + max(t, 0.0) * w
+        a = geo.start[after] - p
+        d = geo.step[after]
+        faces = a[0] * d[1] - a[1] * d[0] < -geo.eps * float(geo.length[after])
+        if not faces:
+            return t if t > 0 else None
+        e = after
+    return None
 
 
 def _seek_move(ctx: _Context, x: FloatArray, dec: _Seek) -> tuple[FloatArray, float]:

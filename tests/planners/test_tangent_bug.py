@@ -104,6 +104,21 @@ def test_heads_for_the_discontinuity_point_of_least_heuristic_distance():
     assert trace.path[1].tolist() == [0.0, 0.0]
 
 
+@pytest.mark.parametrize("goal", [(3.0, 0.5), (3.0, 0.1), (3.0, 0.9)])
+def test_range_point_turns_into_a_corner_where_the_corner_enters_the_disk(goal):
+    # Heading for where the side x = 0 leaves the sensing disk (R = 1.2), the robot
+    # switches to the corner when the corner comes within R; that switch is located
+    # exactly (to ~1e-6), not one bisection step (step / 128 = 5 mm) later.
+    trace, plans = plan([box(0, 0, 1, 1)], (-3, 0.5), goal, 1.2)
+    assert trace.status == "reached" and labels(trace) == ["H1", "D1"]
+    corner = (0.0, 0.0) if goal[1] < 0.5 else (0.0, 1.0)
+    switch = trace.path[2]
+    assert trace.aims[2] == corner
+    assert math.dist(switch, corner) == pytest.approx(1.2, abs=1e-5)
+    assert math.dist(switch, corner) <= 1.2
+    assert_valid(trace, plans)
+
+
 # --------------------------------------------------------------------------- local minima
 
 

@@ -697,6 +697,11 @@ class PlannerView:
             show_edges = layers.get(f"{name}_edges", True) and getattr(
                 result, "status", ""
             ) in ("ok", "unreachable")
+            show_path = layers.get(f"{name}_path", True)
+            # The same result object drawn the same way: nothing to send (the frame
+            # that brings the DSB result leaves VG and SVG as they are).
+            if not self._changed(name, (result, show_edges, show_path)):
+                continue
             edges.set(
                 graph_to_segments(graph, HEIGHTS[f"{name}_edges"])
                 if show_edges
@@ -704,7 +709,6 @@ class PlannerView:
                 show_edges,
             )
             path_xy = getattr(result, "path", None)
-            show_path = layers.get(f"{name}_path", True)
             path.set(
                 path_to_segments(path_xy, HEIGHTS[f"{name}_path"])
                 if show_path
@@ -720,6 +724,8 @@ class PlannerView:
     def _render_dsb(self, frame: Frame) -> None:
         result = frame.plans.get("dsb")
         show = frame.layers.get("dsb_path", True) and result is not None
+        if not self._changed("dsb", (result, show)):
+            return
         path = np.asarray(
             getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
         ).reshape(-1, 2)
@@ -756,6 +762,9 @@ class PlannerView:
 
     def _render_handles(self, frame: Frame) -> None:
         scene = frame.scene
+        key = (scene.start, scene.goal, scene.obstacles, frame.tool, frame.dragging)
+        if not self._changed("handles", key):
+            return
         for name, xy in (("start", scene.start), ("goal", scene.goal)):
             if (name,) not in frame.dragging:
                 self.handles[name].position = (xy[0], xy[1], 0.0)
@@ -842,6 +851,9 @@ class PlannerView:
             self._render_robot(pose)
 
     def _render_robot(self, pose: RobotPose | None) -> None:
+        flags = (self._last.get("robot_layer", True), self._last.get("sensing_layer"))
+        if not self._changed("robot_pose", (pose, flags, self._robot_key)):
+            return  # a redraw of the scene that left the robot where it was
         visible = pose is not None and self._last.get("robot_layer", True)
         if pose is None or not visible:
             self.robot.visible = False

@@ -23,3 +23,37 @@ class Clock:
         return (time.perf_counter() - self.wall) * 1e3, (
             time.process_time() - self.cpu
         ) * 1e3
+
+
+class StealMeter:
+    """Share of this machine's CPU time the hypervisor gave to others since creation.
+
+    On a virtual machine whose host is busy, the guest's CPUs stand still for a while
+    now and then ("steal" time in /proc/stat); every wall-clock latency measured then is
+    longer than the code's. Benchmarks print it next to their percentiles. None where
+    /proc/stat is not available.
+    """
+
+    def __init__(self) -> None:
+        self.start = _cpu_times()
+
+    def stop(self) -> float | None:
+        """Return steal / all CPU time since creation, as a fraction (or None)."""
+        end = _cpu_times()
+        if self.start is None or end is None:
+            return None
+        total = sum(end) - sum(self.start)
+        if total <= 0:
+            return 0.0
+        return (end[7] - self.start[7]) / total
+
+
+def _cpu_times() -> list[int] | None:
+    try:
+        with open("/proc/stat", encoding="ascii") as stat:
+            fields = stat.readline().split()
+    except OSError:
+        return None
+    if not fields or fields[0] != "cpu" or len(fields) < 9:
+        return None
+    return [int(v) for v in fields[1:9]]

@@ -310,35 +310,41 @@ class Panels:
         """Show ``frame``'s results, messages and settings."""
         scene = frame.scene
         title = scene.name or "Untitled scene"
-        self.title.content = f"### {title}"
-        self.description.content = scene.description or ""
-        self.status.content = status_markdown(frame)
-        self.results.content = results_markdown(frame.plans, frame.lagging)
+        _set(self.title, "content", f"### {title}")
+        _set(self.description, "content", scene.description or "")
+        _set(self.status, "content", status_markdown(frame))
+        _set(self.results, "content", results_markdown(frame.plans, frame.lagging))
 
         # Settings are pushed only from the newest frame: while a slider is being dragged
         # the frames lag behind it, and pushing an older value would make it jump back.
         if frame.version >= self._latest_version():
             if frame.scenario in self._scenario_titles:
-                self.scenario.value = frame.scenario
-            self.kind.value = scene.robot.kind
-            self.radius.value = round(scene.robot.radius, 2)
-            self.wheel_radius.value = scene.robot.wheel_radius
-            self.wheel_distance.value = scene.robot.wheel_distance
-            self.expansion.value = scene.expansion
-            self.sensor_range.value = round(min(max(scene.sensor_range, 0.2), 15.0), 1)
-        self.tool.value = TOOLS[frame.tool]
+                _set(self.scenario, "value", frame.scenario)
+            _set(self.kind, "value", scene.robot.kind)
+            _set(self.radius, "value", round(scene.robot.radius, 2))
+            _set(self.wheel_radius, "value", scene.robot.wheel_radius)
+            _set(self.wheel_distance, "value", scene.robot.wheel_distance)
+            _set(self.expansion, "value", scene.expansion)
+            _set(
+                self.sensor_range,
+                "value",
+                round(min(max(scene.sensor_range, 0.2), 15.0), 1),
+            )
+        _set(self.tool, "value", TOOLS[frame.tool])
         for key, box in self.layers.items():
-            box.value = bool(frame.layers.get(key, True))
+            _set(box, "value", bool(frame.layers.get(key, True)))
         for name, key in self._follow_keys.items():
             if key == frame.follow:
-                self.follow.value = name
-        self.selection.content = (
+                _set(self.follow, "value", name)
+        _set(
+            self.selection,
+            "content",
             f"Selected: **{frame.selection.describe()}**"
             if frame.selection is not None
-            else "*Nothing selected.*"
+            else "*Nothing selected.*",
         )
-        self.polygon_buttons.visible = frame.tool == "polygon"
-        self.edit_buttons.visible = frame.tool == "edit"
+        _set(self.polygon_buttons, "visible", frame.tool == "polygon")
+        _set(self.edit_buttons, "visible", frame.tool == "edit")
         self._render_plot(frame)
 
     def _render_plot(self, frame: Frame) -> None:
@@ -383,6 +389,16 @@ class Panels:
         if text != self._last_robot_text:
             self._last_robot_text = text
             self.rates.content = text
+
+
+def _set(handle: Any, name: str, value: Any) -> None:
+    """Assign a GUI property only when it changes.
+
+    viser skips an unchanged value too, but only after casting it; a redraw during a drag
+    assigns some thirty properties, and the casts cost more than the rest of the panel.
+    """
+    if getattr(handle, name) != value:
+        setattr(handle, name, value)
 
 
 def status_markdown(frame: Frame) -> str:

@@ -404,6 +404,7 @@ class _Labels:
         self.scale = scale
         self.anchor = anchor
         self.handles: list[viser.LabelHandle] = []
+        self.shown: dict[int, tuple[str | None, tuple[float, ...] | None, bool]] = {}
 
     def set(
         self, items: Sequence[tuple[str, npt.ArrayLike]], visible: bool = True
@@ -421,11 +422,27 @@ class _Labels:
         for k, handle in enumerate(self.handles):
             if k < len(items) and visible:
                 text, position = items[k]
-                handle.text = text
-                handle.position = tuple(float(v) for v in position)  # type: ignore[assignment]
-                handle.visible = True
+                xyz = tuple(float(v) for v in np.asarray(position, dtype=np.float64))
+                state: tuple[str | None, tuple[float, ...] | None, bool] = (
+                    text,
+                    xyz,
+                    True,
+                )
             else:
-                handle.visible = False
+                text, xyz, state = "", (), (None, None, False)
+            if self.shown.get(k) == state:
+                continue  # only this pool writes its labels: nothing to send
+            self.shown[k] = state
+            if state[2]:
+                handle.text = text
+                handle.position = xyz  # type: ignore[assignment]
+            handle.visible = state[2]
+
+
+def _place(node: Any, position: tuple[float, float, float]) -> None:
+    """Move a scene node (a gizmo) only when it moves: most stay put during an edit."""
+    if tuple(float(v) for v in node.position) != tuple(float(v) for v in position):
+        node.position = position
 
 
 HandleCallback = Callable[[Handle, tuple[float, float], str], None]
@@ -790,14 +807,14 @@ class PlannerView:
             self.vertex_handles.append(gizmo)
         self.vertex_slots = slots
         for k, gizmo in enumerate(self.vertex_handles):
-            if k < len(slots) and editing:
+            shown = k < len(slots) and editing
+            if shown:
                 i, j = slots[k]
                 if ("vertex", i, j) not in frame.dragging:
                     x, y = scene.obstacles[i].exterior.coords[j]
-                    gizmo.position = (x, y, top)
-                gizmo.visible = True
-            else:
-                gizmo.visible = False
+                    _place(gizmo, (x, y, top))
+            if gizmo.visible != shown:
+                gizmo.visible = shown
         n = len(scene.obstacles)
         while len(self.obstacle_handles) < n:
             k = len(self.obstacle_handles)
@@ -812,13 +829,11 @@ class PlannerView:
             gizmo.on_update(self._obstacle_callback(k))
             self.obstacle_handles.append(gizmo)
         for k, gizmo in enumerate(self.obstacle_handles):
-            if k < n and editing:
-                if ("obstacle", k) not in frame.dragging:
-                    c = _label_point(scene.obstacles[k], top + 0.01)
-                    gizmo.position = c
-                gizmo.visible = True
-            else:
-                gizmo.visible = False
+            shown = k < n and editing
+            if shown and ("obstacle", k) not in frame.dragging:
+                _place(gizmo, _label_point(scene.obstacles[k], top + 0.01))
+            if gizmo.visible != shown:
+                gizmo.visible = shown
 
     def _render_selection(self, frame: Frame) -> None:
         scene = frame.scene

@@ -73,7 +73,10 @@ PlanFn = Callable[[Scene], Mapping[str, Any]]
 """Scene -> planner name -> result (plus ``"cspace"``), like :func:`planners.plan_all`."""
 
 TrajectoryFn = Callable[[Scene, npt.NDArray[np.float64]], Any]
-"""(scene, path (N, 2)) -> a timed trajectory object, or None when there is none."""
+"""(scene, path (N, 2)) -> a timed trajectory object, or None when there is none.
+
+It may depend on the scene's robot and the path only: the controller keeps the trajectory
+while both stay the same."""
 
 SampleFn = Callable[[Any, float, Scene, Any], Mapping[str, Any]]
 """(trajectory, t [s], scene, planner result followed) -> RobotPose fields (xy, phi, ...)."""
@@ -459,6 +462,8 @@ class Controller:
         # Results.
         self._computed: tuple[int, Scene, Mapping[str, Any], float] | None = None
         self._computed_trajectory: tuple[Any, Any] = (None, None)  # (key, trajectory)
+        # What that trajectory was computed from: (planner, robot, path bytes).
+        self._trajectory_value: tuple[Any, ...] | None = None
         # Newest slow results: (version, scene, results).
         self._slow: tuple[int, Scene | None, Mapping[str, Any]] = (-1, None, {})
         self._slow_tried = -1  # newest version the slow lane has started on
@@ -1171,17 +1176,25 @@ class Controller:
             and cached_key[2] is result
         ):
             return cached
-        trajectory = None
         path = np.asarray(
             getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
         ).reshape(-1, 2)
-        if self._trajectory_fn is not None and len(path) >= 2:
-            try:
-                trajectory = self._trajectory_fn(scene, path)
-            except Exception:
-                logger.exception("trajectory failed")
+        # The trajectory depends on the robot and the path alone: an edit that leaves
+        # the path as it was (a vertex dragged off the path) keeps it, and the robot
+        # keeps its place in it.
+        value = (follow, scene.robot, path.tobytes())
+        if value == self._trajectory_value and cached is not None:
+            trajectory = cached
+        else:
+            trajectory = None
+            if self._trajectory_fn is not None and len(path) >= 2:
+                try:
+                    trajectory = self._trajectory_fn(scene, path)
+                except Exception:
+                    logger.exception("trajectory failed")
         with self._wake:
             self._computed_trajectory = (key, trajectory)
+            self._trajectory_value = value
         return trajectory
 
     def _work_slow(self) -> None:

@@ -520,6 +520,30 @@ def test_follow_choice_changes_the_trajectory(make_controller):
     assert_allclose(view.last.trajectory.path[-1], s.goal)
 
 
+def test_an_edit_that_keeps_the_path_keeps_the_trajectory(make_controller, scene):
+    from app import robot
+
+    controller, view = make_controller(
+        scene, trajectory=robot.trajectory, sample=robot.sample
+    )
+    first = view.last.trajectory
+    # A block in the bottom-right corner, far from the path, then one of its corners
+    # dragged: VG's path is the same, so is the robot's trajectory (and its place in it).
+    controller.add_obstacle([(8.6, 0.6), (9.3, 0.6), (9.3, 1.1), (8.6, 1.1)])
+    assert controller.wait_idle(10)
+    assert len(view.last.scene.obstacles) == len(scene.obstacles) + 1
+    assert view.last.trajectory is first
+    controller.drag_handle(("vertex", len(scene.obstacles), 0), (8.5, 0.5), "start")
+    controller.drag_handle(("vertex", len(scene.obstacles), 0), (8.4, 0.5), "end")
+    assert controller.wait_idle(10)
+    assert view.last.trajectory is first
+    # The goal moved: a new path, a new trajectory.
+    controller.move_goal((8.8, 6.2))
+    assert controller.wait_idle(10)
+    assert view.last.trajectory is not first
+    assert_allclose(view.last.trajectory.path[-1], (8.8, 6.2))
+
+
 def test_close_stops_the_threads(scene):
     controller = Controller(FakeView(), scene)
     assert controller.wait_idle(10)

@@ -30,6 +30,7 @@ __all__ = [
 ]
 
 import contextlib
+import functools
 import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any, Literal
@@ -196,39 +197,49 @@ def polygon_to_mesh(
 def prism_mesh(polygons: Iterable[Polygon] | Polygon, height: float) -> Mesh:
     """Extrude floor polygons into solid prisms of ``height`` [m] (top and sides, no bottom).
 
+    Each polygon's prism is kept (polygons compare by value): while one vertex is dragged
+    only that obstacle is triangulated again.
+
     Examples
     --------
     >>> v, f = prism_mesh([Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])], 0.5)
     >>> len(f)  # 2 top triangles + 4 sides x 2
     10
     """
-    top_v, top_f = polygon_to_mesh(polygons, height)
-    side_v = []
-    for g in polygons_of(polygons):
-        for part in _valid_parts(g):
-            oriented = shapely.geometry.polygon.orient(part, sign=1.0)
-            for ring in [oriented.exterior, *oriented.interiors]:
-                c = np.asarray(ring.coords, dtype=np.float64)[:, :2]
-                a, b = c[:-1], c[1:]
-                # Each side is a quad a0 b0 b1 a1 (outward normal for a CCW exterior).
-                quad = np.stack(
-                    [
-                        lift(a, 0.0),
-                        lift(b, 0.0),
-                        lift(b, height),
-                        lift(a, 0.0),
-                        lift(b, height),
-                        lift(a, height),
-                    ],
-                    axis=1,
-                )
-                side_v.append(quad.reshape(-1, 3))
-    if not side_v:
-        return top_v, top_f
-    sides = np.concatenate(side_v)
-    vertices = np.concatenate([top_v, sides])
+    parts = [_prism_vertices(g, float(height)) for g in polygons_of(polygons)]
+    if not parts:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
+    vertices = np.concatenate(parts)
     faces = np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3)
     return vertices, faces
+
+
+@functools.lru_cache(maxsize=256)
+def _prism_vertices(polygon: Polygon, height: float) -> FloatArray:
+    """Triangle corners (3T, 3) of one polygon's prism: its top, then its sides."""
+    top, _ = polygon_to_mesh(polygon, height)
+    side_v = [top]
+    for part in _valid_parts(polygon):
+        oriented = shapely.geometry.polygon.orient(part, sign=1.0)
+        for ring in [oriented.exterior, *oriented.interiors]:
+            c = np.asarray(ring.coords, dtype=np.float64)[:, :2]
+            a, b = c[:-1], c[1:]
+            # Each side is a quad a0 b0 b1 a1 (outward normal for a CCW exterior).
+            quad = np.stack(
+                [
+                    lift(a, 0.0),
+                    lift(b, 0.0),
+                    lift(b, height),
+                    lift(a, 0.0),
+                    lift(b, height),
+                    lift(a, height),
+                ],
+                axis=1,
+            )
+            side_v.append(quad.reshape(-1, 3))
+    vertices = np.concatenate(side_v)
+    vertices.setflags(write=False)
+    return vertices
 
 
 def wall_mesh(

@@ -580,10 +580,13 @@ def _query(
 
 def _build_graph(q: _Query, i: IntArray, j: IntArray) -> nx.Graph:
     graph = nx.Graph()
-    keys = [(float(x), float(y)) for x, y in q.points]
-    for k, key in enumerate(keys):
-        kind = "start" if k == q.start else "goal" if k == q.goal else "vertex"
-        graph.add_node(key, kind=kind)
+    keys = list(map(tuple, q.points.tolist()))
+    kinds = ["vertex"] * len(keys)
+    kinds[q.goal] = "goal"
+    kinds[q.start] = "start"  # start == goal: one node, the start
+    graph.add_nodes_from(
+        (key, {"kind": kind}) for key, kind in zip(keys, kinds, strict=True)
+    )
     lengths = np.hypot(*(q.points[j] - q.points[i]).T)
     graph.add_weighted_edges_from(
         (keys[u], keys[v], w)

@@ -248,6 +248,11 @@ def default_plan(scene: Scene, which: Iterable[str] | None = None) -> dict[str, 
     return results
 
 
+def _same_key(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
+    """Compare two (version, planner, result) keys, the result by identity."""
+    return a[:2] == b[:2] and a[2] is b[2]
+
+
 def _outcome(status: str | None) -> str | None:
     """Say what a status tells of the goal: reached ("path"), cut off ("none"), or neither."""
     if status in ("ok", "reached"):
@@ -1141,8 +1146,24 @@ class Controller:
                 plans[name] = Pending(name)
         plans.pop("cspace", None)
         plans["cspace"] = fast.get("cspace")
-        trajectory = self._trajectory_for(version, scene, plans, follow)
         other = self._other_expansion(scene) if want_other else None
+        if self._trajectory_needed(version, scene, plans, follow):
+            # The planners' layers first: planning the robot's new trajectory takes up
+            # to a few ms, and meanwhile the robot stays on its previous one. The frame
+            # with the new trajectory follows at once (it sends only the robot's parts).
+            with self._wake:
+                self._computed = computed
+                first = self._frame_locked(
+                    (version, scene, plans, ms),
+                    self._computed_trajectory[1],
+                    other,
+                    frozenset(lagging),
+                )
+                first = dataclasses.replace(first, slow_version=shown_slow)
+            with self._render_lock:
+                for view in self._views:
+                    view.render(first)
+        trajectory = self._trajectory_for(version, scene, plans, follow)
         with self._wake:
             self._computed = computed
             frame = self._frame_locked(
@@ -1162,27 +1183,38 @@ class Controller:
             self._last_frame = frame
             self._rendered = (version, ui_version)
 
-    def _trajectory_for(
+    def _trajectory_needed(
         self, version: int, scene: Scene, plans: Mapping[str, Any], follow: str
-    ) -> Any:
-        result = plans.get(follow)
-        # The result object itself is part of the key: a slow planner's result replaces
-        # its place-holder within the same scene version.
-        key = (version, follow, result)
+    ) -> bool:
+        """Tell whether :meth:`_trajectory_for` would plan a new trajectory."""
+        key, value, path = self._trajectory_keys(version, scene, plans, follow)
         cached_key, cached = self._computed_trajectory
-        if (
-            cached_key is not None
-            and cached_key[:2] == key[:2]
-            and cached_key[2] is result
-        ):
-            return cached
+        if cached_key is not None and _same_key(cached_key, key):
+            return False
+        if self._trajectory_fn is None or len(path) < 2:
+            return False  # nothing to plan
+        return not (value == self._trajectory_value and cached is not None)
+
+    def _trajectory_keys(
+        self, version: int, scene: Scene, plans: Mapping[str, Any], follow: str
+    ) -> tuple[tuple[Any, ...], tuple[Any, ...], npt.NDArray[np.float64]]:
+        result = plans.get(follow)
         path = np.asarray(
             getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
         ).reshape(-1, 2)
-        # The trajectory depends on the robot and the path alone: an edit that leaves
-        # the path as it was (a vertex dragged off the path) keeps it, and the robot
-        # keeps its place in it.
-        value = (follow, scene.robot, path.tobytes())
+        # The result object itself is part of the key: a slow planner's result replaces
+        # its place-holder within the same scene version. The trajectory depends on the
+        # robot and the path alone: an edit that leaves the path as it was (a vertex
+        # dragged off the path) keeps it, and the robot keeps its place in it.
+        return (version, follow, result), (follow, scene.robot, path.tobytes()), path
+
+    def _trajectory_for(
+        self, version: int, scene: Scene, plans: Mapping[str, Any], follow: str
+    ) -> Any:
+        key, value, path = self._trajectory_keys(version, scene, plans, follow)
+        cached_key, cached = self._computed_trajectory
+        if cached_key is not None and _same_key(cached_key, key):
+            return cached
         if value == self._trajectory_value and cached is not None:
             trajectory = cached
         else:

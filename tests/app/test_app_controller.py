@@ -544,6 +544,49 @@ def test_an_edit_that_keeps_the_path_keeps_the_trajectory(make_controller, scene
     assert_allclose(view.last.trajectory.path[-1], (8.8, 6.2))
 
 
+def test_the_paths_are_drawn_before_the_robot_trajectory_is_planned(
+    make_controller, scene
+):
+    from app import robot
+
+    planning = threading.Event()
+    release = threading.Event()
+
+    def slow_trajectory(s, path):
+        if planning.is_set():
+            release.wait(10)
+        return robot.trajectory(s, path)
+
+    controller, view = make_controller(
+        scene, trajectory=slow_trajectory, sample=robot.sample
+    )
+    try:
+        first = view.last.trajectory
+        planning.set()
+        controller.move_goal((8.8, 6.2))
+        # The new paths are drawn while the trajectory is still being planned; the robot
+        # stays on its previous trajectory meanwhile.
+        assert wait_until(lambda: view.last.version == controller.version)
+        assert view.last.scene.goal == (8.8, 6.2)
+        assert view.last.plans["vg"].path[-1].tolist() == [8.8, 6.2]
+        assert view.last.trajectory is first
+        release.set()
+        assert controller.wait_idle(10)
+        assert view.last.trajectory is not first
+        assert_allclose(view.last.trajectory.path[-1], (8.8, 6.2))
+    finally:
+        release.set()
+
+
+def wait_until(predicate, timeout: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return False
+
+
 def test_close_stops_the_threads(scene):
     controller = Controller(FakeView(), scene)
     assert controller.wait_idle(10)

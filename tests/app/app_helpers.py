@@ -3,12 +3,26 @@
 from __future__ import annotations
 
 import threading
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 from app.controller import Frame, RobotPose
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO_DIR = ROOT / "static_scenarios"
+
+
+def wait_until(
+    predicate: Callable[[], object], timeout: float = 10.0, poll: float = 0.01
+) -> bool:
+    """Poll ``predicate`` every ``poll`` s until it holds; False after ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(poll)
+    return False
 
 
 class FakeView:

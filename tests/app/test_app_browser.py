@@ -17,7 +17,7 @@ from shapely import LineString
 
 from app import start_app
 from app.controller import TOOLS
-from tests.app.app_helpers import TopCamera, launch_chromium
+from tests.app.app_helpers import TopCamera, launch_chromium, wait_until
 
 WIDTH, HEIGHT = 1280, 800
 # Straight down at the floor of 01_two_convex (10 m x 8 m), left of the panel.
@@ -107,15 +107,6 @@ def node_xy(page: Any, name: str) -> tuple[float, float]:
             f"() => {{ const n = window.__viserMutable.nodeRefFromName['{name}']; return [n.position.x, n.position.y]; }}"
         )
     )
-
-
-def wait_until(predicate: Any, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.05)
-    return False
 
 
 def mouse_drag(

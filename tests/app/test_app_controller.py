@@ -14,7 +14,7 @@ from shapely import LineString, Polygon
 
 import planners
 from app.controller import Controller, Selection, default_plan, pick
-from tests.app.app_helpers import SCENARIO_DIR, FakeView
+from tests.app.app_helpers import SCENARIO_DIR, FakeView, wait_until
 
 
 def path_of(frame, name="vg"):
@@ -576,15 +576,6 @@ def test_the_paths_are_drawn_before_the_robot_trajectory_is_planned(
         assert_allclose(view.last.trajectory.path[-1], (8.8, 6.2))
     finally:
         release.set()
-
-
-def wait_until(predicate, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return False
 
 
 def test_close_stops_the_threads(scene):

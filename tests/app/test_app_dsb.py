@@ -11,7 +11,6 @@ import math
 import os
 import signal
 import threading
-import time
 from typing import Any
 
 import numpy as np
@@ -22,7 +21,7 @@ import planners
 from app import robot
 from app.controller import Controller, Pending, default_plan
 from app.panels import results_markdown
-from tests.app.app_helpers import SCENARIO_DIR, FakeView, dsb_planner
+from tests.app.app_helpers import SCENARIO_DIR, FakeView, dsb_planner, wait_until
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,14 +121,14 @@ def test_a_lagging_slow_result_is_shown_during_a_drag_but_not_after_a_bad_edit(s
     try:
         assert controller.wait_idle(10)  # the first scene's result is in
         controller.move_goal((9.0, 6.0))
-        assert wait_for(lambda: view.last.version == controller.version)
+        assert wait_until(lambda: view.last.version == controller.version)
         frame = view.last
         assert "dsb" in frame.lagging and frame.plans["dsb"].goal == scene.goal
         assert "updating" in results_markdown(frame.plans, frame.lagging)
         # The goal dragged into an obstacle: no DSB path at all, not the old one, and
         # the reason at once (it is the same for every planner).
         controller.move_goal((3.0, 3.0))
-        assert wait_for(lambda: view.last.version == controller.version)
+        assert wait_until(lambda: view.last.version == controller.version)
         dsb = view.last.plans["dsb"]
         assert dsb.status == "invalid" and len(dsb.path) == 0 and not view.last.lagging
         assert dsb.reason == view.last.plans["vg"].reason
@@ -166,13 +165,13 @@ def test_a_lagging_result_must_tell_the_same_story_as_the_fast_planners():
         assert view.last.plans["dsb"].status == "unreachable"
         # Within the enclosure: the old "unreachable" walk is shown, marked as updating.
         controller.move_goal((inside[0] + 0.2, inside[1]))
-        assert wait_for(lambda: view.last.version == controller.version)
+        assert wait_until(lambda: view.last.version == controller.version)
         assert view.last.plans["vg"].status == "unreachable"
         assert "dsb" in view.last.lagging
         assert view.last.plans["dsb"].status == "unreachable"
         # Out of the enclosure: VG finds a path, so the old walk would contradict it.
         controller.move_goal((2.0, 7.0))
-        assert wait_for(lambda: view.last.version == controller.version)
+        assert wait_until(lambda: view.last.version == controller.version)
         assert view.last.plans["vg"].status == "ok"
         assert isinstance(view.last.plans["dsb"], Pending) and not view.last.lagging
         release.set()
@@ -183,15 +182,6 @@ def test_a_lagging_result_must_tell_the_same_story_as_the_fast_planners():
     finally:
         release.set()
         controller.close()
-
-
-def wait_for(predicate, timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return False
 
 
 def test_a_failing_slow_planner_shows_an_error_not_a_path(scene):

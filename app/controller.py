@@ -248,6 +248,10 @@ def default_plan(scene: Scene, which: Iterable[str] | None = None) -> dict[str, 
     return results
 
 
+# Stands for "a new trajectory must be planned" in Controller._trajectory_lookup.
+_PLAN = object()
+
+
 def _same_key(a: tuple[Any, ...], b: tuple[Any, ...]) -> bool:
     """Compare two (version, planner, result) keys, the result by identity."""
     return a[:2] == b[:2] and a[2] is b[2]
@@ -1147,7 +1151,8 @@ class Controller:
         plans.pop("cspace", None)
         plans["cspace"] = fast.get("cspace")
         other = self._other_expansion(scene) if want_other else None
-        if self._trajectory_needed(version, scene, plans, follow):
+        lookup = self._trajectory_lookup(version, scene, plans, follow)
+        if lookup[3] is _PLAN:
             # The planners' layers first: planning the robot's new trajectory takes up
             # to a few ms, and meanwhile the robot stays on its previous one. The frame
             # with the new trajectory follows at once (it sends only the robot's parts).
@@ -1158,18 +1163,21 @@ class Controller:
                     self._computed_trajectory[1],
                     other,
                     frozenset(lagging),
+                    shown_slow,
                 )
-                first = dataclasses.replace(first, slow_version=shown_slow)
             with self._render_lock:
                 for view in self._views:
                     view.render(first)
-        trajectory = self._trajectory_for(version, scene, plans, follow)
+        trajectory = self._trajectory_for(scene, lookup)
         with self._wake:
             self._computed = computed
             frame = self._frame_locked(
-                (version, scene, plans, ms), trajectory, other, frozenset(lagging)
+                (version, scene, plans, ms),
+                trajectory,
+                other,
+                frozenset(lagging),
+                shown_slow,
             )
-            frame = dataclasses.replace(frame, slow_version=shown_slow)
             duration = self._duration_locked()
             if duration is not None:
                 self._playback.t = min(self._playback.t, duration)
@@ -1183,21 +1191,14 @@ class Controller:
             self._last_frame = frame
             self._rendered = (version, ui_version)
 
-    def _trajectory_needed(
+    def _trajectory_lookup(
         self, version: int, scene: Scene, plans: Mapping[str, Any], follow: str
-    ) -> bool:
-        """Tell whether :meth:`_trajectory_for` would plan a new trajectory."""
-        key, value, path = self._trajectory_keys(version, scene, plans, follow)
-        cached_key, cached = self._computed_trajectory
-        if cached_key is not None and _same_key(cached_key, key):
-            return False
-        if self._trajectory_fn is None or len(path) < 2:
-            return False  # nothing to plan
-        return not (value == self._trajectory_value and cached is not None)
+    ) -> tuple[tuple[Any, ...], tuple[Any, ...], npt.NDArray[np.float64], Any]:
+        """Return (key, value, path, trajectory) for the robot following ``follow``.
 
-    def _trajectory_keys(
-        self, version: int, scene: Scene, plans: Mapping[str, Any], follow: str
-    ) -> tuple[tuple[Any, ...], tuple[Any, ...], npt.NDArray[np.float64]]:
+        ``trajectory`` is the one to keep (possibly None), or :data:`_PLAN` when a new
+        one must be planned along ``path`` (see :meth:`_trajectory_for`).
+        """
         result = plans.get(follow)
         path = np.asarray(
             getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
@@ -1206,24 +1207,31 @@ class Controller:
         # its place-holder within the same scene version. The trajectory depends on the
         # robot and the path alone: an edit that leaves the path as it was (a vertex
         # dragged off the path) keeps it, and the robot keeps its place in it.
-        return (version, follow, result), (follow, scene.robot, path.tobytes()), path
-
-    def _trajectory_for(
-        self, version: int, scene: Scene, plans: Mapping[str, Any], follow: str
-    ) -> Any:
-        key, value, path = self._trajectory_keys(version, scene, plans, follow)
+        key = (version, follow, result)
+        value = (follow, scene.robot, path.tobytes())
         cached_key, cached = self._computed_trajectory
         if cached_key is not None and _same_key(cached_key, key):
-            return cached
+            return key, value, path, cached
         if value == self._trajectory_value and cached is not None:
-            trajectory = cached
-        else:
-            trajectory = None
-            if self._trajectory_fn is not None and len(path) >= 2:
-                try:
-                    trajectory = self._trajectory_fn(scene, path)
-                except Exception:
-                    logger.exception("trajectory failed")
+            return key, value, path, cached
+        if self._trajectory_fn is None or len(path) < 2:
+            return key, value, path, None  # nothing to plan
+        return key, value, path, _PLAN
+
+    def _trajectory_for(
+        self,
+        scene: Scene,
+        lookup: tuple[tuple[Any, ...], tuple[Any, ...], npt.NDArray[np.float64], Any],
+    ) -> Any:
+        """Plan the trajectory :meth:`_trajectory_lookup` asked for, and keep it."""
+        key, value, path, trajectory = lookup
+        if trajectory is _PLAN:
+            assert self._trajectory_fn is not None
+            try:
+                trajectory = self._trajectory_fn(scene, path)
+            except Exception:
+                logger.exception("trajectory failed")
+                trajectory = None
         with self._wake:
             self._computed_trajectory = (key, trajectory)
             self._trajectory_value = value
@@ -1298,6 +1306,7 @@ class Controller:
         trajectory: Any,
         other: tuple[Polygon, ...] | None,
         lagging: frozenset[str] = frozenset(),
+        slow_version: int = -1,
     ) -> Frame:
         version, scene, plans, ms = computed
         problems = list(edits.scene_problems(scene))
@@ -1333,6 +1342,7 @@ class Controller:
             scenario=self._scenario,
             compute_ms=ms,
             lagging=lagging,
+            slow_version=slow_version,
         )
 
     # ------------------------------------------------------------------ internals: robot

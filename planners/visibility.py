@@ -675,10 +675,9 @@ def _visibility(cspace: ConfigurationSpace, border: _Border, q: _Query) -> BoolA
     Returns the (N, N) symmetric matrix; it is kept for the SVG of the same query.
     """
     global _LAST_VISIBILITY  # noqa: PLW0603 - a one-entry cache, keyed by value below
-    key = q.points.tobytes()
-    last = _LAST_VISIBILITY
-    if last is not None and last[0] is cspace and last[1] == key:
-        return last[2]
+    known = _known_visibility(cspace, q)
+    if known is not None:
+        return known
     base = _vertex_visibility(cspace)
     n, total = len(base), len(q.points)
     vis = np.zeros((total, total), dtype=bool)
@@ -692,7 +691,7 @@ def _visibility(cspace: ConfigurationSpace, border: _Border, q: _Query) -> BoolA
         vis[i[ok], j[ok]] = True
         vis[j[ok], i[ok]] = True
     vis.setflags(write=False)
-    _LAST_VISIBILITY = (cspace, key, vis)
+    _LAST_VISIBILITY = (cspace, q.points.tobytes(), vis)
     return vis
 
 
@@ -702,13 +701,12 @@ def _visibility(cspace: ConfigurationSpace, border: _Border, q: _Query) -> BoolA
 _LAST_VISIBILITY: tuple[ConfigurationSpace, bytes, BoolArray] | None = None
 
 
-def _known_visibility(
-    cspace: ConfigurationSpace, q: _Query, i: IntArray, j: IntArray
-) -> BoolArray | None:
+def _known_visibility(cspace: ConfigurationSpace, q: _Query) -> BoolArray | None:
+    """Return the kept visibility matrix of this very query, or None."""
     last = _LAST_VISIBILITY
     if last is None or last[0] is not cspace or last[1] != q.points.tobytes():
         return None
-    return last[2][i, j]
+    return last[2]
 
 
 def simplified_visibility_graph(
@@ -748,9 +746,8 @@ def simplified_visibility_graph(
         | (_into_blocked(border, q.node[j], d) & ~pinch[q.node[j]])
     )
     i, j = i[tangent], j[tangent]
-    ok = _known_visibility(cspace, q, i, j)
-    if ok is None:
-        ok = _visible(cspace, border, q, i, j)
+    known = _known_visibility(cspace, q)
+    ok = known[i, j] if known is not None else _visible(cspace, border, q, i, j)
     graph = _build_graph(q, i[ok], j[ok])
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
     graph.remove_nodes_from(

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import networkx as nx
@@ -19,6 +21,27 @@ from planners.expansion import ConfigurationSpace
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "static_scenarios").glob("*.json"))
+
+
+def run_module(
+    module: str,
+    *args: str,
+    timeout: float | None = None,
+    env: dict[str, str] | None = None,
+) -> subprocess.CompletedProcess[str]:
+    """Run ``python -m module *args`` from the repository; capture its text output.
+
+    ``env`` adds to (or overrides) this process's environment.
+    """
+    return subprocess.run(
+        [sys.executable, "-m", module, *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=None if env is None else {**os.environ, **env},
+        check=False,
+    )
 
 
 def square(x0: float, y0: float, x1: float, y1: float) -> Polygon:

@@ -6,7 +6,6 @@ import io
 import os
 import socket
 import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -20,11 +19,11 @@ from app import headless
 from app.headless import CameraPose, capture, frame_camera, scene_bounds, snapshot
 from planners.scene import load_scene
 from tests.browser import use_browser
+from tests.conftest import ROOT, run_module
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
 
-ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "static_scenarios" / "01_two_convex.json"
 NAME = SCENARIO.stem
 
@@ -43,15 +42,7 @@ def pixels(png: bytes | Path) -> np.ndarray:
 def run_cli(
     *args: str, env: dict[str, str] | None = None
 ) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "app", *args],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=180,
-        env={**os.environ, **(env or {})},
-        check=False,
-    )
+    return run_module("app", *args, timeout=180, env=env)
 
 
 def our_processes() -> set[int]:

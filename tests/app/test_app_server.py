@@ -17,6 +17,7 @@ from app import start_app
 from app.server import list_scenarios, resolve_scenario
 from planners.scene import ScenarioError
 from tests.app.app_helpers import ROOT, SCENARIO_DIR
+from tests.conftest import run_module
 
 
 def port_is_open(port: int) -> bool:
@@ -92,14 +93,7 @@ def test_resolve_scenario_errors_say_what_to_do(name, words):
 
 
 def run_cli(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "app", *args],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
+    return run_module("app", *args, timeout=timeout)
 
 
 @pytest.mark.parametrize(

@@ -1,18 +1,10 @@
 import json
-import subprocess
-import sys
 
-from tests.conftest import ROOT, SCENARIOS
+from tests.conftest import SCENARIOS, run_module
 
 
 def run(*args):
-    return subprocess.run(
-        [sys.executable, "-m", "planners", *args],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        check=False,
-    )
+    return run_module("planners", *args)
 
 
 def test_one_file_prints_one_json_object():

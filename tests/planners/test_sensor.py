@@ -225,6 +225,52 @@ def scenes_and_points(draw):
 def test_sensor_is_exact_against_shapely(case):
     space, x, sensor_range = case
     assume(not space.contains_blocked(x)[0])
+    check_against_shapely(space, x, sensor_range)
+
+
+def _hex_points(points):
+    return [(float.fromhex(a), float.fromhex(b)) for a, b in points]
+
+
+# Two counterexamples random exploration found (CI, 2026-11-22): the robot on an edge a
+# few eps (not within eps) from a vertex. Seen from there, the neighbouring edge lies
+# within eps of the robot's line of sight, so the sensor takes it as seen edge-on and
+# looks past it, though it hides a sliver of about 2 degrees. Known, not yet fixed.
+NEAR_VERTEX_CASES = [
+    (
+        [
+            [("0x1.0000000000000p+1", "0x1.0000000000000p+0"), ("0x1.8000000000000p+0", "0x1.ddb3d742c2655p+0"), ("0x1.0000000000002p-1", "0x1.ddb3d742c2656p+0"), ("0x0.0p+0", "0x1.0000000000001p+0"), ("0x1.ffffffffffff8p-2", "0x1.126145e9ecd60p-3"), ("0x1.7fffffffffffdp+0", "0x1.126145e9ecd48p-3")],
+            [("0x1.8a51407da8346p+0", "0x1.d76aa47848677p+0"), ("0x1.23ec466059a00p-10", "0x1.0c13fd8ebd02ap+0"), ("0x1.7565c470bfb52p+0", "0x1.c815df8fa95f0p-4")],
+        ],
+        ("0x1.8a51407359e5bp+0", "0x1.d76aa472f6eb1p+0"),
+        0.7,
+    ),
+    (
+        [
+            [("0x1.8a51407da8346p+0", "0x1.75daa91e1219ep+2"), ("0x1.5ba3da3b57e79p-1", "0x1.7c9cdbf9741aep+2"), ("0x1.e6965fce091c0p-5", "0x1.55ba8be1d5d2bp+2"), ("0x1.2f511463f0dbcp-3", "0x1.1e7b85cc4f809p+2"), ("0x1.c1b132151920ep-1", "0x1.0079c5f97d295p+2"), ("0x1.48d0a8ec7e1c2p+0", "0x1.2d6f9c7d25c1cp+2"), ("0x1.7f545826fd3b2p+0", "0x1.434569a3ee6a3p+2")],
+            [("0x1.0000000000000p+1", "0x1.0000000000000p+1"), ("0x1.0000000000000p-51", "0x1.ddb3d742c2656p+1"), ("0x1.ffffffffffff8p-2", "0x1.224c28bd3d9acp+0")],
+        ],
+        ("0x1.48d0a959857a9p+0", "0x1.2d6f9ca8d15c1p+2"),
+        2.0,
+    ),
+]  # fmt: skip
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known sensor bug: robot a few eps from a vertex looks past an edge seen "
+    "almost edge-on (see NEAR_VERTEX_CASES)",
+)
+@pytest.mark.parametrize("obstacles, robot, sensor_range", NEAR_VERTEX_CASES)
+def test_sensor_next_to_a_vertex(obstacles, robot, sensor_range):
+    space = configuration_space(tuple(Polygon(_hex_points(o)) for o in obstacles), 0.0)
+    x = np.array(_hex_points([robot])[0])
+    assert not space.contains_blocked(x)[0]
+    check_against_shapely(space, x, sensor_range)
+
+
+def check_against_shapely(space, x, sensor_range) -> None:
+    """Check one sensor reading against shapely (the property's assertions)."""
     seen = sense(space, x, sensor_range)
     tol = 1e-7
     # Everything returned is visible (the segment from the robot stays in closed free

@@ -93,9 +93,9 @@ def results_markdown(plans: Mapping[str, Any], lagging: Collection[str] = ()) ->
         if name == "cspace":
             continue
         length = getattr(result, "length", None)
-        graph = getattr(result, "graph", None)
-        nodes = graph.number_of_nodes() if graph is not None else None
-        edges = graph.number_of_edges() if graph is not None else None
+        # VG and SVG count their graph's nodes and edges; other planners have none.
+        nodes = getattr(result, "nodes", None)
+        edges = getattr(result, "edges", None)
         status = str(getattr(result, "status", "?"))
         mark = {"ok": "ok", "reached": "reached"}.get(status, f"**{status}**")
         if name in lagging:

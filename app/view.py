@@ -17,6 +17,7 @@ __all__ = [
     "disk_mesh",
     "graph_to_segments",
     "lift",
+    "lift_segments",
     "merge_labels",
     "path_to_segments",
     "polygon_to_mesh",
@@ -83,9 +84,20 @@ def graph_to_segments(graph: nx.Graph | None, z: float = 0.0) -> FloatArray:
     """
     if graph is None or graph.number_of_edges() == 0:
         return np.zeros((0, 2, 3))
-    ends = np.asarray(list(graph.edges()), dtype=np.float64).reshape(-1, 2, 2)
-    out = np.empty((len(ends), 2, 3))
-    out[:, :, :2] = ends
+    return lift_segments(list(graph.edges()), z)
+
+
+def lift_segments(ends: npt.ArrayLike, z: float = 0.0) -> FloatArray:
+    """Segments in the floor plane, shape (N, 2, 2), at height ``z``: shape (N, 2, 3).
+
+    Examples
+    --------
+    >>> lift_segments([[(0.0, 0.0), (1.0, 0.0)]], 0.1).tolist()
+    [[[0.0, 0.0, 0.1], [1.0, 0.0, 0.1]]]
+    """
+    xy = np.asarray(ends, dtype=np.float64).reshape(-1, 2, 2)
+    out = np.empty((len(xy), 2, 3))
+    out[:, :, :2] = xy
     out[:, :, 2] = z
     return out
 
@@ -721,7 +733,7 @@ class PlannerView:
             ("svg", self.svg_edges, self.svg_path),
         ):
             result = frame.plans.get(name)
-            graph = getattr(result, "graph", None)
+            arrays = getattr(result, "arrays", None)
             show_edges = layers.get(f"{name}_edges", True) and getattr(
                 result, "status", ""
             ) in ("ok", "unreachable")
@@ -731,8 +743,8 @@ class PlannerView:
             if not self._changed(name, (result, show_edges, show_path)):
                 continue
             edges.set(
-                graph_to_segments(graph, HEIGHTS[f"{name}_edges"])
-                if show_edges
+                lift_segments(arrays.segments(), HEIGHTS[f"{name}_edges"])
+                if show_edges and arrays is not None
                 else _NO_SEGMENTS,
                 show_edges,
             )

@@ -185,10 +185,9 @@ def result_to_json(name: str, result: Any) -> dict[str, Any]:
         else float(length),
         "path": path.tolist(),
     }
-    graph = getattr(result, "graph", None)
     if name in ("vg", "svg"):
-        out["nodes"] = graph.number_of_nodes() if graph is not None else 0
-        out["edges"] = graph.number_of_edges() if graph is not None else 0
+        out["nodes"] = getattr(result, "nodes", 0)
+        out["edges"] = getattr(result, "edges", 0)
     events = getattr(result, "events", None)
     if name == "dsb":
         out["events"] = [_event_json(e) for e in (events or ())]

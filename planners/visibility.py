@@ -35,6 +35,7 @@ J. O'Rourke, Computational Geometry in C, 2nd ed., Cambridge University Press, 1
 from __future__ import annotations
 
 __all__ = [
+    "GraphArrays",
     "VisibilityResult",
     "plan_visibility",
     "segments_free",
@@ -45,6 +46,8 @@ __all__ = [
 
 import dataclasses
 import functools
+import heapq
+import itertools
 import math
 
 import networkx as nx
@@ -67,6 +70,124 @@ _ANGLE_TOL = 1e-12
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
+class GraphArrays:
+    """A visibility graph as arrays: what the planner searches and the app draws.
+
+    Building a :class:`networkx.Graph` costs more than finding the segments (about 2 us
+    an edge), so the planner keeps this form and :meth:`to_networkx` builds the graph
+    only when someone asks for it (:attr:`VisibilityResult.graph`).
+    """
+
+    points: FloatArray
+    """Node positions, shape (n, 2) [m]: border vertices, then start and goal unless they
+    sit on a vertex. No two are equal (a start or goal within eps of a node joins it)."""
+    start: int
+    """Index of the start node."""
+    goal: int
+    """Index of the goal node (the start's when the two coincide)."""
+    i: IntArray
+    """First node of each edge, shape (m,); ``i < j``, in row-major order."""
+    j: IntArray
+    """Second node of each edge, shape (m,)."""
+    kept: BoolArray
+    """Which nodes belong to the graph, shape (n,): the SVG leaves out the vertices
+    without edges (reflex vertices cannot be on a shortest path)."""
+
+    @functools.cached_property
+    def weight(self) -> FloatArray:
+        """Edge lengths, shape (m,) [m]."""
+        return np.hypot(*(self.points[self.j] - self.points[self.i]).T)
+
+    @property
+    def nodes(self) -> int:
+        """Number of nodes."""
+        return int(np.count_nonzero(self.kept))
+
+    @property
+    def edges(self) -> int:
+        """Number of edges."""
+        return len(self.i)
+
+    def segments(self) -> FloatArray:
+        """Every edge as a segment, shape (m, 2, 2) [m]."""
+        return np.stack([self.points[self.i], self.points[self.j]], axis=1)
+
+    def kind(self, node: int) -> str:
+        """``"start"``, ``"goal"`` or ``"vertex"`` (``"start"`` when start is goal)."""
+        if node == self.start:
+            return "start"
+        return "goal" if node == self.goal else "vertex"
+
+    def to_networkx(self) -> nx.Graph:
+        """Build the graph: (x, y) tuples as nodes (attribute ``kind``), ``weight``."""
+        graph = nx.Graph()
+        keys = list(map(tuple, self.points.tolist()))
+        graph.add_nodes_from(
+            (keys[n], {"kind": self.kind(n)})
+            for n in np.flatnonzero(self.kept).tolist()
+        )
+        graph.add_weighted_edges_from(
+            (keys[u], keys[v], w)
+            for u, v, w in zip(
+                self.i.tolist(), self.j.tolist(), self.weight.tolist(), strict=True
+            )
+        )
+        return graph
+
+    def shortest_path(self) -> tuple[FloatArray, float] | None:
+        """Return the shortest (path, length) from start to goal, or None.
+
+        A* with the straight-line distance as heuristic (admissible, so the path is
+        optimal). It is :func:`networkx.astar_path` step by step -- the same queue
+        order, tie-breaking and floating-point sums -- on index lists instead of a
+        graph, so it finds the very path :func:`shortest_path` finds in
+        :meth:`to_networkx` (a property test holds the two together).
+        """
+        s, g = self.start, self.goal
+        if s == g:
+            return self.points[[s]].copy(), 0.0
+        keys = list(map(tuple, self.points.tolist()))
+        # Neighbours in ascending order, as the graph's adjacency has them (its edges
+        # are added in row-major order).
+        neighbours: list[list[tuple[int, float]]] = [[] for _ in keys]
+        for u, v, w in zip(
+            self.i.tolist(), self.j.tolist(), self.weight.tolist(), strict=True
+        ):
+            neighbours[u].append((v, w))
+            neighbours[v].append((u, w))
+        target = keys[g]
+        count = itertools.count()
+        queue = [(0.0, next(count), s, 0.0, -1)]
+        enqueued: dict[int, tuple[float, float]] = {}  # node -> (cost, heuristic)
+        explored: dict[int, int] = {}  # node -> parent (-1 for the start)
+        while queue:
+            _, _, node, cost, parent = heapq.heappop(queue)
+            if node == g:
+                order = [node, parent]
+                while order[-1] != s:
+                    order.append(explored[order[-1]])
+                path = self.points[order[::-1]]
+                return path, float(np.hypot(*np.diff(path, axis=0).T).sum())
+            if node in explored:
+                if explored[node] < 0:  # the start: never worth visiting again
+                    continue
+                if enqueued[node][0] < cost:  # a shorter way here is already known
+                    continue
+            explored[node] = parent
+            for other, w in neighbours[node]:
+                new = cost + w
+                if other in enqueued:
+                    known, h = enqueued[other]
+                    if known <= new:
+                        continue
+                else:
+                    h = math.dist(keys[other], target)
+                enqueued[other] = new, h
+                heapq.heappush(queue, (new + h, next(count), other, new, node))
+        return None
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
 class VisibilityResult:
     """What the VG or SVG planner found, with everything the lesson shows."""
 
@@ -78,25 +199,34 @@ class VisibilityResult:
     """Shortest path from start to goal, shape (N, 2) [m]; shape (0, 2) when none."""
     length: float | None
     """Length of ``path`` [m], or None when there is none."""
-    graph: nx.Graph
-    """Nodes are (x, y) tuples with attribute ``kind`` (start, goal, vertex); edges have
-    ``weight``, the Euclidean length [m]."""
+    arrays: GraphArrays
+    """The graph as arrays (what the app draws); :attr:`graph` is it in networkx."""
     reason: str | None = None
     """Why there is no path, in words; None when there is one."""
     cspace: ConfigurationSpace | None = None
     """The configuration space the graph was built in."""
     ms: float = 0.0
-    """Compute time [ms], set by :func:`planners.plan_all` (shared expansion included)."""
+    """Compute time [ms], set by :func:`planners.plan_all` (shared expansion included;
+    building :attr:`graph` on first use is not)."""
+
+    @functools.cached_property
+    def graph(self) -> nx.Graph:
+        """The graph as networkx, built on first use.
+
+        Nodes are (x, y) tuples with attribute ``kind`` (start, goal, vertex); edges
+        have ``weight``, the Euclidean length [m].
+        """
+        return self.arrays.to_networkx()
 
     @property
     def nodes(self) -> int:
         """Number of graph nodes."""
-        return self.graph.number_of_nodes()
+        return self.arrays.nodes
 
     @property
     def edges(self) -> int:
         """Number of graph edges."""
-        return self.graph.number_of_edges()
+        return self.arrays.edges
 
 
 # --------------------------------------------------------------------------- the border
@@ -578,21 +708,20 @@ def _query(
     return border, _Query(points, node, ends[0], ends[1])
 
 
-def _build_graph(q: _Query, i: IntArray, j: IntArray) -> nx.Graph:
-    graph = nx.Graph()
-    keys = list(map(tuple, q.points.tolist()))
-    kinds = ["vertex"] * len(keys)
-    kinds[q.goal] = "goal"
-    kinds[q.start] = "start"  # start == goal: one node, the start
-    graph.add_nodes_from(
-        (key, {"kind": kind}) for key, kind in zip(keys, kinds, strict=True)
-    )
-    lengths = np.hypot(*(q.points[j] - q.points[i]).T)
-    graph.add_weighted_edges_from(
-        (keys[u], keys[v], w)
-        for u, v, w in zip(i.tolist(), j.tolist(), lengths.tolist(), strict=True)
-    )
-    return graph
+def _graph_arrays(
+    q: _Query, i: IntArray, j: IntArray, *, drop_isolated: bool = False
+) -> GraphArrays:
+    """Make the graph on the query's nodes with edges (i, j).
+
+    ``drop_isolated`` leaves out the border vertices without an edge (start and goal
+    always stay).
+    """
+    kept = np.ones(len(q.points), dtype=bool)
+    if drop_isolated:
+        kept = np.zeros(len(q.points), dtype=bool)
+        kept[i] = kept[j] = True
+        kept[q.node < 0] = True
+    return GraphArrays(q.points, q.start, q.goal, i, j, kept)
 
 
 def _visible(
@@ -643,9 +772,15 @@ def visibility_graph(
     >>> g.number_of_nodes(), g.number_of_edges()
     (6, 8)
     """
+    return _vg_arrays(cspace, start, goal).to_networkx()
+
+
+def _vg_arrays(
+    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
+) -> GraphArrays:
     border, q = _query(cspace, start, goal)
     i, j = np.nonzero(np.triu(_visibility(cspace, border, q), 1))
-    return _build_graph(q, i, j)
+    return _graph_arrays(q, i, j)
 
 
 @functools.lru_cache(maxsize=16)
@@ -729,6 +864,12 @@ def simplified_visibility_graph(
     >>> g.number_of_nodes(), g.number_of_edges()
     (6, 8)
     """
+    return _svg_arrays(cspace, start, goal).to_networkx()
+
+
+def _svg_arrays(
+    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
+) -> GraphArrays:
     border, q = _query(cspace, start, goal)
     # Index -1 (start, goal) reads the appended False.
     convex = np.append(border.convex_nodes, False)
@@ -748,16 +889,8 @@ def simplified_visibility_graph(
     i, j = i[tangent], j[tangent]
     known = _known_visibility(cspace, q)
     ok = known[i, j] if known is not None else _visible(cspace, border, q, i, j)
-    graph = _build_graph(q, i[ok], j[ok])
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
-    graph.remove_nodes_from(
-        [
-            n
-            for n, deg in list(graph.degree)
-            if deg == 0 and graph.nodes[n]["kind"] == "vertex"
-        ]
-    )
-    return graph
+    return _graph_arrays(q, i[ok], j[ok], drop_isolated=True)
 
 
 def shortest_path(
@@ -809,7 +942,7 @@ def plan_visibility(
     """
     start = np.asarray(start, dtype=np.float64)
     goal = np.asarray(goal, dtype=np.float64)
-    build = simplified_visibility_graph if simplified else visibility_graph
+    build = _svg_arrays if simplified else _vg_arrays
     graph = build(cspace, start, goal)
     name = "svg" if simplified else "vg"
     if math.dist(start, goal) <= cspace.eps:
@@ -820,7 +953,7 @@ def plan_visibility(
         return VisibilityResult(
             name, "ok", path, math.dist(start, goal), graph, None, cspace
         )
-    found = shortest_path(graph, start, goal)
+    found = graph.shortest_path()
     if found is None:
         return VisibilityResult(
             name,

@@ -199,7 +199,7 @@ def bench(name: str, events: int, rate: float, drag: str = "goal") -> dict[str, 
         stats = {
             "scenario": name,
             "drag": drag,
-            "vg_edges": frame.plans["vg"].graph.number_of_edges() if frame else 0,
+            "vg_edges": frame.plans["vg"].edges if frame else 0,
             "step_fast": step_fast,
             "step_full": step_full,
             "mouse_fast": mouse_fast,

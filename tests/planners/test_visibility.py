@@ -15,6 +15,7 @@ from planners import load_scene, plan_all, visibility
 from planners.expansion import configuration_space
 from planners.visibility import (
     segments_free,
+    shortest_path,
     simplified_visibility_graph,
     visibility_graph,
 )
@@ -385,6 +386,17 @@ def _check_against_reference(scene):
     vg, svg = plans["vg"], plans["svg"]
     assume(vg.status != "invalid")
     space = plans["cspace"]
+    # The planner searches its graph as arrays; networkx's A* on the same graph (built
+    # from them) finds the very same path.
+    for result in (vg, svg):
+        if math.dist(scene.start, scene.goal) > space.eps:  # else one node, no search
+            found = shortest_path(result.graph, scene.start, scene.goal)
+            assert (found is None) == (result.status == "unreachable")
+            if found is not None:
+                np.testing.assert_array_equal(found[0], result.path)
+                assert found[1] == result.length
+        assert result.graph.number_of_nodes() == result.nodes
+        assert result.graph.number_of_edges() == result.edges
     reference = reference_shortest_length(space, scene.start, scene.goal)
     if reference is None:
         assert vg.status == svg.status == "unreachable"

@@ -14,6 +14,7 @@ from __future__ import annotations
 __all__ = [
     "PlannerView",
     "circle_segments",
+    "clear_of_markers",
     "disk_mesh",
     "graph_to_segments",
     "lift",
@@ -756,15 +757,16 @@ class PlannerView:
                 show_path,
             )
 
-        self._render_dsb(frame)
+        self._render_dsb(frame, _marker_size(radius))
         self._render_markers(frame, radius)
         self._render_handles(frame)
         self._render_selection(frame)
 
-    def _render_dsb(self, frame: Frame) -> None:
+    def _render_dsb(self, frame: Frame, marker_size: float) -> None:
         result = frame.plans.get("dsb")
         show = frame.layers.get("dsb_path", True) and result is not None
-        if not self._changed("dsb", (result, show)):
+        markers = (frame.scene.start, frame.scene.goal)
+        if not self._changed("dsb", (result, show, markers, marker_size)):
             return
         path = np.asarray(
             getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
@@ -781,7 +783,11 @@ class PlannerView:
             colors = np.repeat(rgb[:, None, :], 2, axis=1)
         self.dsb_path.set(segments, show, colors)
         events = dsb_events(result) if show else []
-        labels = merge_labels([(label, at) for label, _, at in events], 0.2)
+        labels = clear_of_markers(
+            merge_labels([(label, at) for label, _, at in events], 0.2),
+            markers,
+            marker_size,
+        )
         self.dsb_labels.set(
             [(text, (*at, HEIGHTS["dsb_path"] + 0.05)) for text, at in labels], show
         )
@@ -791,8 +797,7 @@ class PlannerView:
         )
 
     def _render_markers(self, frame: Frame, radius: float) -> None:
-        # The start and goal markers are the robot's footprint (a point robot gets a dot).
-        size = max(radius, 0.12)
+        size = _marker_size(radius)
         if self._changed("marker_size", size):
             for name in ("start", "goal"):
                 self.markers[name].scale = (size, size, 1.0)
@@ -1000,6 +1005,36 @@ def dsb_segment_modes(result: Any, n_segments: int) -> list[str] | None:
         if len(modes) == n_segments + 1:
             return modes[:-1]
     return None
+
+
+def _marker_size(radius: float) -> float:
+    """Radius [m] of the start and goal markers: the robot's footprint, or a dot."""
+    return max(radius, 0.12)
+
+
+def clear_of_markers(
+    labels: Sequence[tuple[str, tuple[float, float]]],
+    markers: Iterable[tuple[float, float]],
+    radius: float,
+) -> list[tuple[str, tuple[float, float]]]:
+    """Move the labels that fall on a start or goal marker to its lower right.
+
+    An event at the start (the robot senses an obstacle before it moves, "H1") would put
+    its label on the marker, where the two hide each other. The label's corner moves to
+    the marker's bounding box, so its text (anchored at its bottom left) runs beside the
+    marker; the event's cross stays where the event is.
+
+    Examples
+    --------
+    >>> clear_of_markers([("H1", (1.0, 1.0)), ("L1", (3.0, 1.0))], [(1.0, 1.05)], 0.2)
+    [('H1', (1.2, 0.8500000000000001)), ('L1', (3.0, 1.0))]
+    """
+    centres = list(markers)
+    out = []
+    for text, at in labels:
+        on = [c for c in centres if math.dist(at, c) <= radius]
+        out.append((text, (on[0][0] + radius, on[0][1] - radius) if on else at))
+    return out
 
 
 def merge_labels(

@@ -321,7 +321,7 @@ def test_view_draws_a_dsb_frame(server):
         path = np.array([[1.0, 1.0], [2.0, 1.0], [3.0, 1.5], [9.0, 7.0]])
         modes = ("seek", "follow", "seek")
         events = (
-            {"kind": "hit", "at": (2.0, 1.0), "label": "H1"},
+            {"kind": "hit", "at": scene.start, "label": "H1"},
             {"kind": "leave", "at": (3.0, 1.5), "label": "L1"},
         )
         length = 10.0
@@ -341,7 +341,12 @@ def test_view_draws_a_dsb_frame(server):
     assert not np.array_equal(colors[0], colors[1]) and np.array_equal(
         colors[0], colors[2]
     )
-    assert [h.text for h in view.dsb_labels.handles if h.visible] == ["H1", "L1"]
+    labels = [h for h in view.dsb_labels.handles if h.visible]
+    assert [h.text for h in labels] == ["H1", "L1"]
+    # An event at the start: its label moves beside the start marker, not onto it.
+    size = max(scene.robot.radius, 0.12)
+    assert_allclose(labels[0].position[:2], np.add(scene.start, (size, -size)))
+    assert_allclose(labels[1].position[:2], (3.0, 1.5))
     sensing = {"center": (2.0, 1.0), "radius": 2.0, "seen": np.array([[[3.0, 1.0], [3.0, 2.0]]]),
                "tangents": np.array([[[2.0, 1.0], [3.0, 2.0]]])}  # fmt: skip
     pose = RobotPose(t=1.0, duration=5.0, xy=(2.0, 1.0), phi=0.0, wheel_angles=(), wheel_rates=(),

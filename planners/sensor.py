@@ -23,6 +23,13 @@ fast for the few hundred edges of a lecture scene. A robot standing on the borde
 touch it) cannot look into the blocked wedge at its feet; the two edges along the wedge's
 sides are seen edge-on and are added as pieces running straight away from the robot.
 
+Touching is up to eps (the configuration space's tolerance): a ray is blocked where it
+goes more than eps deep into blocked space. Far from the robot that changes nothing
+visible, but a vertex a few eps away does matter: the wedge at the robot's feet follows
+the corner (the robot sees past a convex corner's tip thinner than eps, and a slight bend
+of the border hides what lies behind it), and critical angles that are one up to eps are
+merged rather than leave slivers between them.
+
 References
 ----------
 I. Kamon, E. Rivlin and E. Rimon, "TangentBug: A range-sensor-based navigation algorithm",
@@ -43,6 +50,7 @@ __all__ = [
 import dataclasses
 import functools
 import math
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -54,9 +62,13 @@ IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
 TAU = 2.0 * math.pi
-# Angular intervals narrower than this [rad] are dropped: what they could show is below
-# 1e-12 * range, far under the joining tolerance below.
+# Angular intervals narrower than this [rad] are always dropped: what they could show is
+# below 1e-12 * range, far under the joining tolerance below. Critical angles of points
+# close to the robot are merged more widely (see _merge_close_angles).
 _ANGLE_TOL = 1e-12
+# Rounding error allowed on a difference of two coordinates, relative to the scene's size
+# (256 ulps: the sensor's arithmetic and GEOS's agree far better than that).
+_ROUNDING = 2.0**-44
 # Two visible pieces whose ends are closer than this (relative to the scene's size) are
 # one continuous piece of border: the range function does not jump there.
 _JOIN_REL = 1e-7
@@ -115,6 +127,11 @@ class RingGeometry:
         return max(_JOIN_REL * self.scale, 100.0 * self.eps)
 
     @functools.cached_property
+    def eps_length(self) -> FloatArray:
+        """(m,) eps times each edge's length: bound on ``|cross|`` within eps of its line."""
+        return self.eps * self.length
+
+    @functools.cached_property
     def step_x(self) -> FloatArray:
         """(m,) x component of each edge's step (contiguous, for speed)."""
         return np.ascontiguousarray(self.step[:, 0])
@@ -125,14 +142,47 @@ class RingGeometry:
         return np.ascontiguousarray(self.step[:, 1])
 
     @functools.cached_property
+    def next_edge(self) -> IntArray:
+        """(m,) flat index of the next edge of the same ring."""
+        out = np.empty_like(self.prev_edge)
+        out[self.prev_edge] = np.arange(len(self.prev_edge))
+        return out
+
+    @functools.cached_property
+    def start_convex(self) -> BoolArray:
+        """(m,) whether each edge's start vertex is a corner (blocked wedge under a half turn)."""
+        return _cross(self.unit, self.prev_dir) > 0
+
+    @functools.cached_property
+    def eroded_start(self) -> FloatArray:
+        """(m, 2) the corner at each edge's start vertex moved eps into blocked space [m].
+
+        It is where the two edges' lines, each shifted by eps into blocked space, cross:
+        the apex of the corner's blocked wedge shrunk by eps (the touching tolerance). Only
+        meaningful at convex corners, where it lies eps / sin(half the wedge) from the
+        vertex along the wedge's bisector.
+        """
+        d_out, d_in = self.unit, -self.prev_dir
+        nu_out = np.column_stack([-d_out[:, 1], d_out[:, 0]])
+        nu_in = np.column_stack([-d_in[:, 1], d_in[:, 0]])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = self.eps / (1.0 + np.einsum("ij,ij->i", nu_in, nu_out))
+        return self.start + k[:, None] * (nu_in + nu_out)
+
+    @functools.cached_property
+    def corner_list(self) -> list[bool]:
+        """:attr:`start_convex` as Python booleans."""
+        return self.start_convex.tolist()
+
+    @functools.cached_property
+    def eroded_list(self) -> list[tuple[float, float]]:
+        """:attr:`eroded_start` as Python float pairs [m]."""
+        return [(float(a), float(b)) for a, b in self.eroded_start]
+
+    @functools.cached_property
     def start_list(self) -> list[tuple[float, float]]:
         """Edge starts as Python float pairs [m]."""
         return [(float(a), float(b)) for a, b in self.start]
-
-    @functools.cached_property
-    def length_list(self) -> list[float]:
-        """Edge lengths as Python floats [m]."""
-        return [float(v) for v in self.length]
 
     def edge_index(self, ring: int, i: int) -> int:
         """Flat index of edge ``i`` (taken cyclically) of ``ring``."""
@@ -408,14 +458,21 @@ class _Item:
 
 @dataclasses.dataclass(frozen=True)
 class _Occurrence:
-    """The robot touching the border: a blocked wedge counter-clockwise from ``n`` to ``q``."""
+    """The robot touching the border: a blocked wedge counter-clockwise from ``n`` to ``q``.
 
-    n: tuple[float, float]  # unit direction along the border ahead (ring forward)
-    q: tuple[float, float]  # unit direction along the border behind (ring backward)
-    edge_n: int  # edge running along n, from the robot
-    edge_q: int  # edge running along q, toward the robot
-    t_n: float  # parameter of the robot on edge_n
-    t_q: float  # parameter of the robot on edge_q
+    The wedge is where a ray from the robot enters blocked space shrunk by eps (the
+    touching tolerance) right at the robot's feet. Along its two sides the border runs away
+    from the robot, seen edge-on: ``edge_n`` from parameter ``t_n`` on (ring forward), and
+    ``edge_q`` from ``t_q`` back (ring backward). Those points (the feet) are where the
+    robot stands on the border: its own position up to eps, or the corner it touches.
+    """
+
+    n: tuple[float, float]  # unit direction of the wedge's clockwise side
+    q: tuple[float, float]  # unit direction of the wedge's counter-clockwise side
+    edge_n: int  # edge running away from the feet along (about) n, ring forward
+    edge_q: int  # edge running away from the feet along (about) q, ring backward
+    t_n: float  # parameter of the feet on edge_n
+    t_q: float  # parameter of the feet on edge_q
 
     @property
     def narrow(self) -> bool:
@@ -448,35 +505,95 @@ def _near(geo: RingGeometry, x: FloatArray) -> _Near:
 
 
 def _measure(geo: RingGeometry, x: FloatArray) -> _Near:
+    """Measure the border from ``x`` and find the blocked wedges at the robot's feet.
+
+    Within eps of the border the robot touches it, and a ray is blocked only where it goes
+    deeper than eps into blocked space. At the scale of eps the polygons' corners matter,
+    so the wedges follow the corners near the robot:
+
+    - a corner is touched when the robot lies within eps of both its edges' lines (for
+      instance within eps of the vertex, or on one edge a few eps from a vertex where the
+      border turns only slightly). The wedge is the corner's own, as if the robot stood on
+      the vertex: between the two edges, which run away from the vertex edge-on;
+    - otherwise an edge within eps of the robot blocks the half turn on its blocked side,
+      its sides made exact toward the edge's ends (:func:`_side_toward`): narrowed toward
+      a convex corner, past which the robot sees through the corner's tip where blocked
+      space is thinner than eps; widened toward a reflex corner when the robot stands
+      inside the edge's line, to the ray through the vertex.
+    """
     a = geo.start - x
     ax, ay = a[:, 0], a[:, 1]
     dx, dy = geo.step_x, geo.step_y
-    t = np.minimum(np.maximum(-(ax * dx + ay * dy) / geo.len2, 0.0), 1.0)
+    along = -(ax * dx + ay * dy) / geo.len2  # foot of x on each edge's line
+    t = np.minimum(np.maximum(along, 0.0), 1.0)
     dist = np.hypot(ax + t * dx, ay + t * dy)
     cr = ax * dy - ay * dx
-    touching = np.flatnonzero(dist <= geo.eps)
     occ: list[_Occurrence] = []
-    for e in touching.tolist():
-        ax, ay = float(a[e, 0]), float(a[e, 1])
+    # Edges whose line passes within eps of x (few), then the corners (at an edge's
+    # start) whose two lines do, x not beyond the far end of either edge.
+    lined = np.flatnonzero(np.abs(cr) <= geo.eps_length).tolist()
+    if not lined:
+        return a, dist, cr, occ
+    prev, nxt = geo.prev_edge, geo.next_edge
+    on_line = set(lined)
+    corner = {
+        e
+        for e in lined
+        if int(prev[e]) in on_line and along[e] < 1.0 and along[prev[e]] > 0.0
+    }
+    touching = {e for e in lined if dist[e] <= geo.eps}
+    for e in sorted(touching | corner):
+        if e in corner:
+            n = (float(geo.unit[e, 0]), float(geo.unit[e, 1]))
+            q = (float(geo.prev_dir[e, 0]), float(geo.prev_dir[e, 1]))
+            occ.append(_Occurrence(n, q, e, int(prev[e]), 0.0, 1.0))
+        if e not in touching or e in corner or int(nxt[e]) in corner:
+            continue  # not touched, or part of a touched corner
         ux, uy = float(geo.unit[e, 0]), float(geo.unit[e, 1])
-        length = float(geo.length[e])
-        if math.hypot(ax, ay) <= geo.eps:
-            p = int(geo.prev_edge[e])
-            occ.append(
-                _Occurrence(
-                    (ux, uy),
-                    (float(geo.prev_dir[e, 0]), float(geo.prev_dir[e, 1])),
-                    e,
-                    p,
-                    0.0,
-                    1.0,
-                )
-            )
-        elif math.hypot(ax + length * ux, ay + length * uy) > geo.eps:
-            # On the edge's interior (its end vertex is the next edge's start: counted there).
-            tt = min(max(-(ax * ux + ay * uy) / length, 0.0), 1.0)
-            occ.append(_Occurrence((ux, uy), (-ux, -uy), e, e, tt, tt))
+        n, q = (ux, uy), (-ux, -uy)
+        n = _side_toward(geo, x, int(nxt[e]), n, -1.0)
+        q = _side_toward(geo, x, e, q, 1.0)
+        tt = float(t[e])
+        occ.append(_Occurrence(n, q, e, e, tt, tt))
     return a, dist, cr, occ
+
+
+def _side_toward(
+    geo: RingGeometry,
+    x: FloatArray,
+    vertex: int,
+    side: tuple[float, float],
+    turn: float,
+) -> tuple[float, float]:
+    """Return a touched edge's half-turn side toward the edge's end ``vertex``, made exact.
+
+    The half turn is drawn as if the robot stood on the edge's line; it stands within eps
+    of it, and near the end of the edge the difference shows. ``vertex`` is that end (the
+    start of that flat edge); the half turn lies counter-clockwise of ``side`` when
+    ``turn`` is -1 (its first side), clockwise when 1 (its last side).
+
+    - At a convex corner, a ray passing just outside the corner, closer to it than eps,
+      does not go eps deep: the side narrows to the ray grazing the corner shrunk by eps.
+      That ray touches it, which the segment test counts as entering, so the side is
+      turned outward by the angle's rounding error: whatever is seen past the corner stays
+      clear of it. A side that would hardly move keeps the edge's direction.
+    - At a reflex corner, a robot on the blocked side of the line sees the line cross
+      beyond the vertex, into blocked space behind the vertex's other edge: the side
+      widens to the ray through the vertex, where that edge (seen by the sweep) begins.
+    """
+    sx, sy = side
+    convex = geo.corner_list[vertex]
+    tx, ty = geo.eroded_list[vertex] if convex else geo.start_list[vertex]
+    wx, wy = tx - float(x[0]), ty - float(x[1])
+    # Angle from the ray to the side, positive when the ray lies inside the half turn.
+    gap = turn * math.atan2(wx * sy - wy * sx, wx * sx + wy * sy)
+    if not convex:
+        return side if gap >= 0 else (wx / math.hypot(wx, wy), wy / math.hypot(wx, wy))
+    margin = _ROUNDING * geo.scale / max(math.hypot(wx, wy), geo.eps)
+    if not gap > margin:
+        return side
+    angle = math.atan2(wy, wx) + turn * margin
+    return (math.cos(angle), math.sin(angle))
 
 
 def _in_wedges(occ: list[_Occurrence], ux: FloatArray, uy: FloatArray) -> BoolArray:
@@ -553,7 +670,12 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
     if len(geo.start) == 0:
         return []
     a, dist, cr, occ = _near(geo, x)
-    front = cr < -geo.eps * geo.length
+    # Every edge that faces the robot, however obliquely (an edge whose line passes within
+    # eps of the robot still hides what lies behind it), except the edges of the wedges at
+    # its feet, which include every edge it touches.
+    front = cr < 0
+    for o in occ:
+        front[o.edge_n] = front[o.edge_q] = False
     if finite:
         front &= dist < radius
     f = np.flatnonzero(front)
@@ -597,10 +719,14 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
     theta = np.concatenate(angles) % TAU
     if len(theta) == 0:
         return []
-    theta.sort()
-    theta = theta[np.concatenate(([True], np.diff(theta) > _ANGLE_TOL))]
-    if len(theta) > 1 and theta[0] + TAU - theta[-1] <= _ANGLE_TOL:
-        theta = theta[:-1]
+
+    def reach() -> FloatArray:
+        """How far from the robot each critical angle's point lies (NaN: a wedge's side)."""
+        sides = np.full(2 * len(occ), np.nan)
+        return np.concatenate((np.hypot(inx, iny), np.hypot(outx, outy), sides))
+
+    nearest = float(dist[f].min()) if len(f) else math.inf
+    theta = _merge_close_angles(theta, reach, nearest, geo.eps)
     lo = theta
     hi = np.append(theta[1:], theta[0] + TAU)
     mid = 0.5 * (lo + hi)
@@ -629,13 +755,14 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
         best.tolist(),
     )
     f_l = f.tolist()
+    here = (float(x[0]), float(x[1]))
     for j in range(len(lo_l)):
         kind = "blocked" if blocked_l[j] else "piece" if hit_l[j] else "free"
         if kind != "piece":
             if items and items[-1].kind == kind:
                 items[-1].hi = hi_l[j]
             else:
-                items.append(_Item(kind, lo_l[j], hi_l[j]))
+                items.append(_Item(kind, lo_l[j], hi_l[j], p0=here, p1=here))
             continue
         k = best_l[j]
         e = f_l[k]
@@ -670,7 +797,6 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
                 cols[3][k],
                 cols[4][k],
                 cols[5][k],
-                geo.length_list[it.edge],
                 geo.eps,
             )
             it.t0 = _t_at(it.lo, *args)
@@ -679,8 +805,101 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
             it.p0 = (sx + it.t0 * args[2], sy + it.t0 * args[3])
             it.p1 = (sx + it.t1 * args[2], sy + it.t1 * args[3])
     if occ:
-        items = _add_edge_on_pieces(geo, radius, items, occ)
+        items = _add_edge_on_pieces(geo, x, radius, items, occ)
     return items
+
+
+def _merge_close_angles(
+    theta: FloatArray,
+    reach: Callable[[], FloatArray],
+    nearest: float,
+    eps: float,
+) -> FloatArray:
+    """Sort the critical angles (in [0, 2 pi)) and merge those that are one up to eps.
+
+    The robot touches the border within eps, and the wedges at its feet are drawn as if
+    it stood exactly on the border: a wedge's side and the angle of a vertex on that
+    side's line differ by up to eps / d, d the vertex's distance. Generally two critical
+    angles are the same when the rays along them pass within eps of the points that
+    define them, i.e. when they differ by at most eps / d for the farther point; the
+    sliver between them would show nothing the tolerance can tell. A wedge's side (exact)
+    absorbs every point that is the same as it; of each run of neighbouring points that
+    are the same, the farthest point's angle (the most precise) is kept.
+
+    ``reach()`` gives the distance of the point that defines each angle, NaN for a wedge's
+    side (a direction, no point); it is called only when some angles may merge, judged
+    with ``nearest``, a lower bound of those distances.
+
+    Angles closer than _ANGLE_TOL are merged first, keeping any of them: mostly the two
+    copies of a vertex that two edges share, where there is nothing to choose.
+    """
+    order = np.argsort(theta)
+    theta = theta[order]
+    if len(theta) < 2:
+        return theta
+    gap = _ccw_gaps(theta)
+    tiny = gap <= _ANGLE_TOL
+    keep = np.empty(len(theta), dtype=bool)
+    keep[0] = True
+    np.logical_not(tiny[:-1], out=keep[1:])
+    if tiny[-1]:
+        keep[-1] = False
+    # The gap times the farther point's distance is how far apart the rays pass there:
+    # nothing more to merge when no gap is within eps even at the nearest point.
+    widest = eps / nearest if nearest > 0 else math.inf
+    if not np.any((gap <= widest) & ~tiny):
+        return theta[keep]
+    theta = theta[keep]
+    dist = reach()[order[keep]]
+    # A wedge's side absorbs every point its ray passes within eps of (others may lie
+    # between them: the side's line runs on along the border it stands on).
+    absorbed = np.zeros(len(theta), dtype=bool)
+    for side in theta[np.isnan(dist)].tolist():
+        off = np.abs((theta - side + math.pi) % TAU - math.pi)
+        absorbed |= off * dist <= eps
+    theta, dist = theta[~absorbed], dist[~absorbed]
+    n = len(theta)
+    if n < 2:
+        return theta
+    # Neighbouring points whose rays pass within eps at the farther point: angle i is
+    # the same as angle i + 1 (the last as the first).
+    far = np.fmax(dist, np.roll(dist, -1))
+    pairs = np.flatnonzero(_ccw_gaps(theta) * far <= eps).tolist()
+    if not pairs:
+        return theta
+    far_l = dist.tolist()
+
+    def rank(i: int) -> float:  # the farther point; a side (were one left) first
+        return math.inf if math.isnan(far_l[i]) else far_l[i]
+
+    if len(pairs) == n:
+        return theta[[max(range(n), key=rank)]]
+    # Walk the runs of same neighbours, from one that does not go on across angle 0.
+    first = 0
+    if pairs[0] == 0 and pairs[-1] == n - 1:
+        first = next(j for j in range(1, len(pairs)) if pairs[j] != pairs[j - 1] + 1)
+    drop: list[int] = []
+    end = best = -1
+    for i in pairs[first:] + pairs[:first]:
+        if i != end:  # a new run
+            best = i
+        end = (i + 1) % n
+        if rank(end) > rank(best):  # keep the first of equals
+            drop.append(best)
+            best = end
+        else:
+            drop.append(end)
+    keep = np.ones(n, dtype=bool)
+    keep[drop] = False
+    return theta[keep]
+
+
+def _ccw_gaps(theta: FloatArray) -> FloatArray:
+    """Return the gap from each sorted angle to the next counter-clockwise (last to first)."""
+    gap = np.empty(len(theta))
+    np.subtract(theta[1:], theta[:-1], out=gap[:-1])
+    gap[-1] = theta[0] + TAU - theta[-1]
+    return gap
 
 
 def _t_at(
@@ -691,7 +910,6 @@ def _t_at(
     dy: float,
     t_in: float,
     t_out: float,
-    length: float,
     eps: float,
 ) -> float:
     """Return the parameter along an edge where the ray at ``angle`` meets it.
@@ -702,18 +920,25 @@ def _t_at(
     denom = ux * dy - uy * dx
     t = (ax * uy - ay * ux) / denom if denom != 0 else t_in
     t = min(max(t, t_in), t_out)
-    # The sweep's angles come from these very end points: snap to them exactly.
-    if abs(t - t_in) * length <= 10.0 * eps:
-        return t_in
-    if abs(t - t_out) * length <= 10.0 * eps:
-        return t_out
-    return t
+    # The sweep's angles come from these very end points, or from angles merged with
+    # theirs (their rays pass within eps of it): snap to the nearer end in that case.
+    end = t_in if t - t_in <= t_out - t else t_out
+    px, py = ax + end * dx, ay + end * dy
+    return end if abs(ux * py - uy * px) <= eps else t
 
 
 def _add_edge_on_pieces(
-    geo: RingGeometry, radius: float, items: list[_Item], occ: list[_Occurrence]
+    geo: RingGeometry,
+    x: FloatArray,
+    radius: float,
+    items: list[_Item],
+    occ: list[_Occurrence],
 ) -> list[_Item]:
-    """Insert, at each side of a blocked wedge, the border running straight away from the robot."""
+    """Insert, at each side of a blocked wedge, the border running straight away from the robot.
+
+    The wedge's ends become the feet of those pieces (where the robot stands on the
+    border), so that the border runs on continuously through the wedge.
+    """
     out: list[_Item] = []
     n = len(items)
     for i, it in enumerate(items):
@@ -722,19 +947,43 @@ def _add_edge_on_pieces(
         if it.kind == "blocked" and nxt.kind != "blocked":
             # Leaving the wedge counter-clockwise: the border behind the robot (along q).
             o = min(occ, key=lambda o: _angle_gap(math.atan2(o.q[1], o.q[0]), it.hi))
-            e = o.edge_q
-            reach = radius / float(geo.length[e]) if math.isfinite(radius) else math.inf
-            out.append(_radial(geo, e, o.t_q, max(0.0, o.t_q - reach), it.hi))
+            t_far = _leave_disk(geo, o.edge_q, x, radius, -1)
+            out.append(_radial(geo, o.edge_q, o.t_q, min(o.t_q, t_far), it.hi))
+            it.p1 = out[-1].p0
         elif it.kind != "blocked" and nxt.kind == "blocked":
             # Entering the wedge: the border ahead of the robot (along n), walked inward.
             o = min(occ, key=lambda o: _angle_gap(math.atan2(o.n[1], o.n[0]), it.hi))
-            e = o.edge_n
-            reach = radius / float(geo.length[e]) if math.isfinite(radius) else math.inf
-            out.append(_radial(geo, e, min(1.0, o.t_n + reach), o.t_n, it.hi))
+            t_far = _leave_disk(geo, o.edge_n, x, radius, 1)
+            out.append(_radial(geo, o.edge_n, max(o.t_n, t_far), o.t_n, it.hi))
+            nxt.p0 = out[-1].p1
     return out
 
 
+def _leave_disk(
+    geo: RingGeometry, e: int, x: FloatArray, radius: float, direction: int
+) -> float:
+    """Return the parameter where edge ``e``, walked forward (1) or back (-1), leaves the disk.
+
+    The edge runs through the robot's feet, inside the disk; 1 (or 0) when it ends first.
+    Measured from the robot itself, not from the feet (a touched corner may be a few eps
+    away).
+    """
+    if not math.isfinite(radius):
+        return 1.0 if direction > 0 else 0.0
+    ax, ay = geo.start_list[e]
+    ax, ay = ax - float(x[0]), ay - float(x[1])
+    dx, dy = float(geo.step[e, 0]), float(geo.step[e, 1])
+    qa = float(geo.len2[e])
+    qb = 2.0 * (ax * dx + ay * dy)
+    qc = ax * ax + ay * ay - radius * radius
+    root = math.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))
+    if direction > 0:
+        return min(1.0, (-qb + root) / (2.0 * qa))
+    return max(0.0, (-qb - root) / (2.0 * qa))
+
+
 def _radial(geo: RingGeometry, e: int, t0: float, t1: float, angle: float) -> _Item:
+    """Return the piece of edge ``e`` from parameter ``t0`` to ``t1``, seen edge-on at ``angle``."""
     sx, sy = geo.start_list[e]
     dx, dy = float(geo.step[e, 0]), float(geo.step[e, 1])
     return _Item(
@@ -761,24 +1010,18 @@ def _assemble(
     n = len(items)
     tol = geo.join_tol
     finite = math.isfinite(radius)
-    here = (x0, y0)
-
-    def first(it: _Item) -> tuple[float, float]:
-        return here if it.kind == "blocked" else it.p0
-
-    def last(it: _Item) -> tuple[float, float]:
-        return here if it.kind == "blocked" else it.p1
 
     def depth(p: tuple[float, float]) -> float:
         return math.hypot(p[0] - x0, p[1] - y0)
 
-    # Consecutive items join when neither is free range and their ends meet.
+    # Consecutive items join when neither is free range and their ends meet (a blocked
+    # wedge starts and ends at the robot's feet).
     joined = [False] * n
     if n > 1:
         for i in range(n):
             it, nxt = items[i], items[(i + 1) % n]
             if it.kind != "free" and nxt.kind != "free":
-                p, q = last(it), first(nxt)
+                p, q = it.p1, nxt.p0
                 joined[i] = math.hypot(p[0] - q[0], p[1] - q[1]) <= tol
     chain_id = [0] * n
     breaks = [i for i in range(n) if not joined[i]]
@@ -813,14 +1056,14 @@ def _assemble(
         if it.kind == "piece":
             pts.append(it.p1)
             chain_of_o.append(chain_id[i])
-            kinds.append(kind_of(it.p1, nxt, first(nxt)))
+            kinds.append(kind_of(it.p1, nxt, nxt.p0))
             edges.append(it.edge)
             ts.append(it.t1)
             follow.append(-1)
         if nxt.kind == "piece" and n > 1:
             pts.append(nxt.p0)
             chain_of_o.append(chain_id[(i + 1) % n])
-            kinds.append(kind_of(nxt.p0, it, last(it)))
+            kinds.append(kind_of(nxt.p0, it, it.p1))
             edges.append(nxt.edge)
             ts.append(nxt.t0)
             follow.append(1)

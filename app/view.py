@@ -765,8 +765,22 @@ class PlannerView:
     def _render_dsb(self, frame: Frame, marker_size: float) -> None:
         result = frame.plans.get("dsb")
         show = frame.layers.get("dsb_path", True) and result is not None
+        events = dsb_events(result) if show else []
+        # The labels also depend on where the markers are (they keep clear of them);
+        # the path and the crosses only on the result: a goal dragged while the DSB
+        # result lags re-sends no path.
         markers = (frame.scene.start, frame.scene.goal)
-        if not self._changed("dsb", (result, show, markers, marker_size)):
+        if self._changed("dsb_labels", (result, show, markers, marker_size)):
+            labels = clear_of_markers(
+                merge_labels([(label, at) for label, _, at in events], 0.2),
+                markers,
+                marker_size,
+            )
+            self.dsb_labels.set(
+                [(text, (*at, HEIGHTS["dsb_path"] + 0.05)) for text, at in labels],
+                show,
+            )
+        if not self._changed("dsb", (result, show)):
             return
         path = np.asarray(
             getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
@@ -782,15 +796,6 @@ class PlannerView:
             )
             colors = np.repeat(rgb[:, None, :], 2, axis=1)
         self.dsb_path.set(segments, show, colors)
-        events = dsb_events(result) if show else []
-        labels = clear_of_markers(
-            merge_labels([(label, at) for label, _, at in events], 0.2),
-            markers,
-            marker_size,
-        )
-        self.dsb_labels.set(
-            [(text, (*at, HEIGHTS["dsb_path"] + 0.05)) for text, at in labels], show
-        )
         crosses = [_cross(at, 0.12, HEIGHTS["dsb_path"] + 0.004) for _, _, at in events]
         self.dsb_marks.set(
             np.concatenate(crosses) if crosses else _NO_SEGMENTS, show and bool(crosses)

@@ -60,6 +60,14 @@ def make(scene, **kwargs) -> tuple[Controller, FakeView]:
     return controller, view
 
 
+def _assert_settles_on(controller, view, goal):
+    """Once the slow planner is released: its result for ``goal`` is shown, not lagging."""
+    assert controller.wait_idle(10)
+    final = view.last.plans["dsb"]
+    assert isinstance(final, FakeTrace) and final.goal == goal
+    assert not view.last.lagging
+
+
 def test_fast_planners_are_drawn_while_the_slow_one_computes(scene):
     gate, calls = threading.Event(), []
     controller, view = make(scene, slow_plan=gated_slow_plan(gate, calls))
@@ -134,10 +142,7 @@ def test_a_lagging_slow_result_is_shown_during_a_drag_but_not_after_a_bad_edit(s
         assert dsb.reason == view.last.plans["vg"].reason
         assert "inside obstacle" in dsb.reason
         release.set()
-        assert controller.wait_idle(10)
-        final = view.last.plans["dsb"]
-        assert isinstance(final, FakeTrace) and final.goal == (3.0, 3.0)
-        assert not view.last.lagging
+        _assert_settles_on(controller, view, (3.0, 3.0))
     finally:
         release.set()
         controller.close()
@@ -175,10 +180,7 @@ def test_a_lagging_result_must_tell_the_same_story_as_the_fast_planners():
         assert view.last.plans["vg"].status == "ok"
         assert isinstance(view.last.plans["dsb"], Pending) and not view.last.lagging
         release.set()
-        assert controller.wait_idle(10)
-        final = view.last.plans["dsb"]
-        assert isinstance(final, FakeTrace) and final.goal == (2.0, 7.0)
-        assert not view.last.lagging
+        _assert_settles_on(controller, view, (2.0, 7.0))
     finally:
         release.set()
         controller.close()

@@ -1151,6 +1151,16 @@ class Controller:
         plans.pop("cspace", None)
         plans["cspace"] = fast.get("cspace")
         other = self._other_expansion(scene) if want_other else None
+
+        def frame_with(trajectory: Any) -> Frame:  # under self._wake
+            return self._frame_locked(
+                (version, scene, plans, ms),
+                trajectory,
+                other,
+                frozenset(lagging),
+                shown_slow,
+            )
+
         lookup = self._trajectory_lookup(version, scene, plans, follow)
         if lookup[3] is _PLAN:
             # The planners' layers first: planning the robot's new trajectory takes up
@@ -1158,26 +1168,14 @@ class Controller:
             # with the new trajectory follows at once (it sends only the robot's parts).
             with self._wake:
                 self._computed = computed
-                first = self._frame_locked(
-                    (version, scene, plans, ms),
-                    self._computed_trajectory[1],
-                    other,
-                    frozenset(lagging),
-                    shown_slow,
-                )
+                first = frame_with(self._computed_trajectory[1])
             with self._render_lock:
                 for view in self._views:
                     view.render(first)
         trajectory = self._trajectory_for(scene, lookup)
         with self._wake:
             self._computed = computed
-            frame = self._frame_locked(
-                (version, scene, plans, ms),
-                trajectory,
-                other,
-                frozenset(lagging),
-                shown_slow,
-            )
+            frame = frame_with(trajectory)
             duration = self._duration_locked()
             if duration is not None:
                 self._playback.t = min(self._playback.t, duration)

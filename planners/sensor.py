@@ -275,9 +275,7 @@ class RingGeometry:
         out = []
         for k in range(len(self.rings)):
             lo, hi = int(self.offset[k]), int(self.offset[k + 1])
-            nxt, prv = self.unit[lo:hi], self.prev_dir[lo:hi]
-            turn = nxt[:, 0] * prv[:, 1] - nxt[:, 1] * prv[:, 0]
-            out.append(self.cum[k][:-1][turn > 0])
+            out.append(self.cum[k][:-1][self.start_convex[lo:hi]])
         return tuple(out)
 
     def to_corner(self, ring: int, sigma: float, direction: int, gap: float) -> float:

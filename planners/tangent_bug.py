@@ -384,6 +384,7 @@ class _Context:
     max_steps: int
     refine: int
     labels: tuple[Any, ...]  # expanded obstacles, walls (for naming events)
+    goal_edge: FloatArray  # (m,) distance from the goal to each border edge [m]
 
 
 @functools.lru_cache(maxsize=32)
@@ -422,9 +423,10 @@ def _context(cspace: ConfigurationSpace, params: BugParams) -> _Context:
     # seek_step / 2**refine; heuristic distances change at most twice as fast as the robot
     # moves, so there the two choices differ by less than this band.
     slide_band = 4.0 * seek_step / 2.0**params.refine + 10.0 * tol
+    goal_edge = _segment_distances(np.stack([geo.start, geo.end], axis=1), goal)
     return _Context(
         cspace, geo, goal, radius, params.leave_rule, seek_step, follow_step, tol, margin, slide_band, 0.05 * seek_step,
-        max_steps, params.refine, labels,
+        max_steps, params.refine, labels, goal_edge,
     )  # fmt: skip
 
 
@@ -971,10 +973,51 @@ def _reach(ctx: _Context, y: FloatArray, ring: int) -> tuple[float, FloatArray]:
     return float(dist[k]), closest[k]
 
 
-def _leaves(ctx: _Context, f: Follow, y: FloatArray) -> tuple[bool, float, FloatArray]:
-    """Tell whether the leave rule holds at ``y``: (leave, d_reach, the point achieving it)."""
-    d_reach, point = _reach(ctx, y, f.ring)
-    return d_reach < f.d_followed - ctx.tol, d_reach, point
+def _leaves(ctx: _Context, f: Follow, y: FloatArray) -> tuple[bool, float]:
+    """Tell whether the leave rule holds at ``y``: (leave, d_followed updated with y's view)."""
+    if not _may_come_closer(ctx, f, y):
+        return False, f.d_followed
+    d_reach, _ = _reach(ctx, y, f.ring)
+    return d_reach < f.d_followed - ctx.tol, min(f.d_followed, d_reach)
+
+
+def _may_come_closer(ctx: _Context, f: Follow, y: FloatArray) -> bool:
+    """Tell whether d_reach at ``y`` may be less than d_followed, without sensing.
+
+    The followed border in view lies within R of ``y``: on the ring's edges that pass
+    within R. When the goal is out of range and neither those edges nor ``y`` itself
+    (d_reach when nothing of the ring is in view) come closer to the goal than
+    d_followed, the view cannot change d_followed nor make the leave rule hold. Then
+    sensing is not needed; this saves most readings on the far side of an obstacle.
+    A bound with room for rounding: the pieces the sensor reports lie on these edges.
+    """
+    g, geo = ctx.goal, ctx.geo
+    slack = 1e-9 * geo.scale
+    if math.hypot(float(g[0] - y[0]), float(g[1] - y[1])) <= ctx.radius + slack:
+        return True
+    if math.hypot(float(g[0] - y[0]), float(g[1] - y[1])) < f.d_followed + slack:
+        return True
+    lo, hi = int(geo.offset[f.ring]), int(geo.offset[f.ring + 1])
+    closer = lo + np.flatnonzero(ctx.goal_edge[lo:hi] < f.d_followed + slack)
+    if len(closer) == 0:
+        return False
+    # The part of each such edge within R of y: t in [t_in, t_out]; its point closest to
+    # the goal.
+    start, step, len2 = geo.start[closer], geo.step[closer], geo.len2[closer]
+    a = start - y
+    qb = 2.0 * np.einsum("ij,ij->i", a, step)
+    qc = np.einsum("ij,ij->i", a, a) - (ctx.radius + slack) ** 2
+    disc = qb * qb - 4.0 * len2 * qc
+    root = np.sqrt(np.maximum(disc, 0.0))
+    t_in = np.maximum((-qb - root) / (2.0 * len2), 0.0)
+    t_out = np.minimum((-qb + root) / (2.0 * len2), 1.0)
+    t = np.einsum("ij,ij->i", g - start, step) / len2
+    t = np.minimum(np.maximum(t, t_in), t_out)
+    near = start + t[:, None] * step - g
+    in_view = (disc >= 0) & (t_in <= t_out)
+    return bool(
+        (in_view & (np.hypot(near[:, 0], near[:, 1]) < f.d_followed + slack)).any()
+    )
 
 
 def _follow_step(ctx: _Context, state: BugState) -> BugState:
@@ -1045,11 +1088,11 @@ def _walk_and_check(
                 stop_at, leave = rest, True
     else:
         end = path[-1]
-        fires, d_reach, _ = _leaves(ctx, f, end)
+        fires, d_followed = _leaves(ctx, f, end)
         if fires:
             stop_at, leave = _refine_leave(ctx, f, path, cum), True
-        else:
-            f = dataclasses.replace(f, d_followed=min(f.d_followed, d_reach))
+        elif d_followed != f.d_followed:
+            f = dataclasses.replace(f, d_followed=d_followed)
     if s_goal is not None and (stop_at is None or s_goal <= stop_at):
         piece = _cut(path, cum, s_goal)
         piece[-1] = g
@@ -1130,7 +1173,7 @@ def _leave(
     q = p
     if ctx.rule == "tangent_bug" and f.exit_sigma is None:
         # Head for the point that made the rule hold until closer to the goal than d_followed.
-        _, _, target = _leaves(ctx, f, p)
+        _, target = _reach(ctx, p, f.ring)
         radius = f.d_followed - ctx.tol
         if math.hypot(*(p - g)) >= radius:
             s = _enter_disk(p, target, g, radius)

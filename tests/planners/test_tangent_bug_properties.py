@@ -11,7 +11,14 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from planners import PlanOptions, load_scene, plan_all
-from planners.tangent_bug import plan_tangent_bug
+from planners.tangent_bug import (
+    BugParams,
+    Follow,
+    _context,
+    _may_come_closer,
+    _reach,
+    plan_tangent_bug,
+)
 from planners.visibility import segments_free
 from tests.conftest import random_scenes, reference_segment_free, scene_dict
 
@@ -187,3 +194,32 @@ def test_trace_is_consistent(scene, rule):
         if trace.modes
         else 0
     )
+
+
+@given(
+    scene=random_scenes(),
+    sensor_range=st.sampled_from([0.5, 1.5, 4.0]),
+    where=st.lists(st.tuples(st.floats(0, 1), st.floats(0, 1)), min_size=1, max_size=8),
+    slack=st.floats(-0.5, 1.0),
+)
+def test_skipped_readings_could_not_have_changed_boundary_following(
+    scene, sensor_range, where, slack
+):
+    # Boundary following senses only where the view may bring the followed border closer
+    # to the goal than d_followed (_may_come_closer). Wherever it skips, the reading it
+    # skipped must show nothing closer: d_reach >= d_followed.
+    plans = plan_all(scene, ("vg",))
+    assume(plans["vg"].status != "invalid")
+    ctx = _context(plans["cspace"], BugParams(scene.goal, sensor_range))
+    geo = ctx.geo
+    assume(len(geo.rings))
+    for u, v in where:
+        ring = min(int(u * len(geo.rings)), len(geo.rings) - 1)
+        y, _, _ = geo.locate(ring, v * float(geo.perimeter[ring]))
+        d_now = _reach(ctx, y, ring)[0]
+        # d_followed around the value that decides: below, at and above d_reach.
+        follow = Follow(
+            ring, 1, (0.0, 0.0), 0.0, d_now + slack, None, 0.0, 0.0, 0.0, None
+        )
+        if not _may_come_closer(ctx, follow, y):
+            assert d_now >= follow.d_followed, (y, ring, d_now, follow.d_followed)

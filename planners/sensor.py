@@ -51,6 +51,7 @@ import dataclasses
 import functools
 import math
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -594,16 +595,16 @@ def _side_toward(
     return (math.cos(angle), math.sin(angle))
 
 
-def _in_wedges(occ: list[_Occurrence], ux: FloatArray, uy: FloatArray) -> BoolArray:
-    """Tell, for unit directions (ux, uy), whether each points strictly into a blocked wedge."""
-    inside = np.zeros(len(ux), dtype=bool)
+def _in_any_wedge(occ: list[_Occurrence], ux: float, uy: float) -> bool:
+    """Tell whether the unit direction (ux, uy) points strictly into a blocked wedge."""
     for o in occ:
         (nx, ny), (qx, qy) = o.n, o.q
         if o.narrow:
-            inside |= (nx * uy - ny * ux > 0) & (ux * qy - uy * qx > 0)
-        else:
-            inside |= ~((qx * uy - qy * ux >= 0) & (ux * ny - uy * nx >= 0))
-    return inside
+            if nx * uy - ny * ux > 0 and ux * qy - uy * qx > 0:
+                return True
+        elif not (qx * uy - qy * ux >= 0 and ux * ny - uy * nx >= 0):
+            return True
+    return False
 
 
 def sense(
@@ -663,7 +664,14 @@ def sense(
 
 
 def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
-    """Cut the full turn at the critical angles and say what each interval sees."""
+    """Cut the full turn at the critical angles and say what each interval sees.
+
+    The border is measured from the robot as arrays; the few edges that face it within R
+    (a handful in a lecture scene) are then handled as Python floats, which is several
+    times faster than numpy on arrays that short. The arithmetic is the same IEEE
+    operations in the same order; the angles and their cosines come from numpy, whose
+    arctan2 differs from the math module's in the last bit.
+    """
     finite = math.isfinite(radius)
     if len(geo.start) == 0:
         return []
@@ -676,135 +684,134 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
         front[o.edge_n] = front[o.edge_q] = False
     if finite:
         front &= dist < radius
-    f = np.flatnonzero(front)
-    ax, ay = a[f, 0], a[f, 1]
-    dx, dy = geo.step_x[f], geo.step_y[f]
-    crf = cr[f]
-    # The part of each facing edge inside the sensing disk: t in [t_in, t_out].
-    if finite and len(f):
-        qa = geo.len2[f]
-        qb = 2.0 * (ax * dx + ay * dy)
-        qc = ax * ax + ay * ay - radius * radius
-        disc = np.sqrt(np.maximum(qb * qb - 4.0 * qa * qc, 0.0))
-        t_in = np.maximum(0.0, (-qb - disc) / (2.0 * qa))
-        t_out = np.minimum(1.0, (-qb + disc) / (2.0 * qa))
-        keep = (t_out - t_in) * geo.length[f] > geo.eps
-        if not keep.all():
-            f, ax, ay, dx, dy, crf, t_in, t_out = (
-                f[keep],
-                ax[keep],
-                ay[keep],
-                dx[keep],
-                dy[keep],
-                crf[keep],
-                t_in[keep],
-                t_out[keep],
-            )
-    else:
-        t_in = np.zeros(len(f))
-        t_out = np.ones(len(f))
-    inx, iny = ax + t_in * dx, ay + t_in * dy
-    outx, outy = ax + t_out * dx, ay + t_out * dy
-
-    angles = [np.arctan2(iny, inx), np.arctan2(outy, outx)]
+    facing = _facing_parts(geo, a, cr, np.flatnonzero(front), radius)
+    f_l = [p.edge for p in facing]
+    angles = np.arctan2(
+        np.array([p.iny for p in facing] + [p.outy for p in facing]),
+        np.array([p.inx for p in facing] + [p.outx for p in facing]),
+    )
     if occ:
-        angles.append(
-            np.array(
+        angles = np.concatenate(
+            (
+                angles,
                 [math.atan2(o.n[1], o.n[0]) for o in occ]
-                + [math.atan2(o.q[1], o.q[0]) for o in occ]
+                + [math.atan2(o.q[1], o.q[0]) for o in occ],
             )
         )
-    theta = np.concatenate(angles) % TAU
-    if len(theta) == 0:
+    if len(angles) == 0:
         return []
+    theta = angles % TAU
 
     def reach() -> FloatArray:
         """How far from the robot each critical angle's point lies (NaN: a wedge's side)."""
-        sides = np.full(2 * len(occ), np.nan)
-        return np.concatenate((np.hypot(inx, iny), np.hypot(outx, outy), sides))
+        return np.concatenate(
+            (
+                np.hypot(
+                    np.array([p.inx for p in facing] + [p.outx for p in facing]),
+                    np.array([p.iny for p in facing] + [p.outy for p in facing]),
+                ),
+                np.full(2 * len(occ), np.nan),
+            )
+        )
 
-    nearest = float(dist[f].min()) if len(f) else math.inf
-    theta = _merge_close_angles(theta, reach, nearest, geo.eps)
-    lo = theta
-    hi = np.append(theta[1:], theta[0] + TAU)
-    mid = 0.5 * (lo + hi)
-    ux, uy = np.cos(mid), np.sin(mid)
-    blocked = _in_wedges(occ, ux, uy) if occ else np.zeros(len(mid), dtype=bool)
-    if len(f):
-        # Ray through the middle of each interval against every facing edge (intervals x edges).
-        U, V = ux[:, None], uy[:, None]
-        spans = (outx * V - outy * U > 0) & (U * iny - V * inx > 0)
-        denom = U * dy - V * dx
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = np.where(spans, crf / denom, np.inf)
-        s[~(s > 0)] = np.inf
-        best = s.argmin(axis=1)
-        hit = np.isfinite(s[np.arange(len(mid)), best])
-    else:
-        best = np.zeros(len(mid), dtype=np.intp)
-        hit = np.zeros(len(mid), dtype=bool)
+    nearest = min(float(dist[e]) for e in f_l) if f_l else math.inf
+    lo_l = _merge_close_angles(theta, reach, nearest, geo.eps).tolist()
+    hi_l = [*lo_l[1:], lo_l[0] + TAU]
+    mid = 0.5 * (np.array(lo_l) + np.array(hi_l))
+    ux_l, uy_l = np.cos(mid).tolist(), np.sin(mid).tolist()
 
     items: list[_Item] = []
-    lo_l, hi_l, blocked_l, hit_l, best_l = (
-        lo.tolist(),
-        hi.tolist(),
-        blocked.tolist(),
-        hit.tolist(),
-        best.tolist(),
-    )
-    f_l = f.tolist()
     here = (float(x[0]), float(x[1]))
     for j in range(len(lo_l)):
-        kind = "blocked" if blocked_l[j] else "piece" if hit_l[j] else "free"
-        if kind != "piece":
-            if items and items[-1].kind == kind:
-                items[-1].hi = hi_l[j]
-            else:
-                items.append(_Item(kind, lo_l[j], hi_l[j], p0=here, p1=here))
-            continue
-        k = best_l[j]
-        e = f_l[k]
-        if items and items[-1].kind == "piece" and items[-1].edge == e:
-            items[-1].hi = hi_l[j]
+        ux, uy = ux_l[j], uy_l[j]
+        if occ and _in_any_wedge(occ, ux, uy):
+            kind, e = "blocked", -1
         else:
+            # The ray through the middle of the interval against every facing edge.
+            e, best = -1, math.inf
+            for p in facing:
+                if p.outx * uy - p.outy * ux > 0 and ux * p.iny - uy * p.inx > 0:
+                    denom = ux * p.dy - uy * p.dx
+                    s = p.cross / denom if denom != 0 else math.inf
+                    if 0 < s < best:
+                        e, best = p.edge, s
+            kind = "piece" if e >= 0 else "free"
+        last = items[-1] if items else None
+        if last is not None and last.kind == kind and last.edge == e:
+            last.hi = hi_l[j]
+        elif kind == "piece":
             items.append(_Item("piece", lo_l[j], hi_l[j], e))
+        else:
+            items.append(_Item(kind, lo_l[j], hi_l[j], p0=here, p1=here))
     # The first and last intervals meet across angle 0: merge them when they are alike.
     if len(items) > 1:
         first, last = items[0], items[-1]
-        if first.kind == last.kind and (
-            first.kind != "piece" or first.edge == last.edge
-        ):
+        if first.kind == last.kind and first.edge == last.edge:
             last.hi = first.hi + TAU
             items.pop(0)
-    index = {e: k for k, e in enumerate(f_l)}
-    cols = (
-        ax.tolist(),
-        ay.tolist(),
-        dx.tolist(),
-        dy.tolist(),
-        t_in.tolist(),
-        t_out.tolist(),
-    )
+    parts = {p.edge: p for p in facing}
     for it in items:
         if it.kind == "piece":
-            k = index[it.edge]
-            args = (
-                cols[0][k],
-                cols[1][k],
-                cols[2][k],
-                cols[3][k],
-                cols[4][k],
-                cols[5][k],
-                geo.eps,
-            )
+            p = parts[it.edge]
+            args = (p.ax, p.ay, p.dx, p.dy, p.t_in, p.t_out, geo.eps)
             it.t0 = _t_at(it.lo, *args)
             it.t1 = _t_at(it.hi, *args)
             sx, sy = geo.start_list[it.edge]
-            it.p0 = (sx + it.t0 * args[2], sy + it.t0 * args[3])
-            it.p1 = (sx + it.t1 * args[2], sy + it.t1 * args[3])
+            it.p0 = (sx + it.t0 * p.dx, sy + it.t0 * p.dy)
+            it.p1 = (sx + it.t1 * p.dx, sy + it.t1 * p.dy)
     if occ:
         items = _add_edge_on_pieces(geo, x, radius, items, occ)
     return items
+
+
+class _Part(NamedTuple):
+    """The part of a facing edge inside the sensing disk, relative to the robot."""
+
+    edge: int
+    ax: float  # edge start - robot
+    ay: float
+    dx: float  # edge step
+    dy: float
+    cross: float  # cross(a, d), negative: the edge faces the robot
+    t_in: float  # the part is t in [t_in, t_out] along the edge
+    t_out: float
+    inx: float  # its first point - robot
+    iny: float
+    outx: float  # its last point - robot
+    outy: float
+
+
+def _facing_parts(
+    geo: RingGeometry, a: FloatArray, cr: FloatArray, f: IntArray, radius: float
+) -> list[_Part]:
+    """Clip the facing edges ``f`` to the sensing disk; drop parts shorter than eps."""
+    out: list[_Part] = []
+    finite = math.isfinite(radius)
+    r2 = radius * radius
+    eps = geo.eps
+    for e, (ax, ay), (dx, dy), c, qa, length in zip(
+        f.tolist(),
+        a[f].tolist(),
+        geo.step[f].tolist(),
+        cr[f].tolist(),
+        geo.len2[f].tolist(),
+        geo.length[f].tolist(),
+        strict=True,
+    ):
+        t_in, t_out = 0.0, 1.0
+        if finite:
+            qb = 2.0 * (ax * dx + ay * dy)
+            qc = ax * ax + ay * ay - r2
+            disc = math.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))
+            t_in = max(0.0, (-qb - disc) / (2.0 * qa))
+            t_out = min(1.0, (-qb + disc) / (2.0 * qa))
+            if not (t_out - t_in) * length > eps:
+                continue
+        out.append(
+            _Part(e, ax, ay, dx, dy, c, t_in, t_out,
+                  ax + t_in * dx, ay + t_in * dy, ax + t_out * dx, ay + t_out * dy)
+        )  # fmt: skip
+    return out
 
 
 def _merge_close_angles(
@@ -1125,7 +1132,7 @@ def free_extent(
     # At the robot's feet: touching the border, it may look straight into blocked space.
     ux, uy = float(u[0]), float(u[1])
     for o in occ:
-        if _in_wedges([o], np.array([ux]), np.array([uy]))[0]:
+        if _in_any_wedge([o], ux, uy):
             return 0.0, int(geo.ring[o.edge_n])
     best, ring = float(limit), -1
     # Proper crossings of the segment x -> x + limit * u with an edge.

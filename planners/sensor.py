@@ -45,6 +45,7 @@ __all__ = [
     "free_extent",
     "ring_geometry",
     "sense",
+    "visible_pieces",
 ]
 
 import dataclasses
@@ -184,6 +185,26 @@ class RingGeometry:
     def start_list(self) -> list[tuple[float, float]]:
         """Edge starts as Python float pairs [m]."""
         return [(float(a), float(b)) for a, b in self.start]
+
+    @functools.cached_property
+    def step_list(self) -> list[tuple[float, float]]:
+        """Edge steps as Python float pairs [m]."""
+        return [(float(a), float(b)) for a, b in self.step]
+
+    @functools.cached_property
+    def ring_list(self) -> list[int]:
+        """The ring of each edge, as Python ints."""
+        return self.ring.tolist()
+
+    @functools.cached_property
+    def len2_list(self) -> list[float]:
+        """Squared edge lengths as Python floats [m^2]."""
+        return self.len2.tolist()
+
+    @functools.cached_property
+    def length_list(self) -> list[float]:
+        """Edge lengths as Python floats [m]."""
+        return self.length.tolist()
 
     def edge_index(self, ring: int, i: int) -> int:
         """Flat index of edge ``i`` (taken cyclically) of ``ring``."""
@@ -663,6 +684,24 @@ def sense(
     return _assemble(geo, x, radius, items)
 
 
+def visible_pieces(
+    geo: RingGeometry, position: npt.ArrayLike, sensor_range: float, ring: int
+) -> FloatArray:
+    """Return the pieces of ``ring`` that :func:`sense` reports, shape (K, 2, 2) [m].
+
+    For a caller that needs only what is in view of one ring (TangentBug's d_reach),
+    not the discontinuity points: the same pieces, without joining them into chains.
+    """
+    x = np.asarray(position, dtype=np.float64).reshape(2)
+    rings = geo.ring_list
+    mine = [
+        (it.p0, it.p1)
+        for it in _sweep(geo, x, float(sensor_range))
+        if it.kind == "piece" and rings[it.edge] == ring
+    ]
+    return np.array(mine, dtype=np.float64).reshape(-1, 2, 2)
+
+
 def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
     """Cut the full turn at the critical angles and say what each interval sees.
 
@@ -729,12 +768,12 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
         else:
             # The ray through the middle of the interval against every facing edge.
             e, best = -1, math.inf
-            for p in facing:
-                if p.outx * uy - p.outy * ux > 0 and ux * p.iny - uy * p.inx > 0:
-                    denom = ux * p.dy - uy * p.dx
-                    s = p.cross / denom if denom != 0 else math.inf
+            for edge, _, _, dx, dy, cross, _, _, inx, iny, outx, outy in facing:
+                if outx * uy - outy * ux > 0 and ux * iny - uy * inx > 0:
+                    denom = ux * dy - uy * dx
+                    s = cross / denom if denom != 0 else math.inf
                     if 0 < s < best:
-                        e, best = p.edge, s
+                        e, best = edge, s
             kind = "piece" if e >= 0 else "free"
         last = items[-1] if items else None
         if last is not None and last.kind == kind and last.edge == e:
@@ -789,15 +828,10 @@ def _facing_parts(
     finite = math.isfinite(radius)
     r2 = radius * radius
     eps = geo.eps
-    for e, (ax, ay), (dx, dy), c, qa, length in zip(
-        f.tolist(),
-        a[f].tolist(),
-        geo.step[f].tolist(),
-        cr[f].tolist(),
-        geo.len2[f].tolist(),
-        geo.length[f].tolist(),
-        strict=True,
-    ):
+    steps, len2, lengths = geo.step_list, geo.len2_list, geo.length_list
+    for e, (ax, ay), c in zip(f.tolist(), a[f].tolist(), cr[f].tolist(), strict=True):
+        dx, dy = steps[e]
+        qa, length = len2[e], lengths[e]
         t_in, t_out = 0.0, 1.0
         if finite:
             qb = 2.0 * (ax * dx + ay * dy)

@@ -10,11 +10,11 @@ import pytest
 import shapely
 from hypothesis import assume, given
 from hypothesis import strategies as st
-from numpy.testing import assert_allclose
+from numpy.testing import assert_allclose, assert_array_equal
 from shapely import LineString, Polygon
 
 from planners.expansion import configuration_space
-from planners.sensor import free_extent, ring_geometry, sense
+from planners.sensor import free_extent, ring_geometry, sense, visible_pieces
 from tests.conftest import _eroded_blocked, reference_segment_free, square
 
 UNIT = square(0, 0, 1, 1)
@@ -226,6 +226,19 @@ def test_sensor_is_exact_against_shapely(case):
     space, x, sensor_range = case
     assume(not space.contains_blocked(x)[0])
     check_against_shapely(space, x, sensor_range)
+
+
+@given(case=scenes_and_points())
+def test_visible_pieces_of_a_ring_are_the_sensed_ones(case):
+    space, x, sensor_range = case
+    assume(not space.contains_blocked(x)[0])
+    geo = ring_geometry(space)
+    seen = sense(geo, x, sensor_range)
+    for ring in range(len(geo.rings)):
+        assert_array_equal(
+            visible_pieces(geo, x, sensor_range, ring),
+            seen.segments[seen.segment_ring == ring],
+        )
 
 
 def _hex_points(points):

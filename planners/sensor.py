@@ -706,10 +706,10 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
     """Cut the full turn at the critical angles and say what each interval sees.
 
     The border is measured from the robot as arrays; the few edges that face it within R
-    (a handful in a lecture scene) are then handled as Python floats, which is several
-    times faster than numpy on arrays that short. The arithmetic is the same IEEE
-    operations in the same order; the angles and their cosines come from numpy, whose
-    arctan2 differs from the math module's in the last bit.
+    (a handful in a lecture scene) are then handled as Python floats: on arrays that
+    short, numpy's cost per call outweighs the arithmetic. The arithmetic is the same
+    IEEE operations in the same order; the angles and their cosines come from numpy,
+    whose arctan2 differs from the math module's in the last bit.
     """
     finite = math.isfinite(radius)
     if len(geo.start) == 0:

@@ -382,10 +382,10 @@ def _evolve(record: _Record, **changes: Any) -> _Record:
     """
     if not changes.keys() <= _field_names(type(record)):
         raise TypeError(f"unknown fields {set(changes) - _field_names(type(record))}")
-    copy = object.__new__(type(record))
-    copy.__dict__.update(record.__dict__)
-    copy.__dict__.update(changes)
-    return copy
+    new = object.__new__(type(record))
+    new.__dict__.update(record.__dict__)
+    new.__dict__.update(changes)
+    return new
 
 
 # --------------------------------------------------------------------------- context

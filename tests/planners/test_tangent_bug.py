@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -17,6 +18,7 @@ from planners.tangent_bug import (
     BugState,
     BugTrace,
     Follow,
+    _evolve,
     initial_state,
     plan_tangent_bug,
     run,
@@ -324,6 +326,18 @@ def test_step_is_pure_and_final_states_stay():
     while state.mode in ("seek", "follow"):
         state = step(state, space, params)
     assert state.mode == "reached" and step(state, space, params) is state
+
+
+def test_records_are_copied_with_their_changes_only():
+    state = initial_state((1.0, 2.0))
+    moved = _evolve(state, position=(3.0, 4.0), steps=5)
+    assert moved is not state and type(moved) is BugState
+    assert (moved.position, moved.steps, moved.mode) == ((3.0, 4.0), 5, state.mode)
+    assert (state.position, state.steps) == ((1.0, 2.0), 0)  # the original stays
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        moved.steps = 6  # type: ignore[misc]
+    with pytest.raises(TypeError, match="stpes"):
+        _evolve(state, stpes=5)
 
 
 def test_run_equals_stepping():

@@ -42,6 +42,7 @@ from __future__ import annotations
 __all__ = [
     "RingGeometry",
     "Sensing",
+    "disk_span",
     "free_extent",
     "ring_geometry",
     "sense",
@@ -725,10 +726,10 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
         front &= dist < radius
     facing = _facing_parts(geo, a, cr, np.flatnonzero(front), radius)
     f_l = [p.edge for p in facing]
-    angles = np.arctan2(
-        np.array([p.iny for p in facing] + [p.outy for p in facing]),
-        np.array([p.inx for p in facing] + [p.outx for p in facing]),
-    )
+    # The critical points: where each facing part begins, then where each ends.
+    px = [p.inx for p in facing] + [p.outx for p in facing]
+    py = [p.iny for p in facing] + [p.outy for p in facing]
+    angles = np.arctan2(np.array(py), np.array(px))
     if occ:
         angles = np.concatenate(
             (
@@ -744,13 +745,7 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
     def reach() -> FloatArray:
         """How far from the robot each critical angle's point lies (NaN: a wedge's side)."""
         return np.concatenate(
-            (
-                np.hypot(
-                    np.array([p.inx for p in facing] + [p.outx for p in facing]),
-                    np.array([p.iny for p in facing] + [p.outy for p in facing]),
-                ),
-                np.full(2 * len(occ), np.nan),
-            )
+            (np.hypot(np.array(px), np.array(py)), np.full(2 * len(occ), np.nan))
         )
 
     nearest = min(float(dist[e]) for e in f_l) if f_l else math.inf
@@ -834,11 +829,7 @@ def _facing_parts(
         qa, length = len2[e], lengths[e]
         t_in, t_out = 0.0, 1.0
         if finite:
-            qb = 2.0 * (ax * dx + ay * dy)
-            qc = ax * ax + ay * ay - r2
-            disc = math.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))
-            t_in = max(0.0, (-qb - disc) / (2.0 * qa))
-            t_out = min(1.0, (-qb + disc) / (2.0 * qa))
+            t_in, t_out, _ = disk_span(ax, ay, dx, dy, qa, r2)
             if not (t_out - t_in) * length > eps:
                 continue
         out.append(
@@ -1009,22 +1000,47 @@ def _leave_disk(
     """
     if not math.isfinite(radius):
         return 1.0 if direction > 0 else 0.0
-    ax, ay = geo.start_list[e]
-    ax, ay = ax - float(x[0]), ay - float(x[1])
-    dx, dy = float(geo.step[e, 0]), float(geo.step[e, 1])
-    qa = float(geo.len2[e])
+    sx, sy = geo.start_list[e]
+    dx, dy = geo.step_list[e]
+    t_in, t_out, _ = disk_span(
+        sx - float(x[0]), sy - float(x[1]), dx, dy, geo.len2_list[e], radius * radius
+    )
+    return t_out if direction > 0 else t_in
+
+
+def disk_span(
+    ax: float, ay: float, dx: float, dy: float, len2: float, r2: float
+) -> tuple[float, float, bool]:
+    """Return where a segment lies in a disk: (t_in, t_out, whether its line meets it).
+
+    The segment runs from (ax, ay) by the step (dx, dy), of squared length ``len2``,
+    relative to the disk's centre; ``r2`` is the disk's squared radius. Points
+    (ax, ay) + t (dx, dy) with t in [t_in, t_out] lie in the disk, t_in and t_out
+    clipped to [0, 1] (t_in > t_out when the segment stops short of the disk). When the
+    line misses the disk, both are its point closest to the centre, clipped.
+
+    Examples
+    --------
+    >>> disk_span(-2.0, 0.0, 4.0, 0.0, 16.0, 1.0)  # from x = -2 to 2 through the unit disk
+    (0.25, 0.75, True)
+    >>> disk_span(-2.0, 3.0, 4.0, 0.0, 16.0, 1.0)[2]  # the line y = 3 misses it
+    False
+    """
     qb = 2.0 * (ax * dx + ay * dy)
-    qc = ax * ax + ay * ay - radius * radius
-    root = math.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))
-    if direction > 0:
-        return min(1.0, (-qb + root) / (2.0 * qa))
-    return max(0.0, (-qb - root) / (2.0 * qa))
+    qc = ax * ax + ay * ay - r2
+    disc = qb * qb - 4.0 * len2 * qc
+    root = math.sqrt(max(disc, 0.0))
+    return (
+        max(0.0, (-qb - root) / (2.0 * len2)),
+        min(1.0, (-qb + root) / (2.0 * len2)),
+        disc >= 0,
+    )
 
 
 def _radial(geo: RingGeometry, e: int, t0: float, t1: float, angle: float) -> _Item:
     """Return the piece of edge ``e`` from parameter ``t0`` to ``t1``, seen edge-on at ``angle``."""
     sx, sy = geo.start_list[e]
-    dx, dy = float(geo.step[e, 0]), float(geo.step[e, 1])
+    dx, dy = geo.step_list[e]
     return _Item(
         "piece",
         angle,

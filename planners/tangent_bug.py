@@ -103,6 +103,7 @@ from planners.sensor import (
     RANGE,
     RingGeometry,
     Sensing,
+    disk_span,
     free_extent,
     ring_geometry,
     sense,
@@ -1037,16 +1038,9 @@ def _may_come_closer(ctx: _Context, f: Follow, y: FloatArray) -> bool:
         # closest to the goal.
         sx, sy = geo.start_list[e]
         dx, dy = geo.step_list[e]
-        qa = dx * dx + dy * dy
-        ax, ay = sx - yx, sy - yy
-        qb = 2.0 * (ax * dx + ay * dy)
-        disc = qb * qb - 4.0 * qa * (ax * ax + ay * ay - r2)
-        if disc < 0:
-            continue
-        root = math.sqrt(disc)
-        t_in = max((-qb - root) / (2.0 * qa), 0.0)
-        t_out = min((-qb + root) / (2.0 * qa), 1.0)
-        if t_in > t_out:
+        qa = geo.len2_list[e]
+        t_in, t_out, meets = disk_span(sx - yx, sy - yy, dx, dy, qa, r2)
+        if not meets or t_in > t_out:
             continue
         t = ((gx - sx) * dx + (gy - sy) * dy) / qa
         t = min(max(t, t_in), t_out)

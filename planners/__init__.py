@@ -10,8 +10,17 @@ Pure functions on plain data: no viser, no drawing, no clocks inside the algorit
 
 from __future__ import annotations
 
-from planners import api, expansion, scene, sensor, tangent_bug, visibility
-from planners.api import PLANNERS, InvalidResult, PlanOptions, plan_all, result_to_json
+from planners import (
+    api,
+    expansion,
+    memo,
+    registry,
+    scene,
+    sensor,
+    tangent_bug,
+    visibility,
+)
+from planners.api import PLANNERS, InvalidResult, plan_all, result_to_json
 from planners.expansion import (
     ConfigurationSpace,
     configuration_space,
@@ -19,6 +28,8 @@ from planners.expansion import (
     expand_polygon,
     expand_square,
 )
+from planners.memo import Memo
+from planners.registry import REGISTRY, PlannerSpec, PlanOptions, PlanResult
 from planners.scene import (
     Robot,
     ScenarioError,
@@ -46,13 +57,17 @@ from planners.visibility import (
 
 __all__ = [
     "PLANNERS",
+    "REGISTRY",
     "BugEvent",
     "BugParams",
     "BugState",
     "BugTrace",
     "ConfigurationSpace",
     "InvalidResult",
+    "Memo",
     "PlanOptions",
+    "PlanResult",
+    "PlannerSpec",
     "Robot",
     "ScenarioError",
     "Scene",
@@ -65,9 +80,11 @@ __all__ = [
     "expand_square",
     "expansion",
     "load_scene",
+    "memo",
     "plan_all",
     "plan_tangent_bug",
     "plan_visibility",
+    "registry",
     "result_to_json",
     "save_scene",
     "scene",

@@ -2,32 +2,34 @@
 
 from __future__ import annotations
 
-__all__ = ["PLANNERS", "InvalidResult", "PlanOptions", "plan_all", "result_to_json"]
+__all__ = [
+    "PLANNERS",
+    "REGISTRY",
+    "InvalidResult",
+    "PlanOptions",
+    "plan_all",
+    "result_to_json",
+]
 
 import dataclasses
-import math
 import time  # the only clock in planners/: plan_all reports compute times (DESIGN.md)
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
 
-from planners.expansion import DEFAULT_ARC_STEP, ConfigurationSpace, configuration_space
+from planners.expansion import ConfigurationSpace, configuration_space
+from planners.memo import Memo
+from planners.registry import (
+    REGISTRY,
+    PlanOptions,
+    default_planners,
+    finite_length,
+)
 from planners.scene import Scene, scene_problems
-from planners.tangent_bug import BugTrace, plan_tangent_bug
-from planners.visibility import VisibilityResult, plan_visibility
 
-
-@dataclasses.dataclass(frozen=True)
-class PlanOptions:
-    """Settings shared by the planners (a scene's own fields are used where None)."""
-
-    sensor_range: float | None = None
-    """Range R of the DSB planner's sensor [m]; None uses the scene's. ``math.inf`` is unlimited."""
-    arc_step: float = DEFAULT_ARC_STEP
-    """Resolution of the disk model's arcs [rad]."""
-    leave_rule: str = "tangent_bug"
-    """DSB leave rule: ``"tangent_bug"`` (d_reach < d_followed) or ``"chapter"`` (d(r, g) < d(M, g))."""
+PLANNERS: tuple[str, ...] = tuple(REGISTRY)
+"""Every registered planner's name, in the order they are drawn and reported."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -42,45 +44,11 @@ class InvalidResult:
     ms: float = 0.0
 
 
-# A planner takes (scene, configuration space, options) and returns its result.
-Planner = Callable[[Scene, ConfigurationSpace, PlanOptions], Any]
-
-
-def _vg(
-    scene: Scene, cspace: ConfigurationSpace, options: PlanOptions
-) -> VisibilityResult:
-    return plan_visibility(cspace, scene.start, scene.goal)
-
-
-def _svg(
-    scene: Scene, cspace: ConfigurationSpace, options: PlanOptions
-) -> VisibilityResult:
-    return plan_visibility(cspace, scene.start, scene.goal, simplified=True)
-
-
-def _dsb(scene: Scene, cspace: ConfigurationSpace, options: PlanOptions) -> BugTrace:
-    radius = (
-        scene.sensor_range if options.sensor_range is None else options.sensor_range
-    )
-    return plan_tangent_bug(
-        cspace, scene.start, scene.goal, radius, leave_rule=options.leave_rule
-    )
-
-
-PLANNERS: dict[str, Planner] = {"vg": _vg, "svg": _svg, "dsb": _dsb}
-"""Every planner by its short name, in the order they are drawn and reported."""
-
-
-def _timed(result: Any, ms: float) -> Any:
-    # Results are frozen; the time is measured around the call and attached afterwards.
-    object.__setattr__(result, "ms", ms)
-    return result
-
-
 def plan_all(
     scene: Scene,
     which: Iterable[str] | None = None,
     options: PlanOptions | None = None,
+    memo: Memo | None = None,
 ) -> dict[str, Any]:
     """Run the chosen planners on ``scene``.
 
@@ -94,18 +62,22 @@ def plan_all(
     scene
         The scene.
     which
-        Planner names, a subset of :data:`PLANNERS`; None runs them all
+        Planner names from :data:`planners.registry.REGISTRY`; None runs the default ones
         (``("vg", "svg", "dsb")``).
     options
         Shared settings; None for the defaults.
+    memo
+        The caller's :class:`planners.memo.Memo`: work it already holds for the same
+        geometry is reused (an app keeps one per scene it edits). None: all cold.
 
     Returns
     -------
     dict
-        Planner name -> result. Each result has ``status``, ``length`` (float or None),
-        ``path`` ((N, 2) array, (0, 2) when there is none), ``reason`` and ``ms`` (time
-        to compute, including the shared expansion), plus the planner's own detail:
-        ``graph`` for VG/SVG. ``"cspace"`` holds the configuration space when built.
+        Planner name -> result (the :class:`planners.registry.PlanResult` protocol):
+        ``status``, ``length`` (float or None), ``path`` ((N, 2) array, (0, 2) when there
+        is none), ``reason`` and ``ms`` (time to compute, including the shared expansion),
+        plus the planner's own detail: ``graph`` for VG/SVG, the trace for DSB.
+        ``"cspace"`` holds the configuration space when built.
 
     Examples
     --------
@@ -119,13 +91,12 @@ def plan_all(
     ('reached', ['hit', 'leave'])
     """
     options = options or PlanOptions()
-    names = list(PLANNERS if which is None else which)
-    unknown = [n for n in names if n not in PLANNERS]
+    names = default_planners() if which is None else tuple(which)
+    unknown = [n for n in names if n not in REGISTRY]
     if unknown:
         raise ValueError(
-            f"unknown planner {unknown[0]!r} (known: {', '.join(PLANNERS)})"
+            f"unknown planner {unknown[0]!r} (known: {', '.join(REGISTRY)})"
         )
-    results: dict[str, Any] = {}
     problems = scene_problems(scene)
     if problems:
         reason = "; ".join(problems)
@@ -138,16 +109,21 @@ def plan_all(
         scene.boundary,
         options.arc_step,
         extra_points=[scene.start, scene.goal],
+        memo=memo,
     )
     shared_ms = (time.perf_counter() - t0) * 1e3
     reason = _endpoint_problem(scene, cspace)
-    if reason is not None:
-        results = {n: InvalidResult(n, reason) for n in names}
-    else:
-        for name in names:
-            t1 = time.perf_counter()
-            result = PLANNERS[name](scene, cspace, options)
-            results[name] = _timed(result, shared_ms + (time.perf_counter() - t1) * 1e3)
+    results: dict[str, Any] = {}
+    for name in names:
+        if reason is not None:
+            results[name] = InvalidResult(name, reason)
+            continue
+        t1 = time.perf_counter()
+        result = REGISTRY[name].run(cspace, scene, options)
+        ms = shared_ms + (time.perf_counter() - t1) * 1e3
+        # Planners cannot read a clock (STYLE.md), so the time is measured around the
+        # call and the complete result is a copy with it.
+        results[name] = dataclasses.replace(result, ms=ms)
     results["cspace"] = cspace
     return results
 
@@ -177,28 +153,20 @@ def _endpoint_problem(scene: Scene, cspace: ConfigurationSpace) -> str | None:
 def result_to_json(name: str, result: Any) -> dict[str, Any]:
     """Turn one planner result into the CLI's JSON object (DESIGN.md contract)."""
     path = np.asarray(result.path, dtype=np.float64).reshape(-1, 2)
-    length = result.length
     out: dict[str, Any] = {
         "status": result.status,
-        "length": None
-        if length is None or not math.isfinite(length)
-        else float(length),
+        "length": finite_length(result.length),
         "path": path.tolist(),
     }
-    if name in ("vg", "svg"):
+    kind = REGISTRY[name].kind
+    if kind == "graph":
         out["nodes"] = getattr(result, "nodes", 0)
         out["edges"] = getattr(result, "edges", 0)
-    events = getattr(result, "events", None)
-    if name == "dsb":
-        out["events"] = [_event_json(e) for e in (events or ())]
-    out["ms"] = round(float(getattr(result, "ms", 0.0)), 3)
+    else:
+        out["events"] = [
+            {"kind": e.kind, "at": [float(e.at[0]), float(e.at[1])]}
+            for e in getattr(result, "events", ())
+        ]
+    out["ms"] = round(float(result.ms), 3)
     out["reason"] = result.reason
     return out
-
-
-def _event_json(event: Any) -> dict[str, Any]:
-    if isinstance(event, Mapping):
-        kind, at = event["kind"], event["at"]
-    else:
-        kind, at = event.kind, event.at
-    return {"kind": kind, "at": [float(at[0]), float(at[1])]}

@@ -28,14 +28,17 @@ __all__ = [
 ]
 
 import dataclasses
-import functools
 import math
+from collections.abc import Callable, Hashable
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 import shapely
 from shapely import MultiPolygon, Polygon
 from shapely.geometry.base import BaseGeometry
+
+from planners.memo import Memo
 
 DEFAULT_ARC_STEP = math.pi / 8
 """Largest angle [rad] one tangent edge of an expanded arc spans (22.5 degrees)."""
@@ -44,6 +47,7 @@ DEFAULT_ARC_STEP = math.pi / 8
 EPS = 1e-9
 
 FloatArray = npt.NDArray[np.float64]
+T = TypeVar("T")
 
 
 def _ccw_rings(polygon: Polygon) -> list[FloatArray]:
@@ -220,18 +224,10 @@ def expand_polygon(
     arc_step: float = DEFAULT_ARC_STEP,
 ) -> Polygon:
     """Expand one obstacle by the robot: ``mode`` is ``"disk"`` or ``"square"``."""
-    return _expand_cached(polygon, float(radius), mode, float(arc_step))
-
-
-@functools.lru_cache(maxsize=4096)
-def _expand_cached(
-    polygon: Polygon, radius: float, mode: str, arc_step: float
-) -> Polygon:
-    # Polygons hash by value, so during a drag only the dragged obstacle is recomputed.
     if mode == "disk":
-        return expand_disk(polygon, radius, arc_step)
+        return expand_disk(polygon, float(radius), float(arc_step))
     if mode == "square":
-        return expand_square(polygon, radius)
+        return expand_square(polygon, float(radius))
     raise ValueError(f"unknown expansion mode {mode!r} (expected 'disk' or 'square')")
 
 
@@ -253,13 +249,6 @@ def shrink_boundary(
     >>> shrink_boundary(room, 0.5).bounds
     (0.5, 0.5, 3.5, 2.5)
     """
-    return _shrink_cached(boundary, float(radius), mode, float(arc_step))
-
-
-@functools.lru_cache(maxsize=64)
-def _shrink_cached(
-    boundary: Polygon, radius: float, mode: str, arc_step: float
-) -> Polygon | MultiPolygon:
     if radius == 0:
         return boundary
     minx, miny, maxx, maxy = boundary.bounds
@@ -362,6 +351,28 @@ class ConfigurationSpace:
     eps: float
     """Distance [m] below which two things count as touching (relative to the scene)."""
 
+    def derive(self, fn: Callable[..., T], *args: Hashable) -> T:
+        """Return ``fn(self, *args)``, computed once for this configuration space.
+
+        What the planners derive from a configuration space (the border's arrays, which
+        vertices see each other, the sensor's ring geometry) is kept on it, not in a
+        module-level cache, and goes away with it. ``fn`` must be pure; two threads
+        asking at once may both compute it, and either answer is the same.
+
+        Examples
+        --------
+        >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1)]),), 0.0)
+        >>> space.derive(lambda cs: len(cs.rings)) == 1
+        True
+        """
+        store: dict[Any, Any] = self.__dict__.setdefault("_derived", {})
+        key = (fn, args)
+        try:
+            return store[key]
+        except KeyError:
+            value = store[key] = fn(self, *args)
+            return value
+
     def contains_blocked(self, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         """Tell, for each point of shape (2,) or (N, 2), if it is strictly in blocked space.
 
@@ -401,11 +412,14 @@ def configuration_space(
     boundary: Polygon | None = None,
     arc_step: float = DEFAULT_ARC_STEP,
     extra_points: npt.ArrayLike | None = None,
+    memo: Memo | None = None,
 ) -> ConfigurationSpace:
     """Expand every obstacle, merge overlaps, shrink the boundary.
 
-    The result is cached by value: while a user drags the start or the goal, the same
-    configuration space (and every structure the planners derive from it) is reused.
+    With a ``memo`` (owned by the caller), work is reused by value: while a user drags
+    the start or the goal the same configuration space (and everything the planners
+    derived from it) comes back, and while one obstacle is dragged only that obstacle is
+    expanded again. Without one, everything is computed afresh.
 
     Parameters
     ----------
@@ -421,6 +435,8 @@ def configuration_space(
         Resolution of the disk model's arcs [rad].
     extra_points
         Points (start, goal) that take part in setting the tolerance scale.
+    memo
+        The caller's memo, or None for cold work.
 
     Examples
     --------
@@ -439,25 +455,37 @@ def configuration_space(
     # The tolerance grows with the coordinates' magnitude, in powers of two so that
     # moving the start a little keeps the same (cached) configuration space.
     eps = EPS * 2.0 ** math.ceil(math.log2(scale))
-    return _configuration_space(
-        tuple(obstacles), float(radius), mode, boundary, float(arc_step), eps
-    )
+    memo = memo if memo is not None else Memo()
+    key = (tuple(obstacles), float(radius), mode, boundary, float(arc_step), eps)
+    return memo.get("cspace", key, lambda: _build(*key, memo))
 
 
-@functools.lru_cache(maxsize=32)
-def _configuration_space(
+def _build(
     obstacles: tuple[Polygon, ...],
     radius: float,
     mode: str,
     boundary: Polygon | None,
     arc_step: float,
     eps: float,
+    memo: Memo,
 ) -> ConfigurationSpace:
-    expanded = tuple(expand_polygon(o, radius, mode, arc_step) for o in obstacles)
+    # Polygons hash by value, so during a drag only the dragged obstacle is expanded again.
+    expanded = tuple(
+        memo.get(
+            "expanded",
+            (o, radius, mode, arc_step),
+            lambda o=o: expand_polygon(o, radius, mode, arc_step),
+        )
+        for o in obstacles
+    )
     merged_geometry = shapely.union_all(expanded) if expanded else MultiPolygon()
     merged = _as_multipolygon(merged_geometry)
     shrunk = (
-        shrink_boundary(boundary, radius, mode, arc_step)
+        memo.get(
+            "shrunk",
+            (boundary, radius, mode, arc_step),
+            lambda: shrink_boundary(boundary, radius, mode, arc_step),
+        )
         if boundary is not None
         else None
     )

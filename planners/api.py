@@ -13,19 +13,14 @@ __all__ = [
 
 import dataclasses
 import time  # the only clock in planners/: plan_all reports compute times (DESIGN.md)
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
 
 from planners.expansion import ConfigurationSpace, configuration_space
 from planners.memo import Memo
-from planners.registry import (
-    REGISTRY,
-    PlanOptions,
-    default_planners,
-    finite_length,
-)
+from planners.registry import REGISTRY, PlannerSpec, PlanOptions, finite_length
 from planners.scene import Scene, scene_problems
 
 PLANNERS: tuple[str, ...] = tuple(REGISTRY)
@@ -49,6 +44,7 @@ def plan_all(
     which: Iterable[str] | None = None,
     options: PlanOptions | None = None,
     memo: Memo | None = None,
+    registry: Mapping[str, PlannerSpec] = REGISTRY,
 ) -> dict[str, Any]:
     """Run the chosen planners on ``scene``.
 
@@ -69,6 +65,9 @@ def plan_all(
     memo
         The caller's :class:`planners.memo.Memo`: work it already holds for the same
         geometry is reused (an app keeps one per scene it edits). None: all cold.
+    registry
+        Where planner names are looked up: :data:`planners.registry.REGISTRY`, or a
+        mapping that adds planners of the caller's own (a test's, a student's).
 
     Returns
     -------
@@ -91,11 +90,15 @@ def plan_all(
     ('reached', ['hit', 'leave'])
     """
     options = options or PlanOptions()
-    names = default_planners() if which is None else tuple(which)
-    unknown = [n for n in names if n not in REGISTRY]
+    names = (
+        tuple(n for n, spec in registry.items() if spec.default)
+        if which is None
+        else tuple(which)
+    )
+    unknown = [n for n in names if n not in registry]
     if unknown:
         raise ValueError(
-            f"unknown planner {unknown[0]!r} (known: {', '.join(REGISTRY)})"
+            f"unknown planner {unknown[0]!r} (known: {', '.join(registry)})"
         )
     problems = scene_problems(scene)
     if problems:
@@ -119,7 +122,7 @@ def plan_all(
             results[name] = InvalidResult(name, reason)
             continue
         t1 = time.perf_counter()
-        result = REGISTRY[name].run(cspace, scene, options)
+        result = registry[name].run(cspace, scene, options)
         ms = shared_ms + (time.perf_counter() - t1) * 1e3
         # Planners cannot read a clock (STYLE.md), so the time is measured around the
         # call and the complete result is a copy with it.
@@ -150,7 +153,9 @@ def _endpoint_problem(scene: Scene, cspace: ConfigurationSpace) -> str | None:
     return None
 
 
-def result_to_json(name: str, result: Any) -> dict[str, Any]:
+def result_to_json(
+    name: str, result: Any, registry: Mapping[str, PlannerSpec] = REGISTRY
+) -> dict[str, Any]:
     """Turn one planner result into the CLI's JSON object (DESIGN.md contract)."""
     path = np.asarray(result.path, dtype=np.float64).reshape(-1, 2)
     out: dict[str, Any] = {
@@ -158,7 +163,7 @@ def result_to_json(name: str, result: Any) -> dict[str, Any]:
         "length": finite_length(result.length),
         "path": path.tolist(),
     }
-    kind = REGISTRY[name].kind
+    kind = registry[name].kind
     if kind == "graph":
         out["nodes"] = getattr(result, "nodes", 0)
         out["edges"] = getattr(result, "edges", 0)

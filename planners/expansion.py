@@ -404,6 +404,32 @@ class ConfigurationSpace:
             names.append("outside the boundary")
         return names
 
+    def obstacle_near(self, point: npt.ArrayLike) -> int | None:
+        """Name the obstacle whose expanded outline is nearest ``point`` (1-based).
+
+        This is how a robot's events are labelled (H2, M3: Fig. 9.19). None when the
+        walls are nearer than any obstacle.
+
+        Examples
+        --------
+        >>> a, b = Polygon([(0, 0), (1, 0), (1, 1)]), Polygon([(3, 0), (4, 0), (4, 1)])
+        >>> configuration_space((a, b), 0.0).obstacle_near((2.9, 0.2))
+        2
+        """
+        p = shapely.Point(np.asarray(point, dtype=np.float64).reshape(2))
+        best, which = math.inf, None
+        if self.expanded:
+            outlines = np.asarray([e.exterior for e in self.expanded], dtype=object)
+            dist = shapely.distance(outlines, p)
+            k = int(np.argmin(dist))
+            best, which = float(dist[k]), k + 1
+        if (
+            self.boundary is not None
+            and float(shapely.distance(self.boundary.boundary, p)) < best
+        ):
+            return None
+        return which
+
 
 def configuration_space(
     obstacles: tuple[Polygon, ...],

@@ -13,7 +13,7 @@ Kinds of planner
 Examples
 --------
 >>> [spec.name for spec in REGISTRY.values()]
-['vg', 'svg', 'dsb']
+['vg', 'svg', 'dsb', 'bug2']
 >>> REGISTRY["svg"].title, REGISTRY["svg"].kind, REGISTRY["svg"].section
 ('Simplified visibility graph (SVG)', 'graph', '9.5')
 >>> default_planners()
@@ -42,6 +42,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
+from planners.bug2 import plan_bug2
 from planners.expansion import DEFAULT_ARC_STEP, ConfigurationSpace
 from planners.scene import Scene
 from planners.tangent_bug import plan_tangent_bug
@@ -151,6 +152,10 @@ def _dsb(cspace: ConfigurationSpace, scene: Scene, options: PlanOptions) -> Any:
     )
 
 
+def _bug2(cspace: ConfigurationSpace, scene: Scene, options: PlanOptions) -> Any:
+    return plan_bug2(cspace, scene.start, scene.goal)
+
+
 REGISTRY: Mapping[str, PlannerSpec] = MappingProxyType(
     {
         spec.name: spec
@@ -178,6 +183,15 @@ REGISTRY: Mapping[str, PlannerSpec] = MappingProxyType(
                 _dsb,
                 "9.6",
                 summary="senses within R; goal seeking and boundary following (Fig. 9.15)",
+            ),
+            PlannerSpec(
+                "bug2",
+                "Bug2 (contact sensor)",
+                "trace",
+                _bug2,
+                "",
+                default=False,
+                summary="along the M-line; round each obstacle it touches until back on it",
             ),
         )
     }

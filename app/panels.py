@@ -62,8 +62,10 @@ def legend_html() -> str:
         (
             _swatch(COLORS["sensing"], "thin")
             + _swatch(COLORS["sensed"])
-            + _swatch(COLORS["tangents"], "thin"),
-            "DSB robot: sensor range R / border it sees / lines to the O_i",
+            + _swatch(COLORS["tangents"], "thin")
+            + _swatch(COLORS["chosen"]),
+            "DSB robot: sensor range R / border it sees / lines to the O_i / "
+            "its choice r_next (none while following a border)",
         ),
         (
             _swatch(COLORS["start"], "box") + _swatch(COLORS["goal"], "box"),

@@ -109,52 +109,35 @@ def sensing_at(
 ) -> Mapping[str, Any] | None:
     """Describe what a DSB robot senses at time ``t``: sensor disk, borders, tangent graph.
 
-    Returns None for results that cannot tell (VG, SVG). A DSB trace
+    Returns None for results that cannot tell (VG, SVG, Bug2). A DSB trace
     (:class:`planners.tangent_bug.BugTrace`) is asked at the arclength the robot has
     travelled along it, so the picture is what the robot used for its decisions there
-    (Fig. 9.16: the visible border within R, the points O_i, the lines r-O_i and the
-    chosen O_i's line to the goal).
+    (Fig. 9.16: the visible border within R, the points O_i and the lines r-O_i). The
+    chosen r_next is the planner's own decision there (:meth:`BugTrace.aim_at`), never
+    worked out again here: the planner also filters candidates, slides between two equal
+    ones and breaks ties, and while it follows a border it chooses none (``chosen`` is
+    then None).
     """
-    if (
-        getattr(result, "sensing_at", None) is None
-        or getattr(result, "cspace", None) is None
-    ):
+    if getattr(result, "sensing_at", None) is None or len(result.path) < 2:
         return None
-    path = np.asarray(
-        getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
-    ).reshape(-1, 2)
-    if len(path) < 2:
-        return None
-    s = travelled_fraction(traj, t) * float(np.hypot(*np.diff(path, axis=0).T).sum())
-    try:
-        seen = result.sensing_at(s)
-        position = np.asarray(result.position_at(s), dtype=np.float64)
-    except Exception:
-        return None
-    points = np.asarray(
-        getattr(seen, "points", np.zeros((0, 2))), dtype=np.float64
-    ).reshape(-1, 2)
-    goal = np.asarray(scene.goal, dtype=np.float64)
+    s = travelled_fraction(traj, t) * float(result.travelled)
+    seen = result.sensing_at(s)
+    position = np.asarray(result.position_at(s), dtype=np.float64)
+    points = np.asarray(seen.points, dtype=np.float64).reshape(-1, 2)
     tangents = (
         np.stack([np.broadcast_to(position, points.shape), points], axis=1)
         if len(points)
         else np.zeros((0, 2, 2))
     )
-    to_goal = np.zeros((0, 2, 2))
-    if len(points):
-        # The chosen O_i minimises d(r, O_i) + d(O_i, g) (Fig. 9.16).
-        cost = np.hypot(*(points - position).T) + np.hypot(*(points - goal).T)
-        best = points[int(np.argmin(cost))]
-        to_goal = np.array([[best, goal]])
-    radius = float(getattr(seen, "radius", scene.sensor_range))
+    aim = result.aim_at(s) if result.mode_at(s) == "seek" else None
     return {
         "center": (float(position[0]), float(position[1])),
-        "radius": radius,
-        "seen": np.asarray(
-            getattr(seen, "segments", np.zeros((0, 2, 2))), dtype=np.float64
-        ).reshape(-1, 2, 2),
-        "tangents": np.concatenate([tangents, to_goal]) if len(to_goal) else tangents,
+        "radius": float(seen.radius),
+        "seen": np.asarray(seen.segments, dtype=np.float64).reshape(-1, 2, 2),
+        "tangents": tangents,
         "points": points,
+        "chosen": aim,
+        "goal": (float(scene.goal[0]), float(scene.goal[1])),
     }
 
 

@@ -86,6 +86,7 @@ COLORS: dict[str, RGB] = {
     "sensing": DARK_PURPLE,
     "sensed": SKY,
     "tangents": (45, 45, 45),
+    "chosen": DARK_PURPLE,
 }
 """Colour of each thing drawn, by role."""
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 __all__ = [
     "PlannerView",
+    "SensingPicture",
     "circle_segments",
     "clear_of_markers",
     "disk_mesh",
@@ -34,8 +35,8 @@ __all__ = [
 import contextlib
 import functools
 import math
-from collections.abc import Callable, Iterable, Iterator, Sequence
-from typing import Any, Literal
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from typing import Any, Literal, NamedTuple
 
 import networkx as nx
 import numpy as np
@@ -609,6 +610,10 @@ class PlannerView:
         self.sensing_seen = _Segments(
             s, "/sensing/seen", COLORS["sensed"], WIDTHS["sensing"] * 3
         )
+        # The planner's choice r_next: r -> O_i -> g, bold in the goal-seeking colour.
+        self.sensing_chosen = _Segments(
+            s, "/sensing/chosen", COLORS["chosen"], WIDTHS["sensing"] * 2.4
+        )
 
         self._last: dict[str, Any] = {}
         self.rendered_version = -1
@@ -905,9 +910,7 @@ class PlannerView:
         visible = pose is not None and self._last.get("robot_layer", True)
         if pose is None or not visible:
             self.robot.visible = False
-            self.sensing_circle.set(_NO_SEGMENTS, False)
-            self.sensing_graph.set(_NO_SEGMENTS, False)
-            self.sensing_seen.set(_NO_SEGMENTS, False)
+            self._hide_sensing()
             return
         self.robot.position = (pose.xy[0], pose.xy[1], 0.0)
         # Robot frame: x_m right, y_m forward; phi is the world angle of y_m.
@@ -919,20 +922,30 @@ class PlannerView:
         self.robot.visible = True
         sensing = pose.sensing
         show = sensing is not None and self._last.get("sensing_layer", True)
-        if show:
-            center, radius, seen, tangents = sensing_geometry(sensing, pose)
-            z = HEIGHTS["sensing"]
-            self.sensing_circle.set(
-                circle_segments(center, radius, z)
-                if math.isfinite(radius)
-                else _NO_SEGMENTS
-            )
-            self.sensing_seen.set(_segments_2d(seen, z + 0.002))
-            self.sensing_graph.set(_segments_2d(tangents, z + 0.004))
-        else:
-            self.sensing_circle.set(_NO_SEGMENTS, False)
-            self.sensing_graph.set(_NO_SEGMENTS, False)
-            self.sensing_seen.set(_NO_SEGMENTS, False)
+        if not show:
+            self._hide_sensing()
+            return
+        picture = sensing_geometry(sensing)
+        z = HEIGHTS["sensing"]
+        self.sensing_circle.set(
+            circle_segments(picture.center, picture.radius, z)
+            if math.isfinite(picture.radius)
+            else _NO_SEGMENTS
+        )
+        self.sensing_seen.set(_segments_2d(picture.seen, z + 0.002))
+        self.sensing_graph.set(_segments_2d(picture.tangents, z + 0.004))
+        self.sensing_chosen.set(
+            _segments_2d(picture.chosen, z + 0.006), len(picture.chosen) > 0
+        )
+
+    def _hide_sensing(self) -> None:
+        for layer in (
+            self.sensing_circle,
+            self.sensing_graph,
+            self.sensing_seen,
+            self.sensing_chosen,
+        ):
+            layer.set(_NO_SEGMENTS, False)
 
     def set_robot_model(self, key: Any, model: RobotModel) -> None:
         """Show the robot's meshes (see :func:`app.robot.robot_model`).
@@ -1088,29 +1101,51 @@ def dsb_events(result: Any) -> list[tuple[str, str, tuple[float, float]]]:
     return out
 
 
-def sensing_geometry(
-    sensing: Any, pose: RobotPose
-) -> tuple[tuple[float, float], float, FloatArray, FloatArray]:
-    """(centre, R, sensed border segments (N, 2, 2), local tangent graph segments (M, 2, 2)).
+class SensingPicture(NamedTuple):
+    """What the view draws of a DSB robot's sensor at one instant (Fig. 9.16)."""
 
-    ``sensing`` is what the app's sampler attached to the pose: a mapping with ``center``,
-    ``radius``, ``seen`` and ``tangents``.
+    center: tuple[float, float]
+    """The robot r [m]."""
+    radius: float
+    """Sensor range R [m] (``inf``: unlimited, no circle)."""
+    seen: FloatArray
+    """Visible border within R, segments (N, 2, 2) [m]."""
+    tangents: FloatArray
+    """The local tangent graph: r -> O_i for every O_i, segments (M, 2, 2) [m]."""
+    chosen: FloatArray
+    """The planner's r_next: r -> O_i and O_i -> g, segments (K, 2, 2) [m]; none while
+    the robot follows a border; just r -> g when it heads for the goal itself."""
+
+
+def sensing_geometry(sensing: Mapping[str, Any]) -> SensingPicture:
+    """Turn what the app's sampler attached to the pose into segments to draw.
+
+    ``sensing`` is :func:`app.robot.sensing_at`'s mapping: ``center``, ``radius``,
+    ``seen``, ``tangents``, and ``chosen`` (the planner's r_next, or None) with ``goal``.
     """
-
-    def get(key: str, default: Any) -> Any:
-        if isinstance(sensing, dict):
-            return sensing.get(key, default)
-        return getattr(sensing, key, default)
-
-    center = tuple(get("center", pose.xy))
-    radius = float(get("radius", math.inf))
-    seen = np.asarray(get("seen", np.zeros((0, 2, 2))), dtype=np.float64).reshape(
-        -1, 2, 2
+    center = sensing["center"]
+    r = (float(center[0]), float(center[1]))
+    chosen = sensing.get("chosen")
+    goal = sensing.get("goal")
+    lines: list[list[tuple[float, float]]] = []
+    if chosen is not None:
+        aim = (float(chosen[0]), float(chosen[1]))
+        lines.append([r, aim])
+        if goal is not None and math.dist(aim, goal) > 0:
+            lines.append([aim, (float(goal[0]), float(goal[1]))])
+    return SensingPicture(
+        center=r,
+        radius=float(sensing.get("radius", math.inf)),
+        seen=_as_segments(sensing.get("seen")),
+        tangents=_as_segments(sensing.get("tangents")),
+        chosen=np.asarray(lines, dtype=np.float64).reshape(-1, 2, 2),
     )
-    tangents = np.asarray(
-        get("tangents", np.zeros((0, 2, 2))), dtype=np.float64
-    ).reshape(-1, 2, 2)
-    return (float(center[0]), float(center[1])), radius, seen, tangents
+
+
+def _as_segments(value: Any) -> FloatArray:
+    if value is None:
+        return np.zeros((0, 2, 2))
+    return np.asarray(value, dtype=np.float64).reshape(-1, 2, 2)
 
 
 # --------------------------------------------------------------------------- small helpers

@@ -18,9 +18,17 @@ __all__ = [
     "SKY",
     "VERMILLION",
     "YELLOW",
+    "PlannerLook",
     "hex_color",
+    "planner_look",
     "tint",
 ]
+
+import dataclasses
+from collections.abc import Mapping
+from types import MappingProxyType
+
+import planners
 
 RGB = tuple[int, int, int]
 
@@ -74,6 +82,9 @@ COLORS: dict[str, RGB] = {
     "dsb": DARK_PURPLE,
     "dsb_seek": DARK_PURPLE,
     "dsb_follow": VERMILLION,
+    "bug2": BLACK,
+    "bug2_seek": BLACK,
+    "bug2_follow": PURPLE,
     "start": SKY,
     "goal": YELLOW,
     "marker_edge": (30, 30, 30),
@@ -102,6 +113,7 @@ HEIGHTS: dict[str, float] = {
     "vg_path": 0.02,
     "svg_path": 0.04,
     "dsb_path": 0.055,
+    "bug2_path": 0.048,
     "marker": 0.062,
     "sensing": 0.068,
     "obstacle": 0.4,
@@ -115,9 +127,75 @@ WIDTHS: dict[str, float] = {
     "vg_path": 0.2,
     "svg_path": 0.11,
     "dsb_path": 0.075,
+    "bug2_path": 0.05,
     "outline": 0.03,
     "selection": 0.07,
     "sensing": 0.025,
 }
 """Line thickness [m, world units; ``_px``: screen pixels]: the paths nest (VG widest, DSB narrowest) so that
 identical VG and SVG paths both stay visible."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PlannerLook:
+    """How one planner of :data:`planners.REGISTRY` is drawn."""
+
+    path: RGB
+    """The path's colour (a trace's while it seeks the goal)."""
+    path_height: float
+    """Height of the path above the floor [m]."""
+    path_width: float
+    """Width of the path [m]."""
+    edges: RGB | None = None
+    """A graph planner's edges (pale tint of the path's hue)."""
+    edges_height: float = 0.0
+    """Height of the edges [m]."""
+    edges_px: float = WIDTHS["graph_px"]
+    """Width of the edges [screen pixels]."""
+    follow: RGB | None = None
+    """A trace planner's colour while it follows a border."""
+
+
+LOOKS: Mapping[str, PlannerLook] = MappingProxyType(
+    {
+        name: PlannerLook(
+            path=COLORS[name],
+            path_height=HEIGHTS[f"{name}_path"],
+            path_width=WIDTHS[f"{name}_path"],
+            edges=COLORS.get(f"{name}_edges"),
+            edges_height=HEIGHTS.get(f"{name}_edges", 0.0),
+            edges_px=WIDTHS["graph_px"] * (1.4 if name == "svg" else 1.0),
+            follow=COLORS.get(f"{name}_follow"),
+        )
+        for name in ("vg", "svg", "dsb", "bug2")
+    }
+)
+"""The looks of the planners the project ships."""
+
+# For a planner someone registers without a look of its own: the palette's colours the
+# shipped planners leave free, one after another, and paths stacked above the others.
+_SPARE: tuple[RGB, ...] = (SKY, ORANGE, PURPLE, BLACK)
+
+
+def planner_look(name: str) -> PlannerLook:
+    """Return how planner ``name`` is drawn (a spare colour for one without a look).
+
+    Examples
+    --------
+    >>> planner_look("svg").path == GREEN
+    True
+    """
+    if name in LOOKS:
+        return LOOKS[name]
+    extra = [n for n in planners.REGISTRY if n not in LOOKS]
+    k = extra.index(name) if name in extra else len(extra)
+    color = _SPARE[k % len(_SPARE)]
+    graph = name in planners.REGISTRY and planners.REGISTRY[name].kind == "graph"
+    return PlannerLook(
+        path=color,
+        path_height=0.058 + 0.003 * k,
+        path_width=0.06,
+        edges=tint(color, 0.55) if graph else None,
+        edges_height=0.014 + 0.001 * k,
+        follow=None if graph else tint(color, 0.4),
+    )

@@ -17,6 +17,7 @@ __all__ = [
     "circle_segments",
     "clear_of_markers",
     "disk_mesh",
+    "event_labels",
     "graph_to_segments",
     "lift",
     "lift_segments",
@@ -46,9 +47,10 @@ import viser
 from shapely import MultiPolygon, Polygon
 from shapely.geometry.base import BaseGeometry
 
+import planners
 from app.controller import Frame, Handle, RobotPose
 from app.robot import RobotModel
-from app.style import COLORS, HEIGHTS, WIDTHS
+from app.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
 
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]
@@ -473,6 +475,99 @@ def _place(node: Any, position: tuple[float, float, float]) -> None:
 HandleCallback = Callable[[Handle, tuple[float, float], str], None]
 
 
+class _GraphLayer:
+    """A graph planner's edges and shortest path (VG, SVG: section 9.4, 9.5)."""
+
+    def __init__(self, scene: viser.SceneApi, name: str, look: PlannerLook) -> None:
+        self.name = name
+        self.look = look
+        # Graph edges are thin lines of constant pixel width: readable at any zoom, and
+        # cheaper to draw than world-width ribbons (which matters in software WebGL).
+        self.edges = _Segments(
+            scene, f"/{name}/edges", look.edges or look.path, look.edges_px, "screen"
+        )
+        self.path = _Segments(scene, f"/{name}/path", look.path, look.path_width)
+
+    def render(self, frame: Frame, changed: Callable[[str, Any], bool]) -> None:
+        """Draw the frame's result of this planner (nothing is sent if it is unchanged)."""
+        result = frame.plans.get(self.name)
+        show_edges = frame.layers.get(f"{self.name}_edges", True) and getattr(
+            result, "status", ""
+        ) in ("ok", "unreachable")
+        show_path = frame.layers.get(f"{self.name}_path", True)
+        # The same result object drawn the same way: nothing to send (the frame that
+        # brings the DSB result leaves VG and SVG as they are).
+        if not changed(self.name, (result, show_edges, show_path)):
+            return
+        self.edges.set(
+            lift_segments(result.arrays.segments(), self.look.edges_height)
+            if show_edges
+            else _NO_SEGMENTS,
+            show_edges,
+        )
+        self.path.set(
+            path_to_segments(result.path, self.look.path_height)
+            if show_path and result is not None
+            else _NO_SEGMENTS,
+            show_path,
+        )
+
+
+class _TraceLayer:
+    """A sensing planner's walk, coloured by mode, with its events (DSB: Fig. 9.19)."""
+
+    def __init__(self, scene: viser.SceneApi, name: str, look: PlannerLook) -> None:
+        self.name = name
+        self.look = look
+        self.path = _Segments(
+            scene, f"/{name}/path", look.path, look.path_width, per_segment=True
+        )
+        self.marks = _Segments(
+            scene, f"/{name}/marks", COLORS["marker_edge"], WIDTHS["outline"]
+        )
+        self.labels = _Labels(scene, f"/{name}/labels", 1.0, "bottom-left")
+
+    def render(
+        self,
+        frame: Frame,
+        markers: tuple[tuple[float, float], ...],
+        marker_size: float,
+        changed: Callable[[str, Any], bool],
+    ) -> None:
+        """Draw the frame's result of this planner (nothing is sent if it is unchanged)."""
+        result = frame.plans.get(self.name)
+        show = frame.layers.get(f"{self.name}_path", True) and result is not None
+        events = event_labels(result) if show else []
+        z = self.look.path_height
+        # The labels also depend on where the markers are (they keep clear of them);
+        # the path and the crosses only on the result: a goal dragged while the DSB
+        # result lags re-sends no path.
+        key = (result, show, markers, marker_size)
+        if changed(f"{self.name}_labels", key):
+            labels = clear_of_markers(merge_labels(events, 0.2), markers, marker_size)
+            self.labels.set([(text, (*at, z + 0.05)) for text, at in labels], show)
+        if not changed(self.name, (result, show)):
+            return
+        segments = path_to_segments(result.path, z) if show else _NO_SEGMENTS
+        self.path.set(segments, show, self._colors(result, len(segments)))
+        crosses = [_cross(at, 0.12, z + 0.004) for _, at in events]
+        self.marks.set(
+            np.concatenate(crosses) if crosses else _NO_SEGMENTS, show and bool(crosses)
+        )
+
+    def _colors(self, result: Any, n: int) -> npt.NDArray[np.uint8] | None:
+        """One colour per path segment: goal seeking, or following a border."""
+        modes = getattr(result, "modes", ())
+        if n == 0 or len(modes) != n:
+            return None  # an invalid result has no path, hence no segments
+        follow = self.look.follow or self.look.path
+        rgb = np.array(
+            [follow if m == "follow" else self.look.path for m in modes],
+            dtype=np.uint8,
+        )
+        return np.repeat(rgb[:, None, :], 2, axis=1)
+
+
 class PlannerView:
     """The planner's 3-D scene on a viser server (or on one client).
 
@@ -484,12 +579,15 @@ class PlannerView:
     on_drag
         Called as ``on_drag(handle, (x, y), phase)`` when a user drags a gizmo; the app
         passes :meth:`app.controller.Controller.drag_handle`.
+    registry
+        The planners to draw a layer for (each as its kind says).
     """
 
     def __init__(
         self,
         target: viser.ViserServer | viser.ClientHandle,
         on_drag: HandleCallback | None = None,
+        registry: Mapping[str, planners.PlannerSpec] = planners.REGISTRY,
     ) -> None:
         self.target = target
         self.scene = target.scene
@@ -531,23 +629,17 @@ class PlannerView:
         self.other_edges = _Segments(
             s, "/expanded/other", COLORS["other_expansion"], WIDTHS["outline"] * 0.8
         )
-        # Graph edges are thin lines of constant pixel width: readable at any zoom, and
-        # cheaper to draw than world-width ribbons (which matters in software WebGL).
-        self.vg_edges = _Segments(
-            s, "/vg/edges", COLORS["vg_edges"], WIDTHS["graph_px"], "screen"
-        )
-        self.svg_edges = _Segments(
-            s, "/svg/edges", COLORS["svg_edges"], WIDTHS["graph_px"] * 1.4, "screen"
-        )
-        self.vg_path = _Segments(s, "/vg/path", COLORS["vg"], WIDTHS["vg_path"])
-        self.svg_path = _Segments(s, "/svg/path", COLORS["svg"], WIDTHS["svg_path"])
-        self.dsb_path = _Segments(
-            s, "/dsb/path", COLORS["dsb"], WIDTHS["dsb_path"], per_segment=True
-        )
-        self.dsb_marks = _Segments(
-            s, "/dsb/marks", COLORS["marker_edge"], WIDTHS["outline"]
-        )
-        self.dsb_labels = _Labels(s, "/dsb/labels", 1.0, "bottom-left")
+        # One layer per registered planner, drawn as its kind says (planners.registry).
+        self.graphs = {
+            name: _GraphLayer(s, name, planner_look(name))
+            for name, spec in registry.items()
+            if spec.kind == "graph"
+        }
+        self.traces = {
+            name: _TraceLayer(s, name, planner_look(name))
+            for name, spec in registry.items()
+            if spec.kind == "trace"
+        }
         self.selection = _Segments(
             s, "/selection", COLORS["selection"], WIDTHS["selection"]
         )
@@ -734,77 +826,14 @@ class PlannerView:
                 other is not None,
             )
 
-        for name, edges, path in (
-            ("vg", self.vg_edges, self.vg_path),
-            ("svg", self.svg_edges, self.svg_path),
-        ):
-            result = frame.plans.get(name)
-            arrays = getattr(result, "arrays", None)
-            show_edges = layers.get(f"{name}_edges", True) and getattr(
-                result, "status", ""
-            ) in ("ok", "unreachable")
-            show_path = layers.get(f"{name}_path", True)
-            # The same result object drawn the same way: nothing to send (the frame
-            # that brings the DSB result leaves VG and SVG as they are).
-            if not self._changed(name, (result, show_edges, show_path)):
-                continue
-            edges.set(
-                lift_segments(arrays.segments(), HEIGHTS[f"{name}_edges"])
-                if show_edges and arrays is not None
-                else _NO_SEGMENTS,
-                show_edges,
-            )
-            path_xy = getattr(result, "path", None)
-            path.set(
-                path_to_segments(path_xy, HEIGHTS[f"{name}_path"])
-                if show_path
-                else _NO_SEGMENTS,
-                show_path,
-            )
-
-        self._render_dsb(frame, _marker_size(radius))
+        for graph in self.graphs.values():
+            graph.render(frame, self._changed)
+        markers = (frame.scene.start, frame.scene.goal)
+        for trace in self.traces.values():
+            trace.render(frame, markers, _marker_size(radius), self._changed)
         self._render_markers(frame, radius)
         self._render_handles(frame)
         self._render_selection(frame)
-
-    def _render_dsb(self, frame: Frame, marker_size: float) -> None:
-        result = frame.plans.get("dsb")
-        show = frame.layers.get("dsb_path", True) and result is not None
-        events = dsb_events(result) if show else []
-        # The labels also depend on where the markers are (they keep clear of them);
-        # the path and the crosses only on the result: a goal dragged while the DSB
-        # result lags re-sends no path.
-        markers = (frame.scene.start, frame.scene.goal)
-        if self._changed("dsb_labels", (result, show, markers, marker_size)):
-            labels = clear_of_markers(
-                merge_labels([(label, at) for label, _, at in events], 0.2),
-                markers,
-                marker_size,
-            )
-            self.dsb_labels.set(
-                [(text, (*at, HEIGHTS["dsb_path"] + 0.05)) for text, at in labels],
-                show,
-            )
-        if not self._changed("dsb", (result, show)):
-            return
-        path = np.asarray(
-            getattr(result, "path", np.zeros((0, 2))), dtype=np.float64
-        ).reshape(-1, 2)
-        segments = path_to_segments(path, HEIGHTS["dsb_path"]) if show else _NO_SEGMENTS
-        modes = dsb_segment_modes(result, len(segments)) if show else None
-        colors = None
-        if len(segments):
-            palette = {"seek": COLORS["dsb_seek"], "follow": COLORS["dsb_follow"]}
-            names = modes if modes is not None else ["seek"] * len(segments)
-            rgb = np.array(
-                [palette.get(m, COLORS["dsb"]) for m in names], dtype=np.uint8
-            )
-            colors = np.repeat(rgb[:, None, :], 2, axis=1)
-        self.dsb_path.set(segments, show, colors)
-        crosses = [_cross(at, 0.12, HEIGHTS["dsb_path"] + 0.004) for _, _, at in events]
-        self.dsb_marks.set(
-            np.concatenate(crosses) if crosses else _NO_SEGMENTS, show and bool(crosses)
-        )
 
     def _render_markers(self, frame: Frame, radius: float) -> None:
         size = _marker_size(radius)
@@ -1005,26 +1034,6 @@ class PlannerView:
 # --------------------------------------------------------------------------- DSB adapters
 
 
-def dsb_segment_modes(result: Any, n_segments: int) -> list[str] | None:
-    """Mode ("seek" or "follow") of each segment of a DSB path, when the result says.
-
-    Accepts a result with ``segment_modes`` (one per segment) or ``modes`` (one per
-    segment, or one per path point, in which case a segment takes its start's mode).
-    """
-    if result is None or n_segments == 0:
-        return None
-    for attr in ("segment_modes", "modes"):
-        modes = getattr(result, attr, None)
-        if modes is None:
-            continue
-        modes = [str(getattr(m, "value", m)) for m in modes]
-        if len(modes) == n_segments:
-            return modes
-        if len(modes) == n_segments + 1:
-            return modes[:-1]
-    return None
-
-
 def _marker_size(radius: float) -> float:
     """Radius [m] of the start and goal markers: the robot's footprint, or a dot."""
     return max(radius, 0.12)
@@ -1076,29 +1085,12 @@ def merge_labels(
     return merged
 
 
-def dsb_events(result: Any) -> list[tuple[str, str, tuple[float, float]]]:
-    """(label, kind, (x, y)) of each event of a DSB run (H1, L1, M1, ...)."""
-    events = getattr(result, "events", None) or ()
-    out = []
-    counts: dict[str, int] = {}
-    for event in events:
-        if isinstance(event, dict):
-            kind, at, label = event.get("kind", ""), event.get("at"), event.get("label")
-        else:
-            kind, at, label = (
-                getattr(event, "kind", ""),
-                getattr(event, "at", None),
-                getattr(event, "label", None),
-            )
-        if at is None:
-            continue
-        kind = str(getattr(kind, "value", kind))
-        if not label:
-            letter = {"hit": "H", "leave": "L", "local_min": "M"}.get(kind, "E")
-            counts[letter] = counts.get(letter, 0) + 1
-            label = f"{letter}{counts[letter]}"
-        out.append((str(label), kind, (float(at[0]), float(at[1]))))
-    return out
+def event_labels(result: Any) -> list[tuple[str, tuple[float, float]]]:
+    """(label, (x, y)) of each event of a trace: H1, D1, M3, L3 (Fig. 9.19)."""
+    return [
+        (event.label, (float(event.at[0]), float(event.at[1])))
+        for event in getattr(result, "events", ())
+    ]
 
 
 class SensingPicture(NamedTuple):

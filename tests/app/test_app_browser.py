@@ -132,7 +132,7 @@ def test_dragging_the_goal_with_the_mouse_replans_for_every_browser(browser, pla
     page = open_page(browser, planner)
     other = open_page(browser, planner)  # a second browser: the projector and a laptop
     scene = planner.controller.scene
-    before_nodes = np.asarray(planner.view.vg_path.handle.points).copy()
+    before_nodes = np.asarray(planner.view.graphs["vg"].path.handle.points).copy()
     before_path = vg_path(planner)
     assert_allclose(before_path[-1], scene.goal)
 
@@ -154,7 +154,7 @@ def test_dragging_the_goal_with_the_mouse_replans_for_every_browser(browser, pla
     assert frame.plans["vg"].status == "ok" and frame.plans["svg"].status == "ok"
     after_path = vg_path(planner)
     assert_allclose(after_path[-1], goal)
-    after_nodes = np.asarray(planner.view.vg_path.handle.points)
+    after_nodes = np.asarray(planner.view.graphs["vg"].path.handle.points)
     assert after_nodes.shape != before_nodes.shape or not np.allclose(
         after_nodes, before_nodes
     )

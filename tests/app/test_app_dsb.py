@@ -219,16 +219,18 @@ def test_real_dsb_run_is_drawn_by_mode_with_its_events(with_dsb, server_view):
     controller = make_controller(scene)
     trace = controller.frame.plans["dsb"]
     assert trace.status == "reached"
-    segments = np.asarray(view.dsb_path.handle.points)
+    segments = np.asarray(view.traces["dsb"].path.handle.points)
     assert len(segments) == len(trace.path) - 1
-    colors = np.asarray(view.dsb_path.handle.colors)
+    colors = np.asarray(view.traces["dsb"].path.handle.colors)
     from app.style import COLORS
     from app.view import vertex_colors
 
     for mode, color in zip(trace.modes, colors[:, 0], strict=True):
         want = vertex_colors(COLORS["dsb_seek" if mode == "seek" else "dsb_follow"])
         assert tuple(color) == tuple(want)
-    shown = " ".join(h.text for h in view.dsb_labels.handles if h.visible).split()
+    shown = " ".join(
+        h.text for h in view.traces["dsb"].labels.handles if h.visible
+    ).split()
     assert shown == [e.label for e in trace.events]
 
 

@@ -25,8 +25,7 @@ from app.panels import (
 from app.view import (
     PlannerView,
     circle_segments,
-    dsb_events,
-    dsb_segment_modes,
+    event_labels,
     graph_to_segments,
     path_to_segments,
     polygon_to_mesh,
@@ -35,6 +34,7 @@ from app.view import (
     wall_mesh,
     yaw_quaternion,
 )
+from planners.tangent_bug import BugEvent
 from tests.app.app_helpers import SCENARIO_DIR
 
 L_SHAPE = Polygon([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)])
@@ -143,22 +143,15 @@ def test_circle_and_yaw():
     assert_allclose((w, x, y, z), (math.sqrt(0.5), 0, 0, math.sqrt(0.5)))
 
 
-def test_dsb_adapters_read_modes_and_events():
+def test_event_labels_read_the_trace_events():
     class Trace:
-        modes = ("seek", "seek", "follow")
         events = (
-            {"kind": "hit", "at": (1.0, 2.0)},
-            {"kind": "local_min", "at": (2.0, 2.0), "label": "M2"},
+            BugEvent("hit", (1.0, 2.0), "H1", 1, 0.0),
+            BugEvent("local_min", (2.0, 2.0), "M2", 2, 1.0),
         )
 
-    assert dsb_segment_modes(Trace(), 3) == ["seek", "seek", "follow"]
-    assert dsb_segment_modes(Trace(), 2) == ["seek", "seek"]  # one mode per point
-    assert dsb_segment_modes(Trace(), 5) is None
-    assert dsb_events(Trace()) == [
-        ("H1", "hit", (1.0, 2.0)),
-        ("M2", "local_min", (2.0, 2.0)),
-    ]
-    assert dsb_events(None) == []
+    assert event_labels(Trace()) == [("H1", (1.0, 2.0)), ("M2", (2.0, 2.0))]
+    assert event_labels(None) == []
 
 
 def test_panel_helpers():
@@ -210,18 +203,18 @@ def test_view_layers_hold_exactly_what_was_planned(drawn):
     frame = controller.frame
     vg, svg = frame.plans["vg"], frame.plans["svg"]
     assert_allclose(
-        view.vg_path.handle.points[:, :, :2],
+        view.graphs["vg"].path.handle.points[:, :, :2],
         path_to_segments(vg.path)[:, :, :2],
         atol=1e-5,
     )
     assert_allclose(
-        view.svg_path.handle.points[:, :, :2],
+        view.graphs["svg"].path.handle.points[:, :, :2],
         path_to_segments(svg.path)[:, :, :2],
         atol=1e-5,
     )
-    assert len(view.vg_edges.handle.points) == vg.graph.number_of_edges()
-    assert len(view.svg_edges.handle.points) == svg.graph.number_of_edges()
-    assert view.vg_edges.handle.visible and view.obstacles.handle.visible
+    assert len(view.graphs["vg"].edges.handle.points) == vg.graph.number_of_edges()
+    assert len(view.graphs["svg"].edges.handle.points) == svg.graph.number_of_edges()
+    assert view.graphs["vg"].edges.handle.visible and view.obstacles.handle.visible
     top = view.obstacles.handle.faces[
         np.all(
             np.isclose(
@@ -260,16 +253,22 @@ def test_view_follows_edits_and_hides_what_has_no_path(drawn):
     # The start inside an obstacle: no path is drawn at all, not an old one.
     controller.move_start((2.7, 1.7))
     assert controller.wait_idle(10)
-    assert not view.vg_path.handle.visible and not view.svg_path.handle.visible
-    assert not view.vg_edges.handle.visible
+    assert (
+        not view.graphs["vg"].path.handle.visible
+        and not view.graphs["svg"].path.handle.visible
+    )
+    assert not view.graphs["vg"].edges.handle.visible
     controller.undo()
     assert controller.wait_idle(10)
-    assert view.vg_path.handle.visible
+    assert view.graphs["vg"].path.handle.visible
     # Layer toggles.
     controller.set_layer("vg_edges", False)
     controller.set_layer("expanded", False)
     assert controller.wait_idle(10)
-    assert not view.vg_edges.handle.visible and not view.expanded_fill.handle.visible
+    assert (
+        not view.graphs["vg"].edges.handle.visible
+        and not view.expanded_fill.handle.visible
+    )
 
 
 def test_dragged_handle_is_left_alone_until_the_drag_ends(drawn):
@@ -321,8 +320,8 @@ def test_view_draws_a_dsb_frame(server):
         path = np.array([[1.0, 1.0], [2.0, 1.0], [3.0, 1.5], [9.0, 7.0]])
         modes = ("seek", "follow", "seek")
         events = (
-            {"kind": "hit", "at": scene.start, "label": "H1"},
-            {"kind": "leave", "at": (3.0, 1.5), "label": "L1"},
+            BugEvent("hit", scene.start, "H1", 1, 0.0),
+            BugEvent("leave", (3.0, 1.5), "L1", 1, 2.6),
         )
         length = 10.0
         reason = None
@@ -336,12 +335,12 @@ def test_view_draws_a_dsb_frame(server):
         scenario="", compute_ms=1.0,
     )  # fmt: skip
     view.render(frame)
-    colors = np.asarray(view.dsb_path.handle.colors)
+    colors = np.asarray(view.traces["dsb"].path.handle.colors)
     assert colors.shape == (3, 2, 3)
     assert not np.array_equal(colors[0], colors[1]) and np.array_equal(
         colors[0], colors[2]
     )
-    labels = [h for h in view.dsb_labels.handles if h.visible]
+    labels = [h for h in view.traces["dsb"].labels.handles if h.visible]
     assert [h.text for h in labels] == ["H1", "L1"]
     # An event at the start: its label moves beside the start marker, not onto it.
     size = max(scene.robot.radius, 0.12)
@@ -381,15 +380,15 @@ def test_line_layers_never_switch_colour_mode(server):
     # does not, so a layer that switched could be drawn white.
     server.scene.reset()
     view = PlannerView(server)
-    assert np.asarray(view.dsb_path.handle.colors).shape == (1, 2, 3)
-    assert np.asarray(view.vg_path.handle.colors).shape == (3,)
+    assert np.asarray(view.traces["dsb"].path.handle.colors).shape == (1, 2, 3)
+    assert np.asarray(view.graphs["vg"].path.handle.colors).shape == (3,)
     scene = planners.load_scene(SCENARIO_DIR / "01_two_convex.json")
     controller = Controller(view, scene, slow_process=False)
     try:
         assert controller.wait_idle(30)
-        assert np.asarray(view.vg_path.handle.colors).shape == (3,)
-        dsb = np.asarray(view.dsb_path.handle.colors)
-        if view.dsb_path.handle.visible:
-            assert dsb.shape == np.asarray(view.dsb_path.handle.points).shape
+        assert np.asarray(view.graphs["vg"].path.handle.colors).shape == (3,)
+        dsb = np.asarray(view.traces["dsb"].path.handle.colors)
+        if view.traces["dsb"].path.handle.visible:
+            assert dsb.shape == np.asarray(view.traces["dsb"].path.handle.points).shape
     finally:
         controller.close()

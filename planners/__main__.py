@@ -13,10 +13,9 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
-from planners.api import PLANNERS, PlanOptions, plan_all, result_to_json
+from planners.api import plan_all, result_to_json
+from planners.registry import REGISTRY, PlanOptions, default_planners
 from planners.scene import ScenarioError, load_scene
-
-DEFAULT_PLANNERS = tuple(PLANNERS)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -26,10 +25,10 @@ class _Parser(argparse.ArgumentParser):
 
 def _planner_list(text: str) -> tuple[str, ...]:
     names = tuple(n.strip() for n in text.split(",") if n.strip())
-    unknown = [n for n in names if n not in PLANNERS]
+    unknown = [n for n in names if n not in REGISTRY]
     if unknown or not names:
         raise argparse.ArgumentTypeError(
-            f"unknown planner {unknown[0] if unknown else text!r}; known: {','.join(PLANNERS)}"
+            f"unknown planner {unknown[0] if unknown else text!r}; known: {','.join(REGISTRY)}"
         )
     return names
 
@@ -57,8 +56,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     plan.add_argument(
         "--planners",
         type=_planner_list,
-        default=DEFAULT_PLANNERS,
-        help=f"comma-separated subset of {','.join(PLANNERS)}",
+        default=default_planners(),
+        help="comma-separated planners (default: "
+        + ",".join(default_planners())
+        + "): "
+        + "; ".join(f"{n} = {spec.title}" for n, spec in REGISTRY.items()),
     )
     plan.add_argument(
         "--sensor-range",

@@ -373,6 +373,10 @@ class ConfigurationSpace:
             value = store[key] = fn(self, *args)
             return value
 
+    def known(self, fn: Callable[..., T], *args: Hashable) -> T | None:
+        """Return ``fn(self, *args)`` if :meth:`derive` already computed it, else None."""
+        return self.__dict__.get("_derived", {}).get((fn, args))
+
     def contains_blocked(self, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         """Tell, for each point of shape (2,) or (N, 2), if it is strictly in blocked space.
 

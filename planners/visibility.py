@@ -341,8 +341,7 @@ class _Border:
         return pinch
 
 
-@functools.lru_cache(maxsize=64)
-def _border(cspace: ConfigurationSpace) -> _Border:
+def _build_border(cspace: ConfigurationSpace) -> _Border:
     rings = [r for r in cspace.rings if len(r) >= 3]
     if not rings:
         empty = np.zeros((0, 2))
@@ -449,7 +448,7 @@ def segments_free(
     """
     a = np.atleast_2d(np.asarray(a, dtype=np.float64))
     b = np.atleast_2d(np.asarray(b, dtype=np.float64))
-    return _segments_free(cspace, _border(cspace), a, b)
+    return _segments_free(cspace, cspace.derive(_build_border), a, b)
 
 
 def _segments_free(
@@ -690,7 +689,7 @@ def _query(
     cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
 ) -> tuple[_Border, _Query]:
     """Return the border and the graph nodes: its vertices plus start and goal."""
-    border = _border(cspace)
+    border = cspace.derive(_build_border)
     eps = cspace.eps
     points = border.points
     node = np.arange(len(points), dtype=np.intp)
@@ -783,16 +782,17 @@ def _vg_arrays(
     return _graph_arrays(q, i, j)
 
 
-@functools.lru_cache(maxsize=16)
 def _vertex_visibility(cspace: ConfigurationSpace) -> BoolArray:
     """Which border vertices see each other: (n, n), symmetric, False on the diagonal.
 
-    It depends on the configuration space alone, so while the start or the goal is
-    dragged it is computed once, and each query only adds its start's and goal's rows.
-    Visibility is a function of the two points (the exact segment test decides), so the
-    rows of a vertex the start or goal sits on hold for them too.
+    It depends on the configuration space alone, so it is derived once per configuration
+    space (:meth:`ConfigurationSpace.derive`): while the start or the goal is dragged
+    each query only adds its start's and goal's rows, and the SVG of a scene whose VG was
+    built reads its vertex pairs from it. Visibility is a function of the two points (the
+    exact segment test decides), so the rows of a vertex the start or goal sits on hold
+    for them too.
     """
-    border = _border(cspace)
+    border = cspace.derive(_build_border)
     n = len(border.points)
     q = _Query(border.points, np.arange(n, dtype=np.intp), -1, -1)
     i, j = np.triu_indices(n, 1)
@@ -807,13 +807,9 @@ def _vertex_visibility(cspace: ConfigurationSpace) -> BoolArray:
 def _visibility(cspace: ConfigurationSpace, border: _Border, q: _Query) -> BoolArray:
     """Which of the query's nodes (border vertices, then start and goal) see each other.
 
-    Returns the (N, N) symmetric matrix; it is kept for the SVG of the same query.
+    Returns the (N, N) symmetric matrix.
     """
-    global _LAST_VISIBILITY  # noqa: PLW0603 - a one-entry cache, keyed by value below
-    known = _known_visibility(cspace, q)
-    if known is not None:
-        return known
-    base = _vertex_visibility(cspace)
+    base = cspace.derive(_vertex_visibility)
     n, total = len(base), len(q.points)
     vis = np.zeros((total, total), dtype=bool)
     vis[:n, :n] = base
@@ -825,23 +821,27 @@ def _visibility(cspace: ConfigurationSpace, border: _Border, q: _Query) -> BoolA
         ok = _visible(cspace, border, q, i, j)
         vis[i[ok], j[ok]] = True
         vis[j[ok], i[ok]] = True
-    vis.setflags(write=False)
-    _LAST_VISIBILITY = (cspace, q.points.tobytes(), vis)
     return vis
 
 
-# The last query's visibility matrix: the SVG of the same scene (asked for right after the
-# VG, as plan_all does) reads it instead of testing its candidate segments again. Keyed
-# by the configuration space and the node array.
-_LAST_VISIBILITY: tuple[ConfigurationSpace, bytes, BoolArray] | None = None
+def _pairs_visible(
+    cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray, j: IntArray
+) -> BoolArray:
+    """Tell which node pairs (i, j) see each other, reusing what is already known.
 
-
-def _known_visibility(cspace: ConfigurationSpace, q: _Query) -> BoolArray | None:
-    """Return the kept visibility matrix of this very query, or None."""
-    last = _LAST_VISIBILITY
-    if last is None or last[0] is not cspace or last[1] != q.points.tobytes():
-        return None
-    return last[2]
+    Pairs of border vertices are read from the vertex matrix when this configuration
+    space already has it (the VG was built on it); the rest are tested.
+    """
+    base = cspace.known(_vertex_visibility)
+    if base is None:
+        return _visible(cspace, border, q, i, j)
+    n = len(base)
+    read = (i < n) & (j < n)
+    ok = np.empty(len(i), dtype=bool)
+    ok[read] = base[i[read], j[read]]
+    test = np.flatnonzero(~read)
+    ok[test] = _visible(cspace, border, q, i[test], j[test])
+    return ok
 
 
 def simplified_visibility_graph(
@@ -887,8 +887,7 @@ def _svg_arrays(
         | (_into_blocked(border, q.node[j], d) & ~pinch[q.node[j]])
     )
     i, j = i[tangent], j[tangent]
-    known = _known_visibility(cspace, q)
-    ok = known[i, j] if known is not None else _visible(cspace, border, q, i, j)
+    ok = _pairs_visible(cspace, border, q, i, j)
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
     return _graph_arrays(q, i[ok], j[ok], drop_isolated=True)
 

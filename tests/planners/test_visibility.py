@@ -359,22 +359,15 @@ def test_narrow_gap_scenario_disk_passes_square_blocks():
 def candidate_search(kind):
     """Force how segment/edge candidates are found: small scenes use the dense box test.
 
-    The visibility caches are emptied on the way in and out, so that the forced search
-    really runs (and its answers are not kept for other tests).
+    Every plan_all without a memo builds its configuration space afresh, so nothing
+    computed with the other search answers inside the block.
     """
     saved = visibility._DENSE_LIMIT
-    forget_visibility()
     visibility._DENSE_LIMIT = {"dense": 10**12, "sweep": 0}[kind]
     try:
         yield
     finally:
         visibility._DENSE_LIMIT = saved
-        forget_visibility()
-
-
-def forget_visibility():
-    visibility._vertex_visibility.cache_clear()
-    visibility._LAST_VISIBILITY = None
 
 
 def _edge_set(graph):
@@ -460,7 +453,9 @@ def test_later_queries_in_the_same_space_reuse_the_vertex_visibility_exactly(
     plans = plan_all(scene)  # fills the cache of vertex-to-vertex visibility
     assume(plans["vg"].status != "invalid")
     space = plans["cspace"]
-    vertices = [tuple(p) for p in visibility._border(space).points.tolist()]
+    vertices = [
+        tuple(p) for p in space.derive(visibility._build_border).points.tolist()
+    ]
     grid = [(x, y) for x in range(-1, 11) for y in range(-1, 11)]
     grid = [p for p, b in zip(grid, space.contains_blocked(grid), strict=True) if not b]
     for _ in range(3):
@@ -473,9 +468,11 @@ def test_later_queries_in_the_same_space_reuse_the_vertex_visibility_exactly(
         for i, a in enumerate(nodes):
             for b in nodes[i + 1 :]:
                 assert graph.has_edge(a, b) == reference_segment_free(space, a, b)
-        forget_visibility()
+        # The same geometry, built afresh: nothing derived yet, every pair tested.
+        fresh = plan_all(scene, ("svg",))["cspace"]
+        assert fresh is not space and fresh.known(visibility._vertex_visibility) is None
         assert _edge_set(svg) == _edge_set(
-            simplified_visibility_graph(space, start, goal)
+            simplified_visibility_graph(fresh, start, goal)
         )
 
 

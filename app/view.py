@@ -355,6 +355,7 @@ class _Segments:
         color: tuple[int, int, int],
         thickness: float,
         units: Literal["world", "screen"] = "world",
+        *,
         per_segment: bool = False,
     ) -> None:
         # A layer is created either with one colour, shape (3,), or with one colour per

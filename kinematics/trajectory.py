@@ -608,7 +608,7 @@ def _speed_profile(
     return np.asarray(v)
 
 
-def _continuous_piece(
+def _continuous_piece(  # noqa: PLR0915 - a numeric kernel: profile, sampling and end fix share its arrays
     motion: _Motion,
     points: FloatArray,
     follow: bool,

@@ -107,6 +107,17 @@ class Bug2Trace(WalkedPath):
     """Compute time [ms], set by :func:`planners.plan_all` (shared expansion included)."""
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Run:
+    """What stays the same over a run: the space, its border, the M-line, the tolerance."""
+
+    cspace: ConfigurationSpace
+    geo: RingGeometry
+    start: FloatArray
+    goal: FloatArray
+    tol: float
+
+
 @dataclasses.dataclass(frozen=True)
 class _Walk:
     """The run so far (an immutable accumulator)."""
@@ -184,60 +195,51 @@ def plan_bug2(
     """
     s = np.asarray(start, dtype=np.float64).reshape(2)
     g = np.asarray(goal, dtype=np.float64).reshape(2)
-    geo = ring_geometry(cspace)
-    tol = 10.0 * cspace.eps
-    walk = _Walk(points=((float(s[0]), float(s[1])),))
+    run = _Run(cspace, ring_geometry(cspace), s, g, 10.0 * cspace.eps)
+    walk = _Walk(points=(_pt(s),))
     # Every leave point is a crossing of the M-line with the border, closer to the goal
     # than the hit before it: there are at most as many hits as such crossings.
-    for _ in range(2 * len(geo.start) + 2):
-        walk, hit = _motion_to_goal(cspace, geo, walk, g, tol)
+    for _ in range(2 * len(run.geo.start) + 2):
+        walk, hit = _motion_to_goal(run, walk)
         if hit is None:
-            return _trace(walk, s, g, "reached", None)
-        walk, left = _follow(cspace, geo, walk, hit, s, g, tol)
+            return _trace(run, walk, "reached", None)
+        walk, left = _follow(run, walk, hit)
         if not left:
-            return _trace(walk, s, g, "unreachable", walk.decisions[-1].text)
+            return _trace(run, walk, "unreachable", walk.decisions[-1].text)
     reason = "gave up: more hits than the M-line has crossings (a numerical problem)"
-    return _trace(walk, s, g, "unreachable", reason)
+    return _trace(run, walk, "unreachable", reason)
 
 
 def _motion_to_goal(
-    cspace: ConfigurationSpace,
-    geo: RingGeometry,
-    walk: _Walk,
-    g: FloatArray,
-    tol: float,
+    run: _Run, walk: _Walk
 ) -> tuple[_Walk, tuple[int, FloatArray] | None]:
     """Move toward the goal until it is reached (None) or a border is hit: (ring, point)."""
+    geo, g, tol = run.geo, run.goal, run.tol
     x = walk.at
     aim = (float(g[0]), float(g[1]))
     d = math.dist(x, g)
     if d <= tol:
         walk = walk.go(np.array([x, g]), SEEK, aim)
         return walk.mark(
-            None, _decision(walk, "reached", g, g, None, "At the goal.")
+            None, _decision(walk, "reached", g, g, d_hit=None, text="At the goal.")
         ), None
     extent, ring = free_extent(geo, x, (g - x) / d, d)
     if ring < 0 or extent >= d - tol:
         walk = walk.go(np.array([x, g]), SEEK, aim)
         text = "Nothing touched on the M-line: the robot reaches the goal."
-        return walk.mark(None, _decision(walk, "reached", g, g, None, text)), None
+        return walk.mark(
+            None, _decision(walk, "reached", g, g, d_hit=None, text=text)
+        ), None
     hit = x + extent * (g - x) / d
     walk = walk.go(np.array([x, hit]), SEEK, aim)
     return walk, (ring, hit)
 
 
-def _follow(
-    cspace: ConfigurationSpace,
-    geo: RingGeometry,
-    walk: _Walk,
-    hit: tuple[int, FloatArray],
-    s: FloatArray,
-    g: FloatArray,
-    tol: float,
-) -> tuple[_Walk, bool]:
+def _follow(run: _Run, walk: _Walk, hit: tuple[int, FloatArray]) -> tuple[_Walk, bool]:
     """Follow the hit border to the first leave point; False if back at the hit point."""
+    geo, s, g, tol = run.geo, run.start, run.goal, run.tol
     ring, h = hit
-    obstacle = cspace.obstacle_near(h)
+    obstacle = run.cspace.obstacle_near(h)
     name = "the walls" if obstacle is None else f"obstacle {obstacle}"
     label = "w" if obstacle is None else str(obstacle)
     d_hit = math.dist(h, g)
@@ -247,10 +249,10 @@ def _follow(
     )
     walk = walk.mark(
         BugEvent("hit", _pt(h), f"H{label}", obstacle, walk.travelled),
-        _decision(walk, "hit", h, g, d_hit, text),
+        _decision(walk, "hit", h, g, d_hit=d_hit, text=text),
     )
     pieces = _border_walk(geo, ring, h, _unit(g - s), tol)
-    for k, e, t in _m_line_crossings(geo, pieces, s, g, tol):
+    for k, e, t in _m_line_crossings(run, pieces):
         p = geo.start[e] + t * geo.step[e]
         if math.dist(p, h) <= tol or math.dist(p, g) >= d_hit - tol:
             continue  # the hit point itself, or not closer to the goal than it
@@ -262,13 +264,17 @@ def _follow(
             f"than H{label} ({d_hit:.2f} m), and free toward the goal: the robot leaves."
         )
         event = BugEvent("leave", _pt(p), f"L{label}", obstacle, walk.travelled)
-        return walk.mark(event, _decision(walk, "leave", p, g, d_hit, text)), True
+        return walk.mark(
+            event, _decision(walk, "leave", p, g, d_hit=d_hit, text=text)
+        ), True
     walk = walk.go(_polyline(geo, pieces, len(pieces) - 1, pieces[-1][2]), FOLLOW, None)
     text = (
         f"Back at H{label} without meeting the M-line closer to the goal: {name} "
         "(expanded) separates the robot from the goal, which is unreachable."
     )
-    return walk.mark(None, _decision(walk, "unreachable", h, g, d_hit, text)), False
+    return walk.mark(
+        None, _decision(walk, "unreachable", h, g, d_hit=d_hit, text=text)
+    ), False
 
 
 _Piece = tuple[int, float, float]
@@ -371,15 +377,12 @@ def _leaving_angle(geo: RingGeometry, spot: _Spot) -> float:
     return math.atan2(-float(uy), -float(ux))
 
 
-def _m_line_crossings(
-    geo: RingGeometry, pieces: list[_Piece], s: FloatArray, g: FloatArray, tol: float
-) -> list[tuple[int, int, float]]:
+def _m_line_crossings(run: _Run, pieces: list[_Piece]) -> list[tuple[int, int, float]]:
     """Points where the walked pieces meet the M-line, in walking order: (piece, edge, t)."""
-    m = g - s
-    m_len = math.hypot(*m)
+    geo = run.geo
     found: list[tuple[int, int, float]] = []
     for k, (e, t0, t1) in enumerate(pieces):
-        meets = _meets(geo.start[e], geo.step[e], s, m, m_len, tol)
+        meets = _meets(geo.start[e], geo.step[e], run)
         found.extend((k, e, t) for t in sorted(meets, reverse=True) if t1 <= t <= t0)
     return found
 
@@ -398,10 +401,11 @@ def _polyline(
     return np.asarray(points)
 
 
-def _meets(
-    a: FloatArray, d: FloatArray, s: FloatArray, m: FloatArray, m_len: float, tol: float
-) -> list[float]:
-    """Parameters t in [0, 1] where edge a + t d meets the segment s -> s + m."""
+def _meets(a: FloatArray, d: FloatArray, run: _Run) -> list[float]:
+    """Parameters t in [0, 1] where edge a + t d meets the M-line."""
+    s, tol = run.start, run.tol
+    m = run.goal - s
+    m_len = math.hypot(*m)
     d_len = math.hypot(*d)
     if d_len == 0 or m_len == 0:
         return []
@@ -444,7 +448,13 @@ def _nearest_edge(geo: RingGeometry, ring: int, point: FloatArray) -> tuple[int,
 
 
 def _decision(
-    walk: _Walk, box: str, at: FloatArray, g: FloatArray, d_hit: float | None, text: str
+    walk: _Walk,
+    box: str,
+    at: FloatArray,
+    g: FloatArray,
+    *,
+    d_hit: float | None,
+    text: str,
 ) -> Bug2Decision:
     return Bug2Decision(walk.travelled, _pt(at), box, math.dist(at, g), d_hit, text)
 
@@ -454,9 +464,7 @@ def _pt(p: npt.ArrayLike) -> Point:
     return (float(x), float(y))
 
 
-def _trace(
-    walk: _Walk, s: FloatArray, g: FloatArray, status: str, reason: str | None
-) -> Bug2Trace:
+def _trace(run: _Run, walk: _Walk, status: str, reason: str | None) -> Bug2Trace:
     path, modes, aims = simplify_walk(
         np.asarray(walk.points, dtype=np.float64).reshape(-1, 2),
         list(walk.modes),
@@ -472,6 +480,6 @@ def _trace(
         aims=tuple(aims),
         decisions=walk.decisions,
         travelled=walk.travelled,
-        start=_pt(s),
-        goal=_pt(g),
+        start=_pt(run.start),
+        goal=_pt(run.goal),
     )

@@ -30,7 +30,7 @@ __all__ = [
 import dataclasses
 import math
 from collections.abc import Callable, Hashable
-from typing import Any, TypeVar
+from typing import Any, NamedTuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -441,6 +441,7 @@ def configuration_space(
     mode: str = "disk",
     boundary: Polygon | None = None,
     arc_step: float = DEFAULT_ARC_STEP,
+    *,
     extra_points: npt.ArrayLike | None = None,
     memo: Memo | None = None,
 ) -> ConfigurationSpace:
@@ -486,19 +487,25 @@ def configuration_space(
     # moving the start a little keeps the same (cached) configuration space.
     eps = EPS * 2.0 ** math.ceil(math.log2(scale))
     memo = memo if memo is not None else Memo()
-    key = (tuple(obstacles), float(radius), mode, boundary, float(arc_step), eps)
-    return memo.get("cspace", key, lambda: _build(*key, memo))
+    key = _SpaceKey(
+        tuple(obstacles), float(radius), mode, boundary, float(arc_step), eps
+    )
+    return memo.get("cspace", key, lambda: _build(key, memo))
 
 
-def _build(
-    obstacles: tuple[Polygon, ...],
-    radius: float,
-    mode: str,
-    boundary: Polygon | None,
-    arc_step: float,
-    eps: float,
-    memo: Memo,
-) -> ConfigurationSpace:
+class _SpaceKey(NamedTuple):
+    """Everything a configuration space depends on (hashable, compared by value)."""
+
+    obstacles: tuple[Polygon, ...]
+    radius: float
+    mode: str
+    boundary: Polygon | None
+    arc_step: float
+    eps: float
+
+
+def _build(key: _SpaceKey, memo: Memo) -> ConfigurationSpace:
+    obstacles, radius, mode, boundary, arc_step, eps = key
     # Polygons hash by value, so during a drag only the dragged obstacle is expanded again.
     expanded = tuple(
         memo.get(

@@ -517,7 +517,7 @@ def _runs_of_equal_starts(a: FloatArray) -> IntArray:
     return np.concatenate([[0], change, [len(a)]]).astype(np.intp)
 
 
-def _angular_chunks(
+def _angular_chunks(  # noqa: PLR0915 - one vectorised pass over (starts x edges) arrays
     border: _Border, a: FloatArray, b: FloatArray, starts: IntArray, eps: float
 ):
     """Yield (segment, edge) pairs where the edge spans the segment's direction.

@@ -18,7 +18,6 @@ __all__ = [
     "clear_of_markers",
     "disk_mesh",
     "event_labels",
-    "graph_to_segments",
     "lift",
     "lift_segments",
     "merge_labels",
@@ -36,10 +35,9 @@ __all__ = [
 import contextlib
 import functools
 import math
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any, Literal, NamedTuple
 
-import networkx as nx
 import numpy as np
 import numpy.typing as npt
 import shapely
@@ -75,20 +73,6 @@ def lift(points: npt.ArrayLike, z: float = 0.0) -> FloatArray:
     """
     xy = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     return np.column_stack([xy, np.full(len(xy), float(z))])
-
-
-def graph_to_segments(graph: nx.Graph | None, z: float = 0.0) -> FloatArray:
-    """Turn every edge of a graph with (x, y) nodes into one segment, shape (N, 2, 3).
-
-    Examples
-    --------
-    >>> g = nx.Graph([((0.0, 0.0), (1.0, 0.0)), ((1.0, 0.0), (1.0, 2.0))])
-    >>> graph_to_segments(g, 0.1).shape
-    (2, 2, 3)
-    """
-    if graph is None or graph.number_of_edges() == 0:
-        return np.zeros((0, 2, 3))
-    return lift_segments(list(graph.edges()), z)
 
 
 def lift_segments(ends: npt.ArrayLike, z: float = 0.0) -> FloatArray:
@@ -1196,10 +1180,3 @@ def scene_bounds(scene: Any) -> tuple[float, float, float, float]:
     x0, y0 = allp.min(axis=0) - 2.0
     x1, y1 = allp.max(axis=0) + 2.0
     return (math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1))
-
-
-def iter_scene_segments(view: PlannerView) -> Iterator[tuple[str, FloatArray]]:
-    """(node name, points) of every visible line-segment layer: what a test can inspect."""
-    for attr, layer in vars(view).items():
-        if isinstance(layer, _Segments) and layer.handle.visible:
-            yield attr, np.asarray(layer.handle.points, dtype=np.float64)

@@ -6,7 +6,6 @@ import math
 from collections.abc import Iterator
 from typing import Any
 
-import networkx as nx
 import numpy as np
 import pytest
 import shapely
@@ -26,7 +25,6 @@ from app.view import (
     PlannerView,
     circle_segments,
     event_labels,
-    graph_to_segments,
     path_to_segments,
     polygon_to_mesh,
     prism_mesh,
@@ -48,21 +46,6 @@ def mesh_area(vertices: np.ndarray, faces: np.ndarray) -> float:
     return float(
         np.sum(0.5 * ((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]))
     )
-
-
-def test_graph_to_segments_has_one_segment_per_edge():
-    g = nx.Graph()
-    g.add_edge((0.0, 0.0), (1.0, 0.0))
-    g.add_edge((1.0, 0.0), (1.0, 2.0))
-    g.add_edge((1.0, 2.0), (0.0, 0.0))
-    segments = graph_to_segments(g, z=0.25)
-    assert segments.shape == (3, 2, 3)
-    assert_allclose(segments[:, :, 2], 0.25)
-    got = {frozenset(map(tuple, s[:, :2].tolist())) for s in segments}
-    want = {frozenset((a, b)) for a, b in g.edges()}
-    assert got == {frozenset(tuple(map(float, p)) for p in e) for e in want}
-    assert graph_to_segments(nx.Graph()).shape == (0, 2, 3)
-    assert graph_to_segments(None).shape == (0, 2, 3)
 
 
 def test_path_to_segments_chains_the_points():

@@ -27,6 +27,7 @@ __all__ = [
     "replace_robot",
     "save_scene",
     "scene_from_dict",
+    "scene_from_text",
     "scene_problems",
     "scene_to_dict",
 ]
@@ -356,15 +357,45 @@ def load_scene(path_or_dict: str | os.PathLike[str] | Mapping[str, Any]) -> Scen
         ) from None
     except UnicodeDecodeError:
         raise ScenarioError(source, "(file)", "not UTF-8 text") from None
+    return scene_from_text(text, source)
+
+
+def scene_from_text(text: str | bytes, source: str = "<scenario>") -> Scene:
+    """Parse a scenario's JSON text (a file's, an upload's) and validate it.
+
+    Every malformed text gives a :class:`ScenarioError` naming ``source`` and the field:
+    bad JSON, JSON nested too deeply for the parser (which would otherwise end in a
+    ``RecursionError``), any wrong field.
+
+    Examples
+    --------
+    >>> scene_from_text('{"format": 1, "obstacles": [], "start": [0, 0], "goal": [1, 1]}').goal
+    (1.0, 1.0)
+    >>> scene_from_text("[" * 100000 + "]" * 100000, "deep.json")
+    Traceback (most recent call last):
+    ...
+    planners.scene.ScenarioError: deep.json: (file): nested too deeply to be a scenario
+    """
+    if isinstance(text, bytes):
+        try:
+            text = text.decode("utf-8")
+        except UnicodeDecodeError:
+            raise ScenarioError(source, "(file)", "not UTF-8 text") from None
     try:
         # Python's json reads NaN and Infinity; they reach the field checks, which reject
         # them naming the field.
         data = json.loads(text)
+        return scene_from_dict(data, source)
     except json.JSONDecodeError as error:
         raise ScenarioError(
             source, f"(line {error.lineno})", f"not valid JSON: {error.msg}"
         ) from None
-    return scene_from_dict(data, source)
+    except RecursionError:
+        # No scenario field nests more than three lists deep; Python's parser (and any
+        # repr of such a value) gives up at about a thousand levels.
+        raise ScenarioError(
+            source, "(file)", "nested too deeply to be a scenario"
+        ) from None
 
 
 def scene_to_dict(scene: Scene) -> dict[str, Any]:

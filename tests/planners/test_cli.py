@@ -88,3 +88,12 @@ def test_missing_file_and_bad_flags_exit_2_without_traceback(tmp_path):
         assert (
             "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1
         )
+
+
+def test_deeply_nested_file_exits_2_with_one_line(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 5000 + "]" * 5000)
+    out = run("plan", str(path))
+    assert out.returncode == 2
+    assert out.stderr == f"error: {path}: (file): nested too deeply to be a scenario\n"
+    assert out.stdout == ""

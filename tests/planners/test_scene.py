@@ -17,6 +17,7 @@ from planners.scene import (
     move_start,
     move_vertex,
     replace_robot,
+    scene_from_text,
     scene_to_dict,
 )
 from tests.conftest import SCENARIOS
@@ -218,3 +219,31 @@ def test_scene_value_semantics():
     b = Scene(obstacles=(Polygon([(0, 0), (1, 0), (0, 1)]),), start=(2, 2), goal=(3, 3))
     assert a == b and hash(a) == hash(b)
     assert not math.isnan(a.sensor_range)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "[" * 5000 + "]" * 5000,  # a list nested deeper than the parser goes
+        '{"format": 1, "obstacles": ' + "[" * 3000 + "]" * 3000 + "}",
+        '{"a": ' * 3000 + "1" + "}" * 3000,
+    ],
+    ids=["lists", "in-a-field", "objects"],
+)
+def test_deep_nesting_is_one_clean_error(tmp_path, text):
+    path = tmp_path / "deep.json"
+    path.write_text(text)
+    with pytest.raises(ScenarioError) as info:
+        load_scene(path)
+    assert str(info.value) == f"{path}: (file): nested too deeply to be a scenario"
+    with pytest.raises(ScenarioError, match=r"upload: \(file\): nested too deeply"):
+        scene_from_text(text.encode(), "upload")
+
+
+def test_nesting_the_parser_takes_is_a_field_error(tmp_path):
+    data = copy.deepcopy(GOOD)
+    data["start"] = json.loads("[" * 400 + "]" * 400)
+    path = tmp_path / "nested.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ScenarioError, match=r"nested\.json: start: "):
+        load_scene(path)

@@ -127,7 +127,7 @@ class PlannerApp:
 
     def set_robot_time(self, t: float | None) -> None:
         """Pause the robot at trajectory time ``t`` [s] (None: play from where it is)."""
-        self.controller.set_robot_time(t)
+        self.controller.playback.set_robot_time(t)
 
     def wait_idle(self, timeout: float = 10.0) -> bool:
         """Block until every edit is planned and drawn, and the messages are sent."""
@@ -200,7 +200,7 @@ def start_app(
         controller_box: list[Controller] = []
 
         def on_drag(handle: tuple, xy: tuple[float, float], phase: str) -> None:
-            controller_box[0].drag_handle(handle, xy, phase)
+            controller_box[0].edits.drag_handle(handle, xy, phase)
 
         view = PlannerView(server, on_drag=on_drag)
         view.robot_model_fn = robot_model.robot_model

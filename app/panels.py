@@ -12,6 +12,7 @@ __all__ = ["Panels", "legend_html", "results_markdown", "wheel_rate_plot_data"]
 
 import math
 from collections.abc import Callable, Collection, Mapping
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -21,11 +22,13 @@ import viser
 from app.controller import LAYERS, TOOLS, Controller, Frame, RobotPose
 from app.style import COLORS, hex_color
 
-PLANNER_NAMES = {
-    "vg": "Visibility graph (VG)",
-    "svg": "Simplified VG (SVG)",
-    "dsb": "Distance sensor (DSB)",
-}
+PLANNER_NAMES: Mapping[str, str] = MappingProxyType(
+    {
+        "vg": "Visibility graph (VG)",
+        "svg": "Simplified VG (SVG)",
+        "dsb": "Distance sensor (DSB)",
+    }
+)
 _WHEEL_COLORS = ("#0072b2", "#d55e00", "#009e73")
 
 

@@ -62,7 +62,7 @@ import json
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import planners
 from app import tools
@@ -251,7 +251,7 @@ class SceneEdits:
     def _edit(
         self,
         fn: Callable[[Scene], Scene],
-        select: Selection | Any | None = tools.KEEP,
+        select: Selection | Literal["keep"] | None = tools.KEEP,
         gesture: tuple[Any, ...] | None = None,
     ) -> None:
         self._state.transact(

@@ -130,14 +130,19 @@ class Views:
         with self._drawing:
             self._views = (*self._views, view)
 
-    def render(self, frame: Frame, pose: RobotPose | bool | None = False) -> None:
-        """Show ``frame`` on every view, then ``pose`` unless it is False (not given)."""
+    def render(self, frame: Frame) -> None:
+        """Show ``frame`` on every view."""
         with self._drawing:
             for view in self._views:
                 view.render(frame)
-            if pose is not False:
-                for view in self._views:
-                    view.render_robot(pose)  # type: ignore[arg-type]
+
+    def render_with_robot(self, frame: Frame, pose: RobotPose | None) -> None:
+        """Show ``frame``, then the robot at ``pose``, with no other drawing in between."""
+        with self._drawing:
+            for view in self._views:
+                view.render(frame)
+            for view in self._views:
+                view.render_robot(pose)
 
     def render_robot(self, pose: RobotPose | None) -> None:
         """Show the robot on every view."""

@@ -267,7 +267,12 @@ class Playback:
 
     def _pose_locked(self) -> RobotPose | None:
         kept = self._kept
-        if kept.trajectory is None or self._sample_fn is None or kept.key is None:
+        if (
+            kept.trajectory is None
+            or self._sample_fn is None
+            or kept.key is None
+            or kept.scene is None
+        ):
             return None
         try:
             fields = self._sample_fn(

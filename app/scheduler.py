@@ -553,7 +553,7 @@ class Scheduler:
         with self._lock:
             self._computed = computed
             pose = self._playback.settle_locked()
-        self._views.render(frame, pose)
+        self._views.render_with_robot(frame, pose)
         with self._lock:
             self._last_frame = frame
             self._drawn = _Drawn(snapshot.version, snapshot.ui_version)

@@ -25,7 +25,7 @@ __all__ = ["SessionState", "Snapshot", "Step"]
 import dataclasses
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from types import MappingProxyType
 
 from app import tools
@@ -189,10 +189,12 @@ class SessionState:
         self._ui_version += 1
         self.lock.notify_all()
 
-    def _commit_locked(self, new: Scene, gesture: object, phased: bool) -> None:
+    def _commit_locked(
+        self, new: Scene, gesture: Hashable | None, phased: bool
+    ) -> None:
         if new == self._scene:
-            return
+            return  # nothing changed: no undo step, no new version
         before = Entry(self._scene, self._scenario)
-        self._history = self._history.record(before, gesture, self._clock(), phased)  # type: ignore[arg-type]
+        self._history = self._history.record(before, gesture, self._clock(), phased)
         self._scene = new
         self._version += 1

@@ -62,7 +62,7 @@ import dataclasses
 import math
 from collections.abc import Callable, Hashable, Iterable, Mapping
 from types import MappingProxyType
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import shapely
@@ -174,8 +174,7 @@ class UiState:
         return dataclasses.replace(self, message=message)
 
 
-_Keep = type("_Keep", (), {"__repr__": lambda self: "KEEP"})
-KEEP: Any = _Keep()
+KEEP: Literal["keep"] = "keep"
 """For :func:`edit`'s ``select``: leave the selection as it is (if still valid)."""
 
 
@@ -205,7 +204,7 @@ def edit(
     ui: UiState,
     fn: Callable[[Scene], Scene],
     *,
-    select: Selection | Any | None = KEEP,
+    select: Selection | Literal["keep"] | None = KEEP,
     gesture: Hashable | None = None,
 ) -> Outcome:
     """Apply the pure edit ``fn``; a refused edit keeps the scene and says why.
@@ -226,7 +225,7 @@ def edit(
         new = fn(scene)
     except (ScenarioError, ValueError, IndexError, TypeError) as error:
         return Outcome(ui.say(f"Not done: {error}"))
-    selection = ui.selection if select is KEEP else select
+    selection = ui.selection if select == KEEP else select
     ui = dataclasses.replace(
         ui, selection=valid_selection(selection, new), message=None
     )

@@ -2,7 +2,7 @@
 
 For every shipped scenario this starts the real app (viser server, 3-D view, panel,
 controller; no browser) and drags a handle through a few hundred positions with
-``controller.drag_handle`` -- the call the gizmo's callback makes -- once the goal (the
+``controller.edits.drag_handle`` -- the call the gizmo's callback makes -- once the goal (the
 configuration space stays; VG/SVG only add the goal's edges) and once a vertex of the
 first obstacle (every event expands, merges and builds the graphs anew). A probe view,
 drawn after the 3-D view and the panel, timestamps each frame. Two measurements:

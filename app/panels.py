@@ -179,6 +179,12 @@ class Panels:
         with gui.add_folder("Results"):
             self.results = gui.add_markdown(results_markdown({}))
 
+        self._build_settings(gui)
+        self._build_motion(gui, planners)
+        self._bind()
+
+    def _build_settings(self, gui: Any) -> None:
+        # The editing tools, the robot and planning settings, the layers.
         with gui.add_folder("Edit"):
             self.tool = gui.add_dropdown(
                 "Mouse", list(TOOLS.values()), initial_value=TOOLS["drag"]
@@ -209,6 +215,8 @@ class Panels:
             }
             self.legend = gui.add_html(legend_html())
 
+    def _build_motion(self, gui: Any, planners: tuple[str, ...]) -> None:
+        # The robot's motion along a planner's path, its wheel rates.
         with gui.add_folder("Robot motion"):
             follow = list(planners) or ["vg"]
             self.follow = gui.add_dropdown(
@@ -229,7 +237,6 @@ class Panels:
                 scales={"x": {"time": False}},
                 aspect=1.6,
             )
-        self._bind()
 
     # ------------------------------------------------------------------ wiring
 

@@ -6,10 +6,14 @@ Start it with ``python -m app`` or from Python::
     planner = start_app("01_two_convex", port=8080)
     print(planner.url)
 
-Modules: :mod:`app.controller` (state and edits, no viser), :mod:`app.view` (the 3-D
-scene), :mod:`app.panels` (the GUI panel), :mod:`app.robot` (kinematics glue),
-:mod:`app.lanes` (the slow planners' process), :mod:`app.server` (wiring) and
-:mod:`app.headless` (snapshots through a browser).
+Modules: :mod:`app.controller` (one session: a small facade, no viser) over
+:mod:`app.session` (scene, version, history and UI state under one lock),
+:mod:`app.history` (undo/redo, pure), :mod:`app.tools` (mouse tools and picking, pure),
+:mod:`app.scheduler` (planning lanes, coalescing, frames), :mod:`app.lanes` (the slow
+planners' process), :mod:`app.playback` (the robot's motion) and :mod:`app.frames` (what
+views draw); :mod:`app.view` (the 3-D scene), :mod:`app.panels` (the GUI panel),
+:mod:`app.robot` (kinematics glue), :mod:`app.server` (wiring) and :mod:`app.headless`
+(snapshots through a browser).
 
 The names below are imported on first use, so that a worker process that needs only
 :mod:`app.controller` does not load viser.

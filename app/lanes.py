@@ -4,8 +4,9 @@ TangentBug is mostly Python: run in a thread next to the VG/SVG lane it would ho
 interpreter lock for long stretches and slow every redraw during a drag (measured: the
 fast lane's p50 went from about 7 ms to 30 ms). The planners are pure functions on
 picklable values (scenes, shapely polygons, frozen results), so one worker process per
-app computes them on another core; a scene goes in, the results come back pickled
-(about 1 ms each way).
+session computes them on another core; a scene goes in, the results come back pickled
+(about 1 ms each way). The planners' registry travels inside the pickled function; the
+child keeps its own :class:`planners.Memo` from call to call.
 
 The worker is a plain ``python -c`` subprocess talking pickles over its stdin and stdout,
 not :mod:`multiprocessing`: "spawn" would re-run the caller's main script in the child
@@ -15,7 +16,7 @@ a process that runs threads (viser, the controller).
 
 from __future__ import annotations
 
-__all__ = ["ProcessLane", "picklable_registry"]
+__all__ = ["ProcessLane", "picklable"]
 
 import logging
 import os
@@ -23,7 +24,7 @@ import pickle
 import subprocess
 import sys
 import threading
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
@@ -32,38 +33,41 @@ logger = logging.getLogger(__name__)
 _CHILD = "from app.lanes import _child_main; _child_main()"
 
 
-def picklable_registry(registry: Mapping[str, Any]) -> dict[str, Any] | None:
-    """Return ``registry`` if every planner in it can be sent to a process, else None.
+def picklable(fn: Callable[..., Any]) -> bool:
+    """Whether ``fn`` (and the registry it carries) can be sent to a worker process.
 
-    Module-level functions pickle by name; a lambda or a closure (a test's stand-in)
-    cannot, and then the caller keeps the slow lane in a thread.
+    Module-level functions pickle by name, and so do :class:`planners.PlannerSpec` records
+    whose ``run`` is one; a lambda or a closure (a test's stand-in) cannot, and then the
+    caller keeps the slow lane in a thread.
     """
     try:
-        pickle.dumps(dict(registry))
+        pickle.dumps(fn)
     except Exception:
-        return None
-    return dict(registry)
+        return False
+    return True
 
 
 def _child_main() -> None:
-    """Worker process: read (fn, registry), then answer scenes until stdin closes."""
-    import planners  # noqa: PLC0415 - only the child needs it here
+    """Worker process: read ``fn``, then answer (scene, keywords) until stdin closes."""
+    from planners.memo import Memo  # noqa: PLC0415 - only the child needs it here
 
     stdin, stdout = sys.stdin.buffer, sys.stdout.buffer
     # Anything a planner prints must not corrupt the pickles on stdout.
     sys.stdout = sys.stderr
     try:
-        fn, registry = pickle.load(stdin)
+        fn = pickle.load(stdin)
     except EOFError:
         return
-    planners.PLANNERS.update(registry)
+    # The child's own caches, kept across calls: while the start or goal is dragged the
+    # configuration space is the same scene after scene (planners keep no state).
+    memo = Memo()
     while True:
         try:
-            scene = pickle.load(stdin)
+            scene, keywords = pickle.load(stdin)
         except (EOFError, OSError):
             return
         try:
-            reply: tuple[bool, Any] = (True, fn(scene))
+            reply: tuple[bool, Any] = (True, fn(scene, memo=memo, **keywords))
             data = pickle.dumps(reply, protocol=pickle.HIGHEST_PROTOCOL)
         except Exception as error:  # sent back and shown in the panel
             data = pickle.dumps((False, f"{type(error).__name__}: {error}"))
@@ -72,19 +76,20 @@ def _child_main() -> None:
 
 
 class ProcessLane:
-    """Call ``fn(scene)`` in a worker process; one call at a time.
+    """Call ``fn(scene, memo=..., **keywords)`` in a worker process; one call at a time.
 
     Parameters
     ----------
     fn
-        A picklable function (module-level, or a ``functools.partial`` of one).
-    registry
-        Planner name -> function, installed in the child's :data:`planners.PLANNERS`
-        so it knows the same planners as the parent.
+        A picklable function (module-level, or a ``functools.partial`` of one, e.g.
+        ``functools.partial(default_plan, which=("dsb",), registry=dict(registry))``:
+        the registry travels inside it, so the child knows the same planners as the
+        parent). It must accept a ``memo`` keyword: the child passes its own
+        :class:`planners.Memo`, kept from call to call.
     """
 
-    def __init__(self, fn: Callable[[Any], Any], registry: Mapping[str, Any]) -> None:
-        self._payload = pickle.dumps((fn, dict(registry)))
+    def __init__(self, fn: Callable[..., Any]) -> None:
+        self._payload = pickle.dumps(fn)
         self._lock = threading.Lock()
         self._proc: subprocess.Popen[bytes] | None = None
         self._closed = False
@@ -111,8 +116,8 @@ class ProcessLane:
         assert pipe is not None
         return pipe
 
-    def __call__(self, scene: Any) -> Any:
-        """Compute ``fn(scene)`` in the worker; restart it once if it has died."""
+    def __call__(self, scene: Any, **keywords: Any) -> Any:
+        """Compute ``fn(scene, **keywords)`` in the worker; restart it once if it has died."""
         with self._lock:
             ok, value = False, "the planner process did not answer"
             for attempt in (1, 2):
@@ -120,7 +125,9 @@ class ProcessLane:
                     raise RuntimeError("the planner process is closed")
                 try:
                     stdin = self._pipe("stdin")
-                    pickle.dump(scene, stdin, protocol=pickle.HIGHEST_PROTOCOL)
+                    pickle.dump(
+                        (scene, keywords), stdin, protocol=pickle.HIGHEST_PROTOCOL
+                    )
                     stdin.flush()
                     ok, value = pickle.load(self._pipe("stdout"))
                     break

@@ -12,6 +12,7 @@ __all__ = ["Panels", "legend_html", "results_markdown", "wheel_rate_plot_data"]
 
 import math
 from collections.abc import Callable, Collection, Mapping
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -21,11 +22,13 @@ import viser
 from app.controller import LAYERS, TOOLS, Controller, Frame, RobotPose
 from app.style import COLORS, hex_color
 
-PLANNER_NAMES = {
-    "vg": "Visibility graph (VG)",
-    "svg": "Simplified VG (SVG)",
-    "dsb": "Distance sensor (DSB)",
-}
+PLANNER_NAMES: Mapping[str, str] = MappingProxyType(
+    {
+        "vg": "Visibility graph (VG)",
+        "svg": "Simplified VG (SVG)",
+        "dsb": "Distance sensor (DSB)",
+    }
+)
 _WHEEL_COLORS = ("#0072b2", "#d55e00", "#009e73")
 
 
@@ -178,6 +181,12 @@ class Panels:
         with gui.add_folder("Results"):
             self.results = gui.add_markdown(results_markdown({}))
 
+        self._build_settings(gui)
+        self._build_motion(gui, planners)
+        self._bind()
+
+    def _build_settings(self, gui: Any) -> None:
+        # The editing tools, the robot and planning settings, the layers.
         with gui.add_folder("Edit"):
             self.tool = gui.add_dropdown(
                 "Mouse", list(TOOLS.values()), initial_value=TOOLS["drag"]
@@ -208,6 +217,8 @@ class Panels:
             }
             self.legend = gui.add_html(legend_html())
 
+    def _build_motion(self, gui: Any, planners: tuple[str, ...]) -> None:
+        # The robot's motion along a planner's path, its wheel rates.
         with gui.add_folder("Robot motion"):
             follow = list(planners) or ["vg"]
             self.follow = gui.add_dropdown(
@@ -228,7 +239,6 @@ class Panels:
                 scales={"x": {"time": False}},
                 aspect=1.6,
             )
-        self._bind()
 
     # ------------------------------------------------------------------ wiring
 
@@ -254,57 +264,74 @@ class Panels:
 
     def _bind(self) -> None:
         # Each callback calls exactly one controller method.
-        self._on(self.scenario, lambda v, c: c.load_scenario(v))
+        self._on(self.scenario, lambda v, c: c.files.load_scenario(v))
         self._on_click(self.history, lambda v, c: {"Undo": c.undo, "Redo": c.redo}[v]())
         self._on_click(
             self.file_buttons,
-            lambda v, c: (c.save if v == "Save" else c.load_file)(self.path.value),
+            lambda v, c: (c.files.save if v == "Save" else c.files.load_file)(
+                self.path.value
+            ),
         )
 
         @self.upload.on_upload
         def _(event: Any) -> None:
             if self.controller is not None:
                 file = event.target.value
-                self.controller.load_text(
+                self.controller.files.load_text(
                     file.content.decode("utf-8", errors="replace"),
                     file.name or "uploaded file",
                 )
 
         tool_keys = {text: key for key, text in TOOLS.items()}
-        self._on(self.tool, lambda v, c: c.set_tool(tool_keys[v]))
+        self._on(self.tool, lambda v, c: c.tools.set_tool(tool_keys[v]))
         self._on_click(
             self.edit_buttons,
             lambda v, c: {
-                "Insert vertex": c.insert_vertex_at_selection,
-                "Delete": c.delete_selected,
-                "Delete obstacle": c.delete_selected_obstacle,
+                "Insert vertex": c.tools.insert_vertex_at_selection,
+                "Delete": c.tools.delete_selected,
+                "Delete obstacle": c.tools.delete_selected_obstacle,
             }[v](),
         )
         self._on_click(
             self.polygon_buttons,
-            lambda v, c: (c.finish_polygon if v == "Finish" else c.cancel_polygon)(),
+            lambda v, c: (
+                c.tools.finish_polygon if v == "Finish" else c.tools.cancel_polygon
+            )(),
         )
-        self._on(self.kind, lambda v, c: c.set_robot(kind=v))
-        self._on(self.radius, lambda v, c: c.set_robot(radius=float(v)))
-        self._on(self.wheel_radius, lambda v, c: c.set_robot(wheel_radius=float(v)))
-        self._on(self.wheel_distance, lambda v, c: c.set_robot(wheel_distance=float(v)))
-        self._on(self.expansion, lambda v, c: c.set_expansion(v))
-        self._on(self.sensor_range, lambda v, c: c.set_sensor_range(float(v)))
+        self._bind_settings()
+
+    def _bind_settings(self) -> None:
+        # The robot, planning, layers and motion: each calls one controller method.
+        self._on(self.kind, lambda v, c: c.edits.set_robot(kind=v))
+        self._on(self.radius, lambda v, c: c.edits.set_robot(radius=float(v)))
+        self._on(
+            self.wheel_radius, lambda v, c: c.edits.set_robot(wheel_radius=float(v))
+        )
+        self._on(
+            self.wheel_distance,
+            lambda v, c: c.edits.set_robot(wheel_distance=float(v)),
+        )
+        self._on(self.expansion, lambda v, c: c.edits.set_expansion(v))
+        self._on(self.sensor_range, lambda v, c: c.edits.set_sensor_range(float(v)))
         for key, box in self.layers.items():
             self._on(box, lambda v, c, key=key: c.set_layer(key, bool(v)))
-        self._on(self.follow, lambda v, c: c.set_follow(self._follow_keys[v]))
+        self._on(self.follow, lambda v, c: c.playback.set_follow(self._follow_keys[v]))
         self._on_click(
             self.playback,
-            lambda v, c: {"Play": c.play, "Pause": c.pause, "Restart": c.restart}[v](),
+            lambda v, c: {
+                "Play": c.playback.play,
+                "Pause": c.playback.pause,
+                "Restart": c.playback.restart,
+            }[v](),
         )
-        self._on(self.speed, lambda v, c: c.set_speed(float(v)))
-        self._on(self.time, lambda v, c: c.set_robot_time(float(v)))
+        self._on(self.speed, lambda v, c: c.playback.set_speed(float(v)))
+        self._on(self.time, lambda v, c: c.playback.set_robot_time(float(v)))
 
         @self.server.scene.on_click()
         def _(event: Any) -> None:
             xy = floor_point(event.ray_origin, event.ray_direction)
             if xy is not None and self.controller is not None:
-                self.controller.click_floor(xy)
+                self.controller.tools.click_floor(xy)
 
     # ------------------------------------------------------------------ views
 

@@ -127,7 +127,7 @@ class PlannerApp:
 
     def set_robot_time(self, t: float | None) -> None:
         """Pause the robot at trajectory time ``t`` [s] (None: play from where it is)."""
-        self.controller.set_robot_time(t)
+        self.controller.playback.set_robot_time(t)
 
     def wait_idle(self, timeout: float = 10.0) -> bool:
         """Block until every edit is planned and drawn, and the messages are sent."""
@@ -184,57 +184,78 @@ def start_app(
     with contextlib.redirect_stdout(io.StringIO()):
         server = viser.ViserServer(host=host, port=port, verbose=False)
     try:
-        server.gui.configure_theme(
-            control_width="medium", show_share_button=False, brand_color=(0, 114, 178)
-        )
-        server.scene.set_up_direction("+z")
-        # No HDRI: it costs ~10 s of CPU on first render and changes the light mid-way;
-        # plain lights give the same picture every time (notes/viser-headless.md).
-        server.scene.configure_environment_map(hdri=None)
-        server.scene.configure_default_lights(enabled=True, cast_shadow=False)
-        server.scene.add_light_hemisphere("/lights/sky", intensity=1.2)
-        _frame_camera(server, scene)
+        _configure(server, scene)
 
-        titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
-        panels = Panels(server, titles, tuple(planners.PLANNERS))
-        controller_box: list[Controller] = []
-
-        def on_drag(handle: tuple, xy: tuple[float, float], phase: str) -> None:
-            controller_box[0].drag_handle(handle, xy, phase)
-
-        view = PlannerView(server, on_drag=on_drag)
-        view.robot_model_fn = robot_model.robot_model
-        controller = Controller(
-            [view, panels],
-            scene,
-            trajectory=robot_model.trajectory,
-            sample=robot_model.sample,
-            scenarios=scenarios,
-            scenario=key,
-        )
-        controller_box.append(controller)
-        panels.attach(controller)
-        app = PlannerApp(
-            server=server, controller=controller, view=view, panels=panels, host=host
-        )
+        app = _wire(server, scene, key, scenarios, host)
         if not app.wait_idle(60.0):
             raise RuntimeError("the first frame was not drawn within 60 s")
     except BaseException:
         server.stop()
         raise
     if print_url:
+        _say_where(app, host)
+    return app
+
+
+def _wire(
+    server: viser.ViserServer,
+    scene: Scene,
+    key: str,
+    scenarios: dict[str, Path],
+    host: str,
+) -> PlannerApp:
+    """Wire one session on ``server``: the panel, the 3-D view and their controller."""
+    titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
+    panels = Panels(server, titles, tuple(planners.PLANNERS))
+    controller_box: list[Controller] = []
+
+    def on_drag(handle: tuple, xy: tuple[float, float], phase: str) -> None:
+        controller_box[0].edits.drag_handle(handle, xy, phase)
+
+    view = PlannerView(server, on_drag=on_drag)
+    view.robot_model_fn = robot_model.robot_model
+    controller = Controller(
+        [view, panels],
+        scene,
+        trajectory=robot_model.trajectory,
+        sample=robot_model.sample,
+        scenarios=scenarios,
+        scenario=key,
+    )
+    controller_box.append(controller)
+    panels.attach(controller)
+    return PlannerApp(
+        server=server, controller=controller, view=view, panels=panels, host=host
+    )
+
+
+def _say_where(app: PlannerApp, host: str) -> None:
+    """Print the URL to open (and, when shared on a network, how others reach it)."""
+    print(
+        f"Mobile-robot planner: open {app.url} in a browser (Ctrl+C to stop).",
+        flush=True,
+    )
+    if host in ("0.0.0.0", "::", ""):
+        # Shared on the network: say how other machines (students' laptops) reach it.
         print(
-            f"Mobile-robot planner: open {app.url} in a browser (Ctrl+C to stop).",
+            f"Other computers: http://{socket.gethostname()}:{app.port}/ "
+            "(or this machine's IP address)",
             flush=True,
         )
-        if host in ("0.0.0.0", "::", ""):
-            # Shared on the network: say how other machines (students' laptops) reach it.
-            print(
-                f"Other computers: http://{socket.gethostname()}:{app.port}/ "
-                "(or this machine's IP address)",
-                flush=True,
-            )
-    return app
+
+
+def _configure(server: viser.ViserServer, scene: Scene) -> None:
+    """Theme, lights and the initial camera of a new server."""
+    server.gui.configure_theme(
+        control_width="medium", show_share_button=False, brand_color=(0, 114, 178)
+    )
+    server.scene.set_up_direction("+z")
+    # No HDRI: it costs ~10 s of CPU on first render and changes the light mid-way;
+    # plain lights give the same picture every time (notes/viser-headless.md).
+    server.scene.configure_environment_map(hdri=None)
+    server.scene.configure_default_lights(enabled=True, cast_shadow=False)
+    server.scene.add_light_hemisphere("/lights/sky", intensity=1.2)
+    _frame_camera(server, scene)
 
 
 def _frame_camera(server: viser.ViserServer, scene: Scene) -> None:

@@ -563,7 +563,7 @@ class PlannerView:
         :class:`viser.ClientHandle`.
     on_drag
         Called as ``on_drag(handle, (x, y), phase)`` when a user drags a gizmo; the app
-        passes :meth:`app.controller.Controller.drag_handle`.
+        passes :meth:`app.controller.SceneEdits.drag_handle`.
     registry
         The planners to draw a layer for (each as its kind says).
     """

@@ -20,7 +20,13 @@ import numpy as np
 
 from planners.expansion import ConfigurationSpace, configuration_space
 from planners.memo import Memo
-from planners.registry import REGISTRY, PlannerSpec, PlanOptions, finite_length
+from planners.registry import (
+    REGISTRY,
+    PlannerSpec,
+    PlanOptions,
+    default_planners,
+    finite_length,
+)
 from planners.scene import Scene, scene_problems
 
 PLANNERS: tuple[str, ...] = tuple(REGISTRY)
@@ -90,11 +96,7 @@ def plan_all(
     ('reached', ['hit', 'leave'])
     """
     options = options or PlanOptions()
-    names = (
-        tuple(n for n, spec in registry.items() if spec.default)
-        if which is None
-        else tuple(which)
-    )
+    names = default_planners(registry) if which is None else tuple(which)
     unknown = [n for n in names if n not in registry]
     if unknown:
         raise ValueError(

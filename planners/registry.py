@@ -199,15 +199,21 @@ REGISTRY: Mapping[str, PlannerSpec] = MappingProxyType(
 """Every planner by name, in the order they are drawn and reported."""
 
 
-def default_planners() -> tuple[str, ...]:
+def default_planners(
+    registry: Mapping[str, PlannerSpec] = REGISTRY,
+) -> tuple[str, ...]:
     """Return the names of the planners that run unless the user chooses otherwise."""
-    return tuple(name for name, spec in REGISTRY.items() if spec.default)
+    return tuple(name for name, spec in registry.items() if spec.default)
 
 
 def planners_of_kind(
-    kind: str, names: tuple[str, ...] | None = None
+    kind: str,
+    names: tuple[str, ...] | None = None,
+    registry: Mapping[str, PlannerSpec] = REGISTRY,
 ) -> tuple[str, ...]:
     """Return the planners of ``kind`` among ``names`` (default: all), in registry order.
+
+    ``registry`` may be a caller's own mapping (a test's or a student's planners added).
 
     Examples
     --------
@@ -216,8 +222,8 @@ def planners_of_kind(
     """
     if kind not in KINDS:
         raise ValueError(f"unknown planner kind {kind!r} (expected one of {KINDS})")
-    chosen = REGISTRY if names is None else names
-    return tuple(n for n in chosen if REGISTRY[n].kind == kind)
+    chosen = registry if names is None else names
+    return tuple(n for n in chosen if registry[n].kind == kind)
 
 
 def finite_length(length: float | None) -> float | None:

@@ -102,14 +102,3 @@ class TopCamera:
 
     def metres_per_pixel(self, z: float = 0.0) -> float:
         return (self.height - z) / self.f
-
-
-def dsb_planner(scene, cspace, options):  # type: ignore[no-untyped-def]
-    """TangentBug as a ``planners.PLANNERS`` entry, for use until planners.api lists it.
-
-    Module-level, so it pickles by name and the app's planner process can run it too.
-    """
-    from planners.tangent_bug import plan_tangent_bug
-
-    r = options.sensor_range if options.sensor_range is not None else scene.sensor_range
-    return plan_tangent_bug(cspace, scene.start, scene.goal, r, options.leave_rule)

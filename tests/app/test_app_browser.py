@@ -225,7 +225,7 @@ def test_clicking_the_floor_adds_an_obstacle_the_planners_avoid(browser, planner
 def test_clicking_corners_draws_a_new_polygon(browser, planner):
     page = open_page(browser, planner)
     controller = planner.controller
-    controller.set_tool("polygon")
+    controller.tools.set_tool("polygon")
     assert planner.wait_idle(10)
     corners = [(5.0, 6.6), (6.0, 6.6), (5.5, 7.4)]
     for k, xy in enumerate(corners):

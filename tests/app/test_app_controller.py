@@ -26,7 +26,7 @@ def test_first_frame_has_every_planner_and_paths(make_controller, scene):
     frame = view.last
     assert frame.version == 0
     assert frame.scene == scene
-    for name in planners.PLANNERS:
+    for name in planners.registry.default_planners():
         assert name in frame.plans
     assert frame.plans["vg"].status == "ok"
     assert_allclose(path_of(frame)[0], scene.start)
@@ -38,7 +38,7 @@ def test_first_frame_has_every_planner_and_paths(make_controller, scene):
 def test_move_goal_replans_and_is_undoable(make_controller, scene):
     controller, view = make_controller(scene)
     old_length = view.last.plans["vg"].length
-    controller.move_goal((9.0, 1.0))
+    controller.edits.move_goal((9.0, 1.0))
     assert controller.wait_idle(10)
     frame = view.last
     assert frame.scene.goal == (9.0, 1.0)
@@ -56,10 +56,12 @@ def test_move_goal_replans_and_is_undoable(make_controller, scene):
 
 def test_a_whole_drag_is_one_undo_step(make_controller, scene):
     controller, view = make_controller(scene)
-    controller.drag_handle(("goal",), scene.goal, "start")
+    controller.edits.drag_handle(("goal",), scene.goal, "start")
     for k in range(20):
-        controller.drag_handle(("goal",), (9.0 - 0.1 * k, 7.0 - 0.05 * k), "update")
-    controller.drag_handle(("goal",), (7.0, 6.0), "end")
+        controller.edits.drag_handle(
+            ("goal",), (9.0 - 0.1 * k, 7.0 - 0.05 * k), "update"
+        )
+    controller.edits.drag_handle(("goal",), (7.0, 6.0), "end")
     assert controller.wait_idle(10)
     assert view.last.scene.goal == (7.0, 6.0)
     assert view.last.dragging == frozenset()
@@ -72,9 +74,9 @@ def test_a_whole_drag_is_one_undo_step(make_controller, scene):
 def test_two_drags_of_the_same_handle_are_two_undo_steps(make_controller, scene):
     controller, view = make_controller(scene)
     for target in ((8.0, 7.0), (7.0, 7.0)):
-        controller.drag_handle(("start",), scene.start, "start")
-        controller.drag_handle(("start",), target, "update")
-        controller.drag_handle(("start",), target, "end")
+        controller.edits.drag_handle(("start",), scene.start, "start")
+        controller.edits.drag_handle(("start",), target, "update")
+        controller.edits.drag_handle(("start",), target, "end")
     controller.undo()
     assert controller.wait_idle(10)
     assert view.last.scene.start == (8.0, 7.0)
@@ -82,9 +84,9 @@ def test_two_drags_of_the_same_handle_are_two_undo_steps(make_controller, scene)
 
 def test_new_edit_clears_redo(make_controller, scene):
     controller, view = make_controller(scene)
-    controller.move_goal((9.0, 1.0))
+    controller.edits.move_goal((9.0, 1.0))
     controller.undo()
-    controller.move_start((1.0, 2.0))
+    controller.edits.move_start((1.0, 2.0))
     controller.redo()  # nothing to redo any more
     assert controller.wait_idle(10)
     assert view.last.scene.goal == scene.goal
@@ -94,14 +96,14 @@ def test_new_edit_clears_redo(make_controller, scene):
 def test_vertex_and_obstacle_drags(make_controller, scene):
     controller, view = make_controller(scene)
     x, y = scene.obstacles[0].exterior.coords[2]
-    controller.drag_handle(("vertex", 0, 2), (x, y), "start")
-    controller.drag_handle(("vertex", 0, 2), (x + 0.5, y + 0.2), "update")
-    controller.drag_handle(("vertex", 0, 2), (x + 0.5, y + 0.2), "end")
+    controller.edits.drag_handle(("vertex", 0, 2), (x, y), "start")
+    controller.edits.drag_handle(("vertex", 0, 2), (x + 0.5, y + 0.2), "update")
+    controller.edits.drag_handle(("vertex", 0, 2), (x + 0.5, y + 0.2), "end")
     c = scene.obstacles[1].centroid
-    controller.drag_handle(("obstacle", 1), (c.x, c.y), "start")
-    controller.drag_handle(("obstacle", 1), (c.x + 0.2, c.y), "update")
-    controller.drag_handle(("obstacle", 1), (c.x + 0.5, c.y - 0.25), "update")
-    controller.drag_handle(("obstacle", 1), (c.x + 0.5, c.y - 0.25), "end")
+    controller.edits.drag_handle(("obstacle", 1), (c.x, c.y), "start")
+    controller.edits.drag_handle(("obstacle", 1), (c.x + 0.2, c.y), "update")
+    controller.edits.drag_handle(("obstacle", 1), (c.x + 0.5, c.y - 0.25), "update")
+    controller.edits.drag_handle(("obstacle", 1), (c.x + 0.5, c.y - 0.25), "end")
     assert controller.wait_idle(10)
     new = view.last.scene
     assert new.obstacles[0].exterior.coords[2] == (x + 0.5, y + 0.2)
@@ -126,10 +128,10 @@ def test_recompute_is_coalesced_latest_edit_wins(make_controller, scene):
         return default_plan(s)
 
     controller, view = make_controller(scene, plan=slow_plan)
-    controller.move_goal((9.0, 6.9))  # the worker starts on this one and blocks
+    controller.edits.move_goal((9.0, 6.9))  # the worker starts on this one and blocks
     time.sleep(0.2)
     for k in range(50):
-        controller.move_goal((9.0, 6.0 - 0.05 * k))
+        controller.edits.move_goal((9.0, 6.0 - 0.05 * k))
     gate.set()
     assert controller.wait_idle(20)
     # Planned: the first scene, the edit that blocked, then only the newest one.
@@ -151,12 +153,12 @@ def test_many_users_dragging_at_once_never_corrupt_the_state(make_controller, sc
 
     def user(handle, xs):
         try:
-            controller.drag_handle(handle, (xs[0], 1.0), "start")
+            controller.edits.drag_handle(handle, (xs[0], 1.0), "start")
             for x in xs:
-                controller.drag_handle(
+                controller.edits.drag_handle(
                     handle, (x, 1.0 if handle == ("start",) else 7.0), "update"
                 )
-            controller.drag_handle(
+            controller.edits.drag_handle(
                 handle, (xs[-1], 1.0 if handle == ("start",) else 7.0), "end"
             )
         except BaseException as error:  # pragma: no cover - reported below
@@ -188,18 +190,18 @@ def test_self_intersecting_drag_is_reported_and_kept_and_undoable(
 ):
     controller, view = make_controller(scene)
     # Obstacle 1 is the rectangle (2,2) (4,2) (4,5.5) (2,5.5): pull vertex 1 past vertex 2.
-    controller.drag_handle(("vertex", 0, 1), (4.0, 2.0), "start")
-    controller.drag_handle(("vertex", 0, 1), (3.0, 7.0), "update")
+    controller.edits.drag_handle(("vertex", 0, 1), (4.0, 2.0), "start")
+    controller.edits.drag_handle(("vertex", 0, 1), (3.0, 7.0), "update")
     assert controller.wait_idle(10)
     frame = view.last
     assert any("obstacle 1" in p and "intersects itself" in p for p in frame.problems)
-    for name in planners.PLANNERS:
+    for name in planners.registry.default_planners():
         assert frame.plans[name].status == "invalid"
         assert len(path_of(frame, name)) == 0  # no stale path
     # Nothing is lost: the vertex is where the user dragged it, and they can drag back.
     assert frame.scene.obstacles[0].exterior.coords[1] == (3.0, 7.0)
-    controller.drag_handle(("vertex", 0, 1), (4.0, 2.0), "update")
-    controller.drag_handle(("vertex", 0, 1), (4.0, 2.0), "end")
+    controller.edits.drag_handle(("vertex", 0, 1), (4.0, 2.0), "update")
+    controller.edits.drag_handle(("vertex", 0, 1), (4.0, 2.0), "end")
     assert controller.wait_idle(10)
     assert view.last.problems == ()
     assert view.last.plans["vg"].status == "ok"
@@ -207,13 +209,13 @@ def test_self_intersecting_drag_is_reported_and_kept_and_undoable(
 
 def test_start_dragged_into_an_obstacle(make_controller, scene):
     controller, view = make_controller(scene)
-    controller.drag_handle(("start",), scene.start, "start")
-    controller.drag_handle(("start",), (3.0, 3.0), "update")
-    controller.drag_handle(("start",), (3.0, 3.0), "end")
+    controller.edits.drag_handle(("start",), scene.start, "start")
+    controller.edits.drag_handle(("start",), (3.0, 3.0), "update")
+    controller.edits.drag_handle(("start",), (3.0, 3.0), "end")
     assert controller.wait_idle(10)
     frame = view.last
     assert any("start" in p and "inside obstacle 1" in p for p in frame.problems)
-    for name in planners.PLANNERS:
+    for name in planners.registry.default_planners():
         assert frame.plans[name].status == "invalid"
         assert len(path_of(frame, name)) == 0
 
@@ -231,14 +233,14 @@ def test_goal_cut_off_by_merged_obstacles(make_controller):
     ("action", "words"),
     [
         (
-            lambda c: c.add_obstacle([(1, 1), (2, 2), (2, 1), (1, 2)]),
+            lambda c: c.edits.add_obstacle([(1, 1), (2, 2), (2, 1), (1, 2)]),
             "intersects itself",
         ),
-        (lambda c: c.delete_vertex(1, 0), "only 3 vertices"),
-        (lambda c: c.set_robot(radius=-1.0), "radius"),
-        (lambda c: c.set_sensor_range(0.0), "sensor range"),
-        (lambda c: c.set_expansion("circle"), "expansion"),
-        (lambda c: c.delete_obstacle(7), "index"),
+        (lambda c: c.edits.delete_vertex(1, 0), "only 3 vertices"),
+        (lambda c: c.edits.set_robot(radius=-1.0), "radius"),
+        (lambda c: c.edits.set_sensor_range(0.0), "sensor range"),
+        (lambda c: c.edits.set_expansion("circle"), "expansion"),
+        (lambda c: c.edits.delete_obstacle(7), "index"),
     ],
 )
 def test_refused_edits_leave_the_scene_and_say_why(
@@ -253,20 +255,19 @@ def test_refused_edits_leave_the_scene_and_say_why(
     assert not view.last.can_undo
 
 
-def test_a_planner_that_raises_does_not_stop_the_others(
-    monkeypatch, make_controller, scene
-):
-    def broken(scene, cspace, options):
+def test_a_planner_that_raises_does_not_stop_the_others(make_controller, scene):
+    def broken(cspace, scene, options):
         raise RuntimeError("boom")
 
-    monkeypatch.setitem(planners.PLANNERS, "broken", broken)
-    controller, view = make_controller(scene)
+    spec = planners.PlannerSpec("broken", "Broken", "trace", broken, "")
+    registry = {**planners.REGISTRY, "broken": spec}
+    controller, view = make_controller(scene, registry=registry)
     frame = view.last
     assert frame.plans["vg"].status == "ok"
     assert frame.plans["broken"].status == "error"
     assert len(path_of(frame, "broken")) == 0
     assert any("boom" in p for p in frame.problems)
-    controller.move_goal((9.0, 1.0))  # and the app keeps working
+    controller.edits.move_goal((9.0, 1.0))  # and the app keeps working
     assert controller.wait_idle(10)
     assert view.last.plans["vg"].status == "ok"
 
@@ -283,9 +284,9 @@ def test_a_view_that_raises_does_not_kill_the_worker(make_controller, scene):
         original(frame)
 
     view.render = flaky  # type: ignore[method-assign]
-    controller.move_goal((9.0, 1.0))
+    controller.edits.move_goal((9.0, 1.0))
     assert controller.wait_idle(10)
-    controller.move_goal((9.0, 2.0))
+    controller.edits.move_goal((9.0, 2.0))
     assert controller.wait_idle(10)
     assert view.last.scene.goal == (9.0, 2.0)
 
@@ -296,16 +297,16 @@ def test_a_view_that_raises_does_not_kill_the_worker(make_controller, scene):
 def test_robot_expansion_and_sensor_settings_replan(make_controller, scene):
     controller, view = make_controller(scene)
     disk_cspace = view.last.plans["cspace"]
-    controller.set_expansion("square")
+    controller.edits.set_expansion("square")
     assert controller.wait_idle(10)
     square = view.last.plans["cspace"]
     assert view.last.scene.expansion == "square"
     assert (
         square.merged.area > disk_cspace.merged.area
     )  # the square model is conservative
-    controller.set_robot(radius=0.1)
-    controller.set_robot(kind="differential")
-    controller.set_sensor_range(3.5)
+    controller.edits.set_robot(radius=0.1)
+    controller.edits.set_robot(kind="differential")
+    controller.edits.set_sensor_range(3.5)
     assert controller.wait_idle(10)
     s = view.last.scene
     assert (s.robot.radius, s.robot.kind, s.sensor_range) == (0.1, "differential", 3.5)
@@ -314,7 +315,7 @@ def test_robot_expansion_and_sensor_settings_replan(make_controller, scene):
 def test_slider_steps_merge_into_one_undo_step(make_controller, scene):
     controller, view = make_controller(scene)
     for r in (0.31, 0.32, 0.33, 0.34):
-        controller.set_robot(radius=r)
+        controller.edits.set_robot(radius=r)
     controller.undo()
     assert controller.wait_idle(10)
     assert view.last.scene.robot.radius == scene.robot.radius
@@ -339,8 +340,8 @@ def test_block_tool_adds_an_obstacle_the_planners_avoid(make_controller, scene):
     controller, view = make_controller(scene)
     path = path_of(view.last)
     mid = path[len(path) // 2] if len(path) > 2 else (path[0] + path[-1]) / 2
-    controller.set_tool("block")
-    controller.click_floor(mid)
+    controller.tools.set_tool("block")
+    controller.tools.click_floor(mid)
     assert controller.wait_idle(10)
     frame = view.last
     assert len(frame.scene.obstacles) == len(scene.obstacles) + 1
@@ -358,12 +359,12 @@ def test_block_tool_adds_an_obstacle_the_planners_avoid(make_controller, scene):
 
 def test_polygon_tool_closes_on_first_corner(make_controller, scene):
     controller, view = make_controller(scene)
-    controller.set_tool("polygon")
+    controller.tools.set_tool("polygon")
     for xy in ((6.0, 6.0), (7.0, 6.0), (7.0, 7.0)):
-        controller.click_floor(xy)
+        controller.tools.click_floor(xy)
     assert controller.wait_idle(10)
     assert view.last.draft == ((6.0, 6.0), (7.0, 6.0), (7.0, 7.0))
-    controller.click_floor((6.05, 6.02))  # near the first corner: close
+    controller.tools.click_floor((6.05, 6.02))  # near the first corner: close
     assert controller.wait_idle(10)
     assert view.last.draft == ()
     assert list(view.last.scene.obstacles[-1].exterior.coords)[:3] == [
@@ -375,9 +376,9 @@ def test_polygon_tool_closes_on_first_corner(make_controller, scene):
 
 def test_finish_with_too_few_corners_says_so(make_controller, scene):
     controller, view = make_controller(scene)
-    controller.set_tool("polygon")
-    controller.click_floor((6.0, 6.0))
-    controller.finish_polygon()
+    controller.tools.set_tool("polygon")
+    controller.tools.click_floor((6.0, 6.0))
+    controller.tools.finish_polygon()
     assert controller.wait_idle(10)
     assert "3 corners" in view.last.message
     assert view.last.scene == scene
@@ -385,15 +386,15 @@ def test_finish_with_too_few_corners_says_so(make_controller, scene):
 
 def test_select_then_delete_and_insert(make_controller, scene):
     controller, view = make_controller(scene)
-    controller.set_tool("edit")
-    controller.click_floor((4.05, 5.45))  # near vertex 3 of obstacle 1
+    controller.tools.set_tool("edit")
+    controller.tools.click_floor((4.05, 5.45))  # near vertex 3 of obstacle 1
     assert controller.wait_idle(10)
     assert view.last.selection == Selection(0, vertex=2)
-    controller.insert_vertex_at_selection()
+    controller.tools.insert_vertex_at_selection()
     assert controller.wait_idle(10)
     assert len(view.last.scene.obstacles[0].exterior.coords) - 1 == 5
-    controller.click_floor((3.0, 2.05))  # near edge 1 of obstacle 1
-    controller.delete_selected_obstacle()
+    controller.tools.click_floor((3.0, 2.05))  # near edge 1 of obstacle 1
+    controller.tools.delete_selected_obstacle()
     assert controller.wait_idle(10)
     assert len(view.last.scene.obstacles) == 1
     controller.undo()
@@ -419,7 +420,7 @@ def test_pick_prefers_vertex_then_edge_then_inside():
 
 def test_load_scenario_and_undo_the_switch(make_controller, scene):
     controller, view = make_controller(scene, scenario="01_two_convex")
-    controller.load_scenario("06_four_obstacles_sensor")
+    controller.files.load_scenario("06_four_obstacles_sensor")
     assert controller.wait_idle(10)
     assert view.last.scenario == "06_four_obstacles_sensor"
     assert len(view.last.scene.obstacles) == 4
@@ -431,7 +432,7 @@ def test_load_scenario_and_undo_the_switch(make_controller, scene):
 
 def test_bad_files_keep_the_scene(make_controller, scene, tmp_path):
     controller, view = make_controller(scene)
-    controller.load_file(tmp_path / "missing.json")
+    controller.files.load_file(tmp_path / "missing.json")
     assert controller.wait_idle(10)
     assert "cannot read" in view.last.message and view.last.scene == scene
     bad = tmp_path / "bad.json"
@@ -445,29 +446,29 @@ def test_bad_files_keep_the_scene(make_controller, scene, tmp_path):
             }
         )
     )
-    controller.load_file(bad)
+    controller.files.load_file(bad)
     assert controller.wait_idle(10)
     assert "obstacles[0]" in view.last.message and view.last.scene == scene
-    controller.load_text("{not json", "upload.json")
+    controller.files.load_text("{not json", "upload.json")
     assert controller.wait_idle(10)
     assert "not valid JSON" in view.last.message and view.last.scene == scene
 
 
 def test_save_and_load_round_trip(make_controller, scene, tmp_path):
     controller, view = make_controller(scene)
-    controller.move_goal((8.5, 6.5))
+    controller.edits.move_goal((8.5, 6.5))
     target = tmp_path / "mine"
-    controller.save(target)
+    controller.files.save(target)
     assert controller.wait_idle(10)
     saved = Path(str(target) + ".json")
     assert "Saved to" in view.last.message and saved.is_file()
-    controller.move_goal((1.0, 7.0))
-    controller.load_file(saved)
+    controller.edits.move_goal((1.0, 7.0))
+    controller.files.load_file(saved)
     assert controller.wait_idle(10)
     assert view.last.scene.goal == (8.5, 6.5)
     # An invalid scene is refused and the file on disk is untouched.
-    controller.drag_handle(("vertex", 0, 1), (3.0, 7.0), "update")
-    controller.save(saved)
+    controller.edits.drag_handle(("vertex", 0, 1), (3.0, 7.0), "update")
+    controller.files.save(saved)
     assert controller.wait_idle(10)
     assert "Not saved" in view.last.message
     assert planners.load_scene(saved).goal == (8.5, 6.5)
@@ -484,25 +485,25 @@ def test_robot_time_and_playback(make_controller, scene):
     )
     trajectory = view.last.trajectory
     assert trajectory is not None and trajectory.duration > 1.0
-    controller.set_robot_time(2.0)
+    controller.playback.set_robot_time(2.0)
     assert controller.wait_idle(10)
     pose = view.poses[-1]
     assert pose is not None and pose.t == 2.0 and not pose.playing
     expected, angles = trajectory.sample(2.0)
     assert_allclose(pose.xy, expected[:2])
     assert_allclose(pose.wheel_angles, angles)
-    controller.set_robot_time(1e9)  # clamped to the end
+    controller.playback.set_robot_time(1e9)  # clamped to the end
     assert controller.wait_idle(10)
     assert view.poses[-1].t == pytest.approx(trajectory.duration)
-    controller.set_speed(4.0)
-    controller.restart()
+    controller.playback.set_speed(4.0)
+    controller.playback.restart()
     time.sleep(0.5)
-    t, playing, speed = controller.playback
+    t, playing, speed = controller.playback.state
     assert playing and 0.5 < t < 4.0 and speed == 4.0
-    controller.pause()
-    t_paused = controller.playback[0]
+    controller.playback.pause()
+    t_paused = controller.playback.state[0]
     time.sleep(0.2)
-    assert controller.playback[0] == t_paused
+    assert controller.playback.state[0] == t_paused
 
 
 def test_follow_choice_changes_the_trajectory(make_controller):
@@ -513,7 +514,7 @@ def test_follow_choice_changes_the_trajectory(make_controller):
         s, trajectory=robot.trajectory, sample=robot.sample
     )
     first = view.last.trajectory
-    controller.set_follow("svg")
+    controller.playback.set_follow("svg")
     assert controller.wait_idle(10)
     assert view.last.follow == "svg"
     assert view.last.trajectory is not first
@@ -529,16 +530,18 @@ def test_an_edit_that_keeps_the_path_keeps_the_trajectory(make_controller, scene
     first = view.last.trajectory
     # A block in the bottom-right corner, far from the path, then one of its corners
     # dragged: VG's path is the same, so is the robot's trajectory (and its place in it).
-    controller.add_obstacle([(8.6, 0.6), (9.3, 0.6), (9.3, 1.1), (8.6, 1.1)])
+    controller.edits.add_obstacle([(8.6, 0.6), (9.3, 0.6), (9.3, 1.1), (8.6, 1.1)])
     assert controller.wait_idle(10)
     assert len(view.last.scene.obstacles) == len(scene.obstacles) + 1
     assert view.last.trajectory is first
-    controller.drag_handle(("vertex", len(scene.obstacles), 0), (8.5, 0.5), "start")
-    controller.drag_handle(("vertex", len(scene.obstacles), 0), (8.4, 0.5), "end")
+    controller.edits.drag_handle(
+        ("vertex", len(scene.obstacles), 0), (8.5, 0.5), "start"
+    )
+    controller.edits.drag_handle(("vertex", len(scene.obstacles), 0), (8.4, 0.5), "end")
     assert controller.wait_idle(10)
     assert view.last.trajectory is first
     # The goal moved: a new path, a new trajectory.
-    controller.move_goal((8.8, 6.2))
+    controller.edits.move_goal((8.8, 6.2))
     assert controller.wait_idle(10)
     assert view.last.trajectory is not first
     assert_allclose(view.last.trajectory.path[-1], (8.8, 6.2))
@@ -563,7 +566,7 @@ def test_the_paths_are_drawn_before_the_robot_trajectory_is_planned(
     try:
         first = view.last.trajectory
         planning.set()
-        controller.move_goal((8.8, 6.2))
+        controller.edits.move_goal((8.8, 6.2))
         # The new paths are drawn while the trajectory is still being planned; the robot
         # stays on its previous trajectory meanwhile.
         assert wait_until(lambda: view.last.version == controller.version)
@@ -582,5 +585,5 @@ def test_close_stops_the_threads(scene):
     controller = Controller(FakeView(), scene)
     assert controller.wait_idle(10)
     controller.close()
-    assert not controller._worker.is_alive()
-    assert not controller._animator.is_alive()
+    assert not controller.scheduler.alive
+    assert not controller.playback.alive

@@ -9,6 +9,12 @@ import pytest
 
 MODULES = [
     "app.controller",
+    "app.frames",
+    "app.history",
+    "app.playback",
+    "app.scheduler",
+    "app.session",
+    "app.tools",
     "app.panels",
     "app.robot",
     "app.server",

@@ -21,7 +21,7 @@ import planners
 from app import robot
 from app.controller import Controller, Pending, default_plan
 from app.panels import results_markdown
-from tests.app.app_helpers import SCENARIO_DIR, FakeView, dsb_planner, wait_until
+from tests.app.app_helpers import SCENARIO_DIR, FakeView, wait_until
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,7 +92,7 @@ def test_a_stale_slow_result_never_replaces_a_newer_one(scene):
     try:
         goals = [scene.goal] + [(9.0, 6.0 - 0.5 * k) for k in range(5)]
         for goal in goals[1:]:
-            controller.move_goal(goal)
+            controller.edits.move_goal(goal)
         gate.set()
         assert controller.wait_idle(10)
         shown = []
@@ -128,14 +128,14 @@ def test_a_lagging_slow_result_is_shown_during_a_drag_but_not_after_a_bad_edit(s
     controller, view = make(scene, slow_plan=slow)
     try:
         assert controller.wait_idle(10)  # the first scene's result is in
-        controller.move_goal((9.0, 6.0))
+        controller.edits.move_goal((9.0, 6.0))
         assert wait_until(lambda: view.last.version == controller.version)
         frame = view.last
         assert "dsb" in frame.lagging and frame.plans["dsb"].goal == scene.goal
         assert "updating" in results_markdown(frame.plans, frame.lagging)
         # The goal dragged into an obstacle: no DSB path at all, not the old one, and
         # the reason at once (it is the same for every planner).
-        controller.move_goal((3.0, 3.0))
+        controller.edits.move_goal((3.0, 3.0))
         assert wait_until(lambda: view.last.version == controller.version)
         dsb = view.last.plans["dsb"]
         assert dsb.status == "invalid" and len(dsb.path) == 0 and not view.last.lagging
@@ -169,13 +169,13 @@ def test_a_lagging_result_must_tell_the_same_story_as_the_fast_planners():
         assert controller.wait_idle(10)
         assert view.last.plans["dsb"].status == "unreachable"
         # Within the enclosure: the old "unreachable" walk is shown, marked as updating.
-        controller.move_goal((inside[0] + 0.2, inside[1]))
+        controller.edits.move_goal((inside[0] + 0.2, inside[1]))
         assert wait_until(lambda: view.last.version == controller.version)
         assert view.last.plans["vg"].status == "unreachable"
         assert "dsb" in view.last.lagging
         assert view.last.plans["dsb"].status == "unreachable"
         # Out of the enclosure: VG finds a path, so the old walk would contradict it.
-        controller.move_goal((2.0, 7.0))
+        controller.edits.move_goal((2.0, 7.0))
         assert wait_until(lambda: view.last.version == controller.version)
         assert view.last.plans["vg"].status == "ok"
         assert isinstance(view.last.plans["dsb"], Pending) and not view.last.lagging
@@ -205,11 +205,10 @@ def test_a_failing_slow_planner_shows_an_error_not_a_path(scene):
 
 
 @pytest.fixture
-def with_dsb(monkeypatch):
-    """planners.PLANNERS with DSB; registers TangentBug itself only if the API does not yet."""
+def with_dsb():
+    """The real TangentBug, registered as "dsb" in :data:`planners.REGISTRY`."""
     tangent_bug = pytest.importorskip("planners.tangent_bug")
-    if "dsb" not in planners.PLANNERS:
-        monkeypatch.setitem(planners.PLANNERS, "dsb", dsb_planner)
+    assert planners.REGISTRY["dsb"].kind == "trace"
     return tangent_bug
 
 
@@ -238,13 +237,13 @@ def test_following_dsb_shows_what_the_robot_senses(with_dsb, server_view):
     view, make_controller = server_view
     scene = planners.load_scene(SCENARIO_DIR / "06_four_obstacles_sensor.json")
     controller = make_controller(scene)
-    controller.set_follow("dsb")
+    controller.playback.set_follow("dsb")
     assert controller.wait_idle(30)
     trajectory = controller.frame.trajectory
     assert trajectory is not None
     # A moment of the run when the robot sees some O_i (the tangent graph is drawn).
     for fraction in (1 / 3, 0.25, 0.4, 0.15, 0.5, 0.1, 0.6):
-        controller.set_robot_time(trajectory.duration * fraction)
+        controller.playback.set_robot_time(trajectory.duration * fraction)
         assert controller.wait_idle(10)
         if view.sensing_graph.handle.visible:
             break
@@ -264,7 +263,7 @@ def test_following_dsb_shows_what_the_robot_senses(with_dsb, server_view):
         atol=0.05,
     )
     # Following VG: no sensing.
-    controller.set_follow("vg")
+    controller.playback.set_follow("vg")
     assert controller.wait_idle(10)
     assert not view.sensing_circle.handle.visible
 
@@ -298,7 +297,7 @@ def test_slow_planners_run_in_a_worker_process_that_close_stops(with_dsb, scene)
     view = FakeView()
     controller = Controller(view, scene)
     try:
-        lane = controller._lane
+        lane = controller.scheduler.process
         assert lane is not None and lane.pid is not None and lane.pid != os.getpid()
         assert controller.wait_idle(60)
         dsb = view.last.plans["dsb"]
@@ -317,11 +316,11 @@ def test_a_dead_worker_process_is_restarted(with_dsb, scene):
     controller = Controller(view, scene)
     try:
         assert controller.wait_idle(60)
-        lane = controller._lane
+        lane = controller.scheduler.process
         assert lane is not None
         assert lane.pid is not None
         os.kill(lane.pid, signal.SIGKILL)
-        controller.move_goal((9.0, 1.0))
+        controller.edits.move_goal((9.0, 1.0))
         assert controller.wait_idle(60)
         assert view.last.plans["dsb"].status == "reached"
         assert_allclose(view.last.plans["dsb"].path[-1], (9.0, 1.0))

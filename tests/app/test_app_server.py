@@ -45,7 +45,7 @@ def test_start_and_stop_on_a_free_port():
     while port_is_open(port) and time.monotonic() < deadline:
         time.sleep(0.05)
     assert not port_is_open(port)
-    assert not app.controller._worker.is_alive()
+    assert not app.controller.scheduler.alive
 
 
 def test_start_with_a_scene_and_set_robot_time(capsys):
@@ -55,7 +55,7 @@ def test_start_with_a_scene_and_set_robot_time(capsys):
         assert app.url in capsys.readouterr().out
         app.set_robot_time(1.5)
         assert app.wait_idle(10)
-        t, playing, _ = app.controller.playback
+        t, playing, _ = app.controller.playback.state
         assert t == 1.5 and not playing
         assert app.controller.scene == scene
     finally:

@@ -222,7 +222,7 @@ def test_view_follows_edits_and_hides_what_has_no_path(drawn):
     view, controller = drawn
     n_vertices = sum(len(o.exterior.coords) - 1 for o in controller.scene.obstacles)
     assert not any(h.visible for h in view.vertex_handles)
-    controller.set_tool("edit")
+    controller.tools.set_tool("edit")
     assert controller.wait_idle(10)
     assert sum(h.visible for h in view.vertex_handles) == n_vertices
     assert sum(h.visible for h in view.obstacle_handles) == len(
@@ -234,7 +234,7 @@ def test_view_follows_edits_and_hides_what_has_no_path(drawn):
         controller.scene.obstacles[i].exterior.coords[j],
     )
     # The start inside an obstacle: no path is drawn at all, not an old one.
-    controller.move_start((2.7, 1.7))
+    controller.edits.move_start((2.7, 1.7))
     assert controller.wait_idle(10)
     assert (
         not view.graphs["vg"].path.handle.visible
@@ -257,20 +257,20 @@ def test_view_follows_edits_and_hides_what_has_no_path(drawn):
 def test_dragged_handle_is_left_alone_until_the_drag_ends(drawn):
     view, controller = drawn
     goal = controller.scene.goal
-    controller.drag_handle(("goal",), goal, "start")
+    controller.edits.drag_handle(("goal",), goal, "start")
     # The browser has moved the gizmo further than the controller has seen.
     view.handles["goal"].position = (goal[0] - 1.0, goal[1], 0.0)
-    controller.drag_handle(("goal",), (goal[0] - 0.5, goal[1]), "update")
+    controller.edits.drag_handle(("goal",), (goal[0] - 0.5, goal[1]), "update")
     assert controller.wait_idle(10)
     assert_allclose(view.handles["goal"].position[:2], (goal[0] - 1.0, goal[1]))
-    controller.drag_handle(("goal",), (goal[0] - 0.5, goal[1]), "end")
+    controller.edits.drag_handle(("goal",), (goal[0] - 0.5, goal[1]), "end")
     assert controller.wait_idle(10)
     assert_allclose(view.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
 
 
 def test_robot_is_posed_and_wheels_spin(drawn):
     view, controller = drawn
-    controller.set_robot_time(3.0)
+    controller.playback.set_robot_time(3.0)
     assert controller.wait_idle(10)
     trajectory = controller.frame.trajectory
     pose, angles = trajectory.sample(3.0)
@@ -283,7 +283,7 @@ def test_robot_is_posed_and_wheels_spin(drawn):
         assert_allclose(
             spin.wxyz, (math.cos(angle / 2), *(math.sin(angle / 2) * axle)), atol=1e-12
         )
-    controller.set_robot(kind="differential")
+    controller.edits.set_robot(kind="differential")
     assert controller.wait_idle(20)
     assert len(view.wheel_spins) == 2
     controller.set_layer("robot", False)
@@ -343,7 +343,7 @@ def test_view_draws_a_dsb_frame(server):
 
 def test_status_markdown_lists_message_and_problems(drawn):
     _view, controller = drawn
-    controller.move_start((2.7, 1.7))
+    controller.edits.move_start((2.7, 1.7))
     assert controller.wait_idle(10)
     text = status_markdown(controller.frame)
     assert "the start is inside obstacle 1" in text

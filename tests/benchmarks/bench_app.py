@@ -2,7 +2,7 @@
 
 For every shipped scenario this starts the real app (viser server, 3-D view, panel,
 controller; no browser) and drags a handle through a few hundred positions with
-``controller.drag_handle`` -- the call the gizmo's callback makes -- once the goal (the
+``controller.edits.drag_handle`` -- the call the gizmo's callback makes -- once the goal (the
 configuration space stays; VG/SVG only add the goal's edges) and once a vertex of the
 first obstacle (every event expands, merges and builds the graphs anew). A probe view,
 drawn after the 3-D view and the panel, timestamps each frame. Two measurements:
@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib.util
 import io
 import math
 import os
@@ -152,37 +151,37 @@ def bench(name: str, events: int, rate: float, drag: str = "goal") -> dict[str, 
         handle, points = drag_path(scene, drag, events)
 
         # Warm up (first calls fill caches and import lazily), not recorded.
-        controller.drag_handle(handle, points[0], "start")
+        controller.edits.drag_handle(handle, points[0], "start")
         for xy in points[:: max(1, len(points) // 20)]:
-            controller.drag_handle(handle, xy, "update")
+            controller.edits.drag_handle(handle, xy, "update")
             assert app.wait_idle(60)
 
         # step: one event, wait until drawn.
         step_fast, step_full = [], []
         for xy in points:
             t0 = time.perf_counter()
-            controller.drag_handle(handle, xy, "update")
+            controller.edits.drag_handle(handle, xy, "update")
             v = controller.version
             step_fast.append((probe.wait(probe.fast, v) - t0) * 1e3)
             if slow:
                 step_full.append((probe.wait(probe.full, v) - t0) * 1e3)
-        controller.drag_handle(handle, points[-1], "end")
+        controller.edits.drag_handle(handle, points[-1], "end")
         assert app.wait_idle(60)
 
         # mouse: events at a fixed rate, no waiting; latency to the first frame >= version.
         sent: list[tuple[float, int]] = []
         period = 1.0 / rate
-        controller.drag_handle(handle, points[0], "start")
+        controller.edits.drag_handle(handle, points[0], "start")
         t_next = time.perf_counter()
         for xy in points[::-1]:
             now = time.perf_counter()
             if now < t_next:
                 time.sleep(t_next - now)
             t0 = time.perf_counter()
-            controller.drag_handle(handle, xy, "update")
+            controller.edits.drag_handle(handle, xy, "update")
             sent.append((t0, controller.version))
             t_next += period
-        controller.drag_handle(handle, points[0], "end")
+        controller.edits.drag_handle(handle, points[0], "end")
         assert app.wait_idle(120)
         mouse_fast = []
         mouse_full = []
@@ -212,18 +211,6 @@ def bench(name: str, events: int, rate: float, drag: str = "goal") -> dict[str, 
         with contextlib.redirect_stdout(io.StringIO()):
             app.stop()
     return stats
-
-
-def _register_dsb_if_missing() -> bool:
-    """Time DSB even before planners.api registers it, if planners.tangent_bug exists."""
-    if "dsb" in planners.PLANNERS:
-        return False
-    if importlib.util.find_spec("planners.tangent_bug") is None:
-        return False
-    from tests.app.app_helpers import dsb_planner
-
-    planners.PLANNERS["dsb"] = dsb_planner
-    return True
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -258,19 +245,13 @@ def main(argv: list[str] | None = None) -> int:
     drags = args.drag or list(DRAGS)
 
     names = args.scenario or list(list_scenarios())
-    shimmed = _register_dsb_if_missing()
-    has_dsb = "dsb" in planners.PLANNERS
+    has_dsb = "dsb" in planners.REGISTRY
     print(
         f"App edit-to-redraw, {' and '.join(drags)} dragged through {args.events} positions each (controller + 3-D view + panel, no browser)"
     )
     print(
         f"planners: {', '.join(planners.PLANNERS)}; DSB "
         + ("included" if has_dsb else "NOT available")
-        + (
-            " (TangentBug registered by this script: planners.api does not list it yet)"
-            if shimmed
-            else ""
-        )
     )
     print(
         f"load average: {', '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs"

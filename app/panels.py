@@ -12,23 +12,18 @@ __all__ = ["Panels", "legend_html", "results_markdown", "wheel_rate_plot_data"]
 
 import math
 from collections.abc import Callable, Collection, Mapping
-from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import viser
 
-from app.controller import LAYERS, TOOLS, Controller, Frame, RobotPose
-from app.style import COLORS, hex_color
+import planners
+from app.controller import TOOLS, Controller, Frame, RobotPose
+from app.style import COLORS, hex_color, planner_look
+from app.tools import layer_names
+from planners.registry import PlannerSpec
 
-PLANNER_NAMES: Mapping[str, str] = MappingProxyType(
-    {
-        "vg": "Visibility graph (VG)",
-        "svg": "Simplified VG (SVG)",
-        "dsb": "Distance sensor (DSB)",
-    }
-)
 _WHEEL_COLORS = ("#0072b2", "#d55e00", "#009e73")
 
 
@@ -41,7 +36,7 @@ def _swatch(color: tuple[int, int, int], kind: str = "line") -> str:
     return f'<span style="{style}background:{hex_color(color)}"></span>'
 
 
-def legend_html() -> str:
+def legend_html(registry: Mapping[str, PlannerSpec] = planners.REGISTRY) -> str:
     """Return the legend: one coloured swatch per thing drawn, in words a student knows."""
     rows = [
         (_swatch(COLORS["obstacle"], "box"), "obstacle (numbered)"),
@@ -50,18 +45,7 @@ def legend_html() -> str:
             "expanded obstacle (robot shrunk to a point)",
         ),
         (_swatch(COLORS["other_expansion"], "thin"), "other expansion model (outline)"),
-        (
-            _swatch(COLORS["vg_edges"], "thin") + _swatch(COLORS["vg"]),
-            "VG edges / shortest path",
-        ),
-        (
-            _swatch(COLORS["svg_edges"], "thin") + _swatch(COLORS["svg"]),
-            "SVG edges / shortest path",
-        ),
-        (
-            _swatch(COLORS["dsb_seek"]) + _swatch(COLORS["dsb_follow"]),
-            "DSB path: goal seeking / boundary following",
-        ),
+        *(_planner_row(name, spec) for name, spec in registry.items()),
         (
             _swatch(COLORS["sensing"], "thin")
             + _swatch(COLORS["sensed"])
@@ -82,8 +66,30 @@ def legend_html() -> str:
     return f'<div style="padding:2px 4px">{body}<div style="font-size:0.8em;color:#555">Events: H hit an obstacle, M local minimum, L leave it, D goal free again.</div></div>'
 
 
-def results_markdown(plans: Mapping[str, Any], lagging: Collection[str] = ()) -> str:
+def _planner_row(name: str, spec: PlannerSpec) -> tuple[str, str]:
+    """One legend row: a graph planner's edges and path, a trace's two modes."""
+    look = planner_look(name)
+    short = name.upper()
+    if spec.kind == "graph":
+        return (
+            _swatch(look.edges or look.path, "thin") + _swatch(look.path),
+            f"{short} edges / shortest path",
+        )
+    return (
+        _swatch(look.path) + _swatch(look.follow or look.path),
+        f"{short} path: goal seeking / boundary following",
+    )
+
+
+def results_markdown(
+    plans: Mapping[str, Any],
+    lagging: Collection[str] = (),
+    registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
+) -> str:
     """Return a markdown table of each planner's status, length, graph size and time.
+
+    Rows follow the registry's order; a graph planner counts its graph's nodes and edges,
+    a trace planner has none.
 
     Examples
     --------
@@ -94,22 +100,22 @@ def results_markdown(plans: Mapping[str, Any], lagging: Collection[str] = ()) ->
         "| Planner | Status | Length [m] | Nodes | Edges | ms |",
         "|---|---|---|---|---|---|",
     ]
-    for name, result in plans.items():
-        if name == "cspace":
-            continue
-        length = getattr(result, "length", None)
-        # VG and SVG count their graph's nodes and edges; other planners have none.
-        nodes = getattr(result, "nodes", None)
-        edges = getattr(result, "edges", None)
-        status = str(getattr(result, "status", "?"))
-        mark = {"ok": "ok", "reached": "reached"}.get(status, f"**{status}**")
+    for name, spec in registry.items():
+        result = plans.get(name)
+        if result is None:
+            continue  # switched off
+        length = result.length
+        graph = spec.kind == "graph" and result.status in ("ok", "unreachable")
+        nodes, edges = (result.nodes, result.edges) if graph else ("-", "-")
+        mark = {"ok": "ok", "reached": "reached"}.get(
+            result.status, f"**{result.status}**"
+        )
         if name in lagging:
             mark += " (updating)"
         lines.append(
             f"| {name.upper()} | {mark} | "
             f"{'-' if length is None or not math.isfinite(length) else f'{length:.2f}'} | "
-            f"{'-' if nodes is None else nodes} | {'-' if edges is None else edges} | "
-            f"{float(getattr(result, 'ms', 0.0)):.1f} |"
+            f"{nodes} | {edges} | {float(result.ms):.1f} |"
         )
     return "\n".join(lines)
 
@@ -139,21 +145,22 @@ class Panels:
         The viser server (the panel is shared by every browser).
     scenarios
         Scenario key -> title, for the dropdown.
-    planners
-        Planner names, in the order the controller reports them.
+    registry
+        The planners the controller runs (:data:`planners.REGISTRY`): one switch, layers,
+        a legend row and a results row each.
     """
 
     def __init__(
         self,
         server: viser.ViserServer,
         scenarios: Mapping[str, str],
-        planners: tuple[str, ...],
+        registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
     ) -> None:
         self.server = server
         self.controller: Controller | None = None
         self._latest_version: Callable[[], int] = lambda: -1
         self._scenario_titles = dict(scenarios)
-        self._planners = planners
+        self._registry = registry
         self._plot_key: Any = None
         self._last_robot_text = ""
         gui = server.gui
@@ -182,7 +189,7 @@ class Panels:
             self.results = gui.add_markdown(results_markdown({}))
 
         self._build_settings(gui)
-        self._build_motion(gui, planners)
+        self._build_motion(gui)
         self._bind()
 
     def _build_settings(self, gui: Any) -> None:
@@ -211,20 +218,24 @@ class Panels:
             self.expansion = gui.add_dropdown("Expansion", ["disk", "square"])
             self.sensor_range = gui.add_slider("Sensor R [m]", 0.2, 15.0, 0.1, 2.0)
 
+        with gui.add_folder("Planners"):
+            self.planners = {
+                name: gui.add_checkbox(spec.title, spec.default, hint=spec.summary)
+                for name, spec in self._registry.items()
+            }
         with gui.add_folder("Layers"):
             self.layers = {
-                key: gui.add_checkbox(text, True) for key, text in LAYERS.items()
+                key: gui.add_checkbox(text, True)
+                for key, text in layer_names(self._registry).items()
             }
-            self.legend = gui.add_html(legend_html())
+            self.legend = gui.add_html(legend_html(self._registry))
 
-    def _build_motion(self, gui: Any, planners: tuple[str, ...]) -> None:
+    def _build_motion(self, gui: Any) -> None:
         # The robot's motion along a planner's path, its wheel rates.
         with gui.add_folder("Robot motion"):
-            follow = list(planners) or ["vg"]
-            self.follow = gui.add_dropdown(
-                "Follow", [PLANNER_NAMES.get(p, p.upper()) for p in follow]
-            )
-            self._follow_keys = {PLANNER_NAMES.get(p, p.upper()): p for p in follow}
+            titles = {spec.title: name for name, spec in self._registry.items()}
+            self.follow = gui.add_dropdown("Follow", list(titles))
+            self._follow_keys = titles
             self.playback = gui.add_button_group("Motion", ["Play", "Pause", "Restart"])
             self.speed = gui.add_slider("Speed", 0.1, 4.0, 0.1, 1.0)
             self.time = gui.add_slider("Time [s]", 0.0, 1.0, 0.01, 0.0)
@@ -313,6 +324,8 @@ class Panels:
         )
         self._on(self.expansion, lambda v, c: c.edits.set_expansion(v))
         self._on(self.sensor_range, lambda v, c: c.edits.set_sensor_range(float(v)))
+        for name, box in self.planners.items():
+            self._on(box, lambda v, c, n=name: c.set_planner_enabled(n, bool(v)))
         for key, box in self.layers.items():
             self._on(box, lambda v, c, key=key: c.set_layer(key, bool(v)))
         self._on(self.follow, lambda v, c: c.playback.set_follow(self._follow_keys[v]))
@@ -342,7 +355,11 @@ class Panels:
         _set(self.title, "content", f"### {title}")
         _set(self.description, "content", scene.description or "")
         _set(self.status, "content", status_markdown(frame))
-        _set(self.results, "content", results_markdown(frame.plans, frame.lagging))
+        _set(
+            self.results,
+            "content",
+            results_markdown(frame.plans, frame.lagging, self._registry),
+        )
 
         # Settings are pushed only from the newest frame: while a slider is being dragged
         # the frames lag behind it, and pushing an older value would make it jump back.
@@ -360,6 +377,8 @@ class Panels:
                 round(min(max(scene.sensor_range, 0.2), 15.0), 1),
             )
         _set(self.tool, "value", TOOLS[frame.tool])
+        for name, box in self.planners.items():
+            _set(box, "value", name in frame.enabled)
         for key, box in self.layers.items():
             _set(box, "value", bool(frame.layers.get(key, True)))
         for name, key in self._follow_keys.items():

@@ -206,7 +206,7 @@ def _wire(
 ) -> PlannerApp:
     """Wire one session on ``server``: the panel, the 3-D view and their controller."""
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
-    panels = Panels(server, titles, tuple(planners.PLANNERS))
+    panels = Panels(server, titles, planners.REGISTRY)
     controller_box: list[Controller] = []
 
     def on_drag(handle: tuple, xy: tuple[float, float], phase: str) -> None:

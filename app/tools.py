@@ -67,7 +67,9 @@ from typing import Any, Literal
 import numpy as np
 import shapely
 
+import planners
 from planners import scene as edits
+from planners.registry import PlannerSpec
 from planners.scene import ScenarioError, Scene
 
 Point = tuple[float, float]
@@ -84,21 +86,37 @@ TOOLS: Mapping[str, str] = MappingProxyType(
 )
 """Mouse tools by key, with the words the panel shows."""
 
-LAYERS: Mapping[str, str] = MappingProxyType(
-    {
+
+def layer_names(registry: Mapping[str, PlannerSpec]) -> Mapping[str, str]:
+    """Layers a user can toggle, by key, with the words the panel shows.
+
+    The scene's layers, one or two per planner of ``registry`` as its kind says (a graph
+    planner's edges and path, a trace planner's walk and events), then the robot's.
+
+    Examples
+    --------
+    >>> list(layer_names(planners.REGISTRY))[3:6]
+    ['vg_edges', 'vg_path', 'svg_edges']
+    """
+    out = {
         "obstacles": "Obstacles",
         "expanded": "Expanded obstacles",
         "other_expansion": "Other expansion model (outline)",
-        "vg_edges": "VG edges",
-        "vg_path": "VG path",
-        "svg_edges": "SVG edges",
-        "svg_path": "SVG path",
-        "dsb_path": "DSB path and events",
-        "robot": "Robot",
-        "sensing": "DSB sensing disk and local tangent graph",
     }
-)
-"""Layers a user can toggle, by key, with the words the panel shows."""
+    for name, spec in registry.items():
+        short = name.upper()
+        if spec.kind == "graph":
+            out[f"{name}_edges"] = f"{short} edges"
+            out[f"{name}_path"] = f"{short} path"
+        else:
+            out[f"{name}_path"] = f"{short} path and events"
+    out["robot"] = "Robot"
+    out["sensing"] = "DSB sensing disk and local tangent graph"
+    return MappingProxyType(out)
+
+
+LAYERS: Mapping[str, str] = layer_names(planners.REGISTRY)
+"""The layers of the registered planners and the scene (:func:`layer_names`)."""
 
 _DEFAULT_OFF = frozenset({"other_expansion"})
 

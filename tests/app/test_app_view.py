@@ -14,13 +14,15 @@ from shapely import Polygon
 
 import planners
 from app import robot
-from app.controller import Controller, Frame, Pending, RobotPose
+from app.controller import LAYERS, Controller, Frame, Pending, RobotPose
 from app.panels import (
     floor_point,
+    legend_html,
     results_markdown,
     status_markdown,
     wheel_rate_plot_data,
 )
+from app.style import planner_look
 from app.view import (
     PlannerView,
     circle_segments,
@@ -375,3 +377,44 @@ def test_line_layers_never_switch_colour_mode(server):
             assert dsb.shape == np.asarray(view.traces["dsb"].path.handle.points).shape
     finally:
         controller.close()
+
+
+def test_bug2_is_drawn_when_switched_on_and_hidden_when_off(drawn):
+    view, controller = drawn
+    assert "bug2" not in controller.frame.plans  # off by default
+    assert not view.traces["bug2"].path.handle.visible
+    controller.set_planner_enabled("bug2", True)
+    assert controller.wait_idle(20)
+    frame = controller.frame
+    bug2 = frame.plans["bug2"]
+    assert "bug2" in frame.enabled and bug2.status == "reached"
+    layer = view.traces["bug2"]
+    assert layer.path.handle.visible
+    np.testing.assert_allclose(
+        np.asarray(layer.path.handle.points)[:, :, :2],
+        np.stack([bug2.path[:-1], bug2.path[1:]], axis=1),
+        atol=1e-5,
+    )
+    # Coloured by mode (on the M-line / following a border) and labelled H2, L2.
+    colors = [tuple(c) for c in np.asarray(layer.path.handle.colors)[:, 0]]
+    by_mode = {m: {c for c, mm in zip(colors, bug2.modes, strict=True) if mm == m}
+               for m in ("seek", "follow")}  # fmt: skip
+    assert len(by_mode["seek"]) == len(by_mode["follow"]) == 1
+    assert by_mode["seek"] != by_mode["follow"]
+    assert planner_look("bug2").follow != planner_look("bug2").path
+    assert [h.text for h in layer.labels.handles if h.visible] == [
+        e.label for e in bug2.events
+    ]
+    assert "| BUG2 | reached |" in results_markdown(frame.plans)
+    controller.set_planner_enabled("bug2", False)
+    assert controller.wait_idle(20)
+    assert "bug2" not in controller.frame.plans
+    assert not view.traces["bug2"].path.handle.visible
+
+
+def test_the_legend_and_layers_list_every_registered_planner():
+    html = legend_html()
+    for name in planners.REGISTRY:
+        assert f"{name.upper()} " in html
+    assert "BUG2 path: goal seeking / boundary following" in html
+    assert {"bug2_path", "dsb_path", "vg_edges", "svg_path"} <= set(LAYERS)

@@ -82,8 +82,10 @@ COLORS: dict[str, RGB] = {
     "dsb": DARK_PURPLE,
     "dsb_seek": DARK_PURPLE,
     "dsb_follow": VERMILLION,
-    "bug2": BLACK,
-    "bug2_seek": BLACK,
+    # Bug2 in the two hues no other path uses: orange on the M-line (it only touches the
+    # expanded obstacles' fill at its hit points), reddish purple along their borders.
+    "bug2": ORANGE,
+    "bug2_seek": ORANGE,
     "bug2_follow": PURPLE,
     "start": SKY,
     "goal": YELLOW,
@@ -97,7 +99,8 @@ COLORS: dict[str, RGB] = {
     "sensing": DARK_PURPLE,
     "sensed": SKY,
     "tangents": (45, 45, 45),
-    "chosen": DARK_PURPLE,
+    # The planner's r_next: black and bold, apart from the DSB path it leads along.
+    "chosen": BLACK,
 }
 """Colour of each thing drawn, by role."""
 
@@ -174,7 +177,7 @@ LOOKS: Mapping[str, PlannerLook] = MappingProxyType(
 
 # For a planner someone registers without a look of its own: the palette's colours the
 # shipped planners leave free, one after another, and paths stacked above the others.
-_SPARE: tuple[RGB, ...] = (SKY, ORANGE, PURPLE, BLACK)
+_SPARE: tuple[RGB, ...] = (SKY, YELLOW, VERMILLION, BLUE)
 
 
 def planner_look(name: str) -> PlannerLook:

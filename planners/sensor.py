@@ -44,6 +44,7 @@ __all__ = [
     "Sensing",
     "disk_span",
     "free_extent",
+    "measure_border",
     "ring_geometry",
     "sense",
     "visible_pieces",
@@ -348,9 +349,11 @@ def _clean_ring(ring: FloatArray, tol: float) -> FloatArray:
     return pts
 
 
-@functools.lru_cache(maxsize=64)
 def ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
-    """Build (once per configuration space) the border arrays the sensor and planner use.
+    """Return (built once per configuration space) the border arrays the sensor and planner use.
+
+    Kept on the configuration space (:meth:`ConfigurationSpace.derive`), not in a module
+    cache, so that it goes away with it.
 
     Examples
     --------
@@ -360,7 +363,14 @@ def ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
     >>> geo = ring_geometry(space)
     >>> len(geo.rings), float(geo.perimeter[0]), float(geo.area[0])
     (1, 4.0, 1.0)
+    >>> ring_geometry(space) is geo
+    True
     """
+    return cspace.derive(_build_ring_geometry)
+
+
+def _build_ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
+    """Build the border arrays of :func:`ring_geometry` (pure)."""
     rings = []
     for r in cspace.rings:
         cleaned = _clean_ring(r, cspace.eps)
@@ -501,31 +511,32 @@ class _Occurrence:
         return self.n[0] * self.q[1] - self.n[1] * self.q[0] > 0
 
 
-_Near = tuple[FloatArray, FloatArray, FloatArray, list["_Occurrence"]]
-# The last measurement, for the planner's habit of asking two questions (one ray, then
-# the full view) from the same position: (geometry, x, y, result), replaced as a whole so
-# that concurrent readers see a consistent entry.
-_LAST_NEAR: tuple[RingGeometry, float, float, _Near] | None = None
+Near = tuple[FloatArray, FloatArray, FloatArray, list["_Occurrence"]]
+"""The border measured from one position (:func:`measure_border`): edge starts relative to
+it, distance to each edge, cross(a, b) per edge, and the blocked wedges at its feet."""
 
 
-def _near(geo: RingGeometry, x: FloatArray) -> _Near:
-    """Measure the border from ``x``.
+def measure_border(geo: RingGeometry, position: npt.ArrayLike) -> Near:
+    """Measure the border from ``position``, for several questions asked from there.
 
-    Returns the edge starts relative to ``x``, the distance from ``x`` to each edge,
-    cross(a, b) (negative when the edge faces ``x``), and where the robot touches the
-    border.
+    A planner often asks two questions from the same position (one ray with
+    :func:`free_extent`, then the full view with :func:`sense` or
+    :func:`visible_pieces`); passing them this measurement as ``near`` spares the second
+    one the work. The value is read only, never changed by the functions it is passed to.
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> geo = ring_geometry(configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0))
+    >>> near = measure_border(geo, (-1.0, 0.5))
+    >>> free_extent(geo, (-1.0, 0.5), (1.0, 0.0), 5.0, near=near)
+    (1.0, 0)
     """
-    global _LAST_NEAR  # noqa: PLW0603 - a one-entry cache of a pure function
-    last = _LAST_NEAR
-    x0, y0 = float(x[0]), float(x[1])
-    if last is not None and last[0] is geo and last[1] == x0 and last[2] == y0:
-        return last[3]
-    result = _measure(geo, x)
-    _LAST_NEAR = (geo, x0, y0, result)
-    return result
+    return _measure(geo, np.asarray(position, dtype=np.float64).reshape(2))
 
 
-def _measure(geo: RingGeometry, x: FloatArray) -> _Near:
+def _measure(geo: RingGeometry, x: FloatArray) -> Near:
     """Measure the border from ``x`` and find the blocked wedges at the robot's feet.
 
     Within eps of the border the robot touches it, and a ray is blocked only where it goes
@@ -633,6 +644,8 @@ def sense(
     cspace: ConfigurationSpace | RingGeometry,
     position: npt.ArrayLike,
     sensor_range: float,
+    *,
+    near: Near | None = None,
 ) -> Sensing:
     """Compute what a 360-degree range sensor of range R sees from ``position``.
 
@@ -644,6 +657,8 @@ def sense(
         The robot, shape (2,), in closed free space (it may touch the border) [m].
     sensor_range
         R [m], positive; ``math.inf`` for an unlimited sensor.
+    near
+        :func:`measure_border` at ``position``, if the caller already has it.
 
     Returns
     -------
@@ -681,12 +696,17 @@ def sense(
     radius = float(sensor_range)
     if not radius > 0:
         raise ValueError(f"sensor_range must be positive, got {sensor_range}")
-    items = _sweep(geo, x, radius)
+    items = _sweep(geo, x, radius, near)
     return _assemble(geo, x, radius, items)
 
 
 def visible_pieces(
-    geo: RingGeometry, position: npt.ArrayLike, sensor_range: float, ring: int
+    geo: RingGeometry,
+    position: npt.ArrayLike,
+    sensor_range: float,
+    ring: int,
+    *,
+    near: Near | None = None,
 ) -> FloatArray:
     """Return the pieces of ``ring`` that :func:`sense` reports, shape (K, 2, 2) [m].
 
@@ -697,13 +717,15 @@ def visible_pieces(
     rings = geo.ring_list
     mine = [
         (it.p0, it.p1)
-        for it in _sweep(geo, x, float(sensor_range))
+        for it in _sweep(geo, x, float(sensor_range), near)
         if it.kind == "piece" and rings[it.edge] == ring
     ]
     return np.array(mine, dtype=np.float64).reshape(-1, 2, 2)
 
 
-def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
+def _sweep(
+    geo: RingGeometry, x: FloatArray, radius: float, near: Near | None = None
+) -> list[_Item]:
     """Cut the full turn at the critical angles and say what each interval sees.
 
     The border is measured from the robot as arrays; the few edges that face it within R
@@ -715,7 +737,7 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
     finite = math.isfinite(radius)
     if len(geo.start) == 0:
         return []
-    a, dist, cr, occ = _near(geo, x)
+    a, dist, cr, occ = near if near is not None else _measure(geo, x)
     # Every edge that faces the robot, however obliquely (an edge whose line passes within
     # eps of the robot still hides what lies behind it), except the edges of the wedges at
     # its feet, which include every edge it touches.
@@ -1151,12 +1173,18 @@ def _assemble(
 
 
 def free_extent(
-    geo: RingGeometry, position: npt.ArrayLike, direction: npt.ArrayLike, limit: float
+    geo: RingGeometry,
+    position: npt.ArrayLike,
+    direction: npt.ArrayLike,
+    limit: float,
+    *,
+    near: Near | None = None,
 ) -> tuple[float, int]:
     """How far the robot can go from ``position`` along a unit ``direction``, up to ``limit``.
 
     Exact on the polygons: the segment may run along the border or touch a vertex (that is
-    free), it stops where it would enter blocked space.
+    free), it stops where it would enter blocked space. ``near`` is
+    :func:`measure_border` at ``position``, if the caller already has it.
 
     Returns
     -------
@@ -1178,7 +1206,7 @@ def free_extent(
     if len(geo.start) == 0 or limit <= 0:
         return max(float(limit), 0.0), -1
     tol = geo.eps
-    a, _, _, occ = _near(geo, x)
+    a, _, _, occ = near if near is not None else _measure(geo, x)
     # At the robot's feet: touching the border, it may look straight into blocked space.
     ux, uy = float(u[0]), float(u[1])
     for o in occ:

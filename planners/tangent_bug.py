@@ -105,6 +105,7 @@ from planners.sensor import (
     Sensing,
     disk_span,
     free_extent,
+    measure_border,
     ring_geometry,
     sense,
     visible_pieces,
@@ -369,11 +370,6 @@ def heuristic_distances(sensing: Sensing, goal: npt.ArrayLike) -> FloatArray:
 _Record = TypeVar("_Record", "BugState", "Follow")
 
 
-@functools.cache
-def _field_names(cls: type) -> frozenset[str]:
-    return frozenset(f.name for f in dataclasses.fields(cls))
-
-
 def _evolve(record: _Record, **changes: Any) -> _Record:
     """Return a copy of a frozen ``BugState`` or ``Follow`` with ``changes``.
 
@@ -381,8 +377,9 @@ def _evolve(record: _Record, **changes: Any) -> _Record:
     runs ``__init__`` on every call, and a run makes a few hundred copies. These
     records have no ``__post_init__`` to skip.
     """
-    if not changes.keys() <= _field_names(type(record)):
-        raise TypeError(f"unknown fields {set(changes) - _field_names(type(record))}")
+    # A frozen dataclass without slots keeps exactly its fields in __dict__.
+    if not changes.keys() <= record.__dict__.keys():
+        raise TypeError(f"unknown fields {set(changes) - record.__dict__.keys()}")
     new = object.__new__(type(record))
     new.__dict__.update(record.__dict__)
     new.__dict__.update(changes)
@@ -414,8 +411,12 @@ class _Context:
     edges_by_goal: tuple[tuple[list[float], list[int]], ...]
 
 
-@functools.lru_cache(maxsize=32)
 def _context(cspace: ConfigurationSpace, params: BugParams) -> _Context:
+    """Return the context of ``params`` on ``cspace``, built once and kept on ``cspace``."""
+    return cspace.derive(_build_context, params)
+
+
+def _build_context(cspace: ConfigurationSpace, params: BugParams) -> _Context:
     if params.leave_rule not in LEAVE_RULES:
         raise ValueError(
             f"unknown leave rule {params.leave_rule!r} (expected one of {LEAVE_RULES})"
@@ -511,7 +512,9 @@ def _decide(
     if dg <= ctx.tol:
         return _Seek("reached", ("reached",), -1, None)
     u = (g - x) / dg
-    extent, ring = free_extent(ctx.geo, x, u, dg)
+    # Two questions from x: the goal ray, then (if blocked within R) the full view.
+    near = measure_border(ctx.geo, x)
+    extent, ring = free_extent(ctx.geo, x, u, dg, near=near)
     if extent >= dg - ctx.tol:
         return _Seek("goal", ("goal",), -1, None)
     hit = x + extent * u
@@ -521,7 +524,7 @@ def _decide(
         return _Seek(
             "ahead", ("goal",), -1, None, ahead=extent - ctx.radius + ctx.margin
         )
-    seen = sense(ctx.geo, x, ctx.radius)
+    seen = sense(ctx.geo, x, ctx.radius, near=near)
     n = len(seen.points)
     dist = np.hypot(*(seen.points - x).T) if n else np.zeros(0)
     to_goal = np.hypot(*(seen.points - g).T) if n else np.zeros(0)
@@ -992,11 +995,12 @@ def _reach(ctx: _Context, y: FloatArray, ring: int) -> tuple[float, FloatArray]:
     dg = float(math.hypot(*(g - y)))
     if dg <= ctx.tol:
         return 0.0, g.copy()
+    near = measure_border(ctx.geo, y)
     if dg <= ctx.radius:
-        extent, _ = free_extent(ctx.geo, y, (g - y) / dg, dg)
+        extent, _ = free_extent(ctx.geo, y, (g - y) / dg, dg, near=near)
         if extent >= dg - ctx.tol:
             return 0.0, g.copy()
-    mine = visible_pieces(ctx.geo, y, ctx.radius, ring)
+    mine = visible_pieces(ctx.geo, y, ctx.radius, ring, near=near)
     if len(mine) == 0:
         return dg, y.copy()
     dist, closest = _segment_closest(mine, g)

@@ -11,12 +11,11 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from planners import PlanOptions, load_scene, plan_all
+from planners.bug_leave import _may_come_closer, _reach
 from planners.tangent_bug import (
     BugParams,
     Follow,
     _context,
-    _may_come_closer,
-    _reach,
     plan_tangent_bug,
 )
 from planners.visibility import segments_free

@@ -12,6 +12,7 @@ both modes and the leave rules (:mod:`planners.bug_leave`) measure with.
 from __future__ import annotations
 
 __all__ = [
+    "BOXES",
     "FOLLOW",
     "LEAVE_RULES",
     "REACHED",
@@ -20,6 +21,8 @@ __all__ = [
     "BugEvent",
     "BugParams",
     "BugState",
+    "Candidate",
+    "Decision",
     "Follow",
     "Move",
     "make_context",
@@ -130,6 +133,9 @@ class Follow:
     risen: bool = False
     """Chapter rule: the robot has been farther from the goal than M since it began
     following (before that, d(r, g) < d(M, g) does not count)."""
+    d_reach: float | None = None
+    """TangentBug rule: d_reach where the robot last looked at the followed border [m];
+    None where the view could not matter (not sensed)."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -156,6 +162,8 @@ class BugState:
     """What the last step did, each move starting where the previous one ended."""
     events: tuple[BugEvent, ...] = ()
     """Events of the last step."""
+    decisions: tuple[Decision, ...] = ()
+    """Decisions of the last step (one, plus a leave or the final one)."""
     reason: str | None = None
     """Why the run ended unsuccessfully."""
     terminated: str | None = None
@@ -170,6 +178,87 @@ class BugState:
     cache: Any = None
     """The goal-seeking decision at ``position`` if already computed (a pure function of
     the position; kept only to avoid sensing twice)."""
+
+
+BOXES = (
+    "goal_visible",
+    "toward_obstacle_ahead",
+    "choose_O_i",
+    "local_minimum",
+    "follow_boundary",
+    "leave",
+    "reached",
+    "unreachable",
+)
+"""The boxes of the chapter's flowchart (Fig. 9.15) a :class:`Decision` can be in:
+
+- ``"goal_visible"``: nothing blocks the segment to the goal: move straight to it;
+- ``"toward_obstacle_ahead"``: nothing blocks the goal direction within R (an obstacle
+  lies beyond): move toward the goal until it comes into range;
+- ``"choose_O_i"``: an obstacle is in the way: r_next is the candidate O_i that minimises
+  d(r, O_i) + d(O_i, g) (Fig. 9.16);
+- ``"local_minimum"``: every O_i would take the robot away from the goal (Fig. 9.17):
+  switch to boundary following (mode ``"follow"`` from here);
+- ``"follow_boundary"``: follow the border; the leave rule does not hold;
+- ``"leave"``: the leave rule holds (Fig. 9.18): back to goal seeking (mode ``"seek"``
+  from here);
+- ``"reached"``: the robot is at the goal;
+- ``"unreachable"``: it went all the way round a border that separates it from the goal.
+"""
+
+
+class Candidate(NamedTuple):
+    """One discontinuity point O_i of the local tangent graph (Fig. 9.16) at a decision.
+
+    A named tuple rather than a dataclass: a run makes a few hundred of them.
+    """
+
+    point: Point
+    """O_i [m]."""
+    kind: str
+    """``"occluding"``, ``"occluded"`` (a corner) or ``"range"`` (where the border leaves
+    the sensing circle), as in :class:`planners.sensor.Sensing`."""
+    d_robot: float
+    """d(r, O_i) [m]."""
+    d_goal: float
+    """d(O_i, g) [m]."""
+    heuristic: float
+    """d(r, O_i) + d(O_i, g) [m], the quantity minimised."""
+    valid: bool
+    """Whether it was a candidate: closer to the goal than the robot, or the O_i the robot
+    was heading for while that still brought it closer."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Decision:
+    """One sensing and decision step of the run: which box of Fig. 9.15, on what grounds."""
+
+    s: float
+    """Arclength along the path where it was taken [m]."""
+    position: Point
+    """The robot r [m]."""
+    mode: str
+    """``"seek"`` or ``"follow"``: the mode the robot moves in from here (a local minimum
+    switches to following, a leave to seeking)."""
+    box: str
+    """The flowchart box (:data:`BOXES`)."""
+    d_goal: float
+    """d(r, g) [m]."""
+    chosen: Point | None = None
+    """r_next: the O_i (or the goal) the robot heads for while seeking, else None."""
+    candidates: tuple[Candidate, ...] = ()
+    """The O_i in view when the robot had to choose (``"choose_O_i"``,
+    ``"local_minimum"``), else empty."""
+    sliding: bool = False
+    """Two O_i were equally good: the robot moves between them (a sliding mode) while
+    heading for ``chosen``."""
+    d_local_min: float | None = None
+    """d(M, g) while following [m]."""
+    d_followed: float | None = None
+    """TangentBug rule: least distance to the goal of the followed border sensed since M [m]."""
+    d_reach: float | None = None
+    """TangentBug rule: least distance to the goal of the followed border in view here
+    (0 when the goal is in view) [m]; None where not sensed."""
 
 
 _Record = TypeVar("_Record", "BugState", "Follow")

@@ -26,6 +26,7 @@ from planners.bug_context import (
     UNREACHABLE,
     BugEvent,
     BugState,
+    Decision,
     FloatArray,
     Follow,
     Move,
@@ -43,10 +44,18 @@ from planners.bug_context import (
 
 
 def _follow_step(ctx: _Context, state: BugState) -> BugState:
+    """One boundary-following step from ``state`` (mode ``"follow"``)."""
     f = state.follow
     assert f is not None
     x = np.asarray(state.position, dtype=np.float64)
     geo = ctx.geo
+    d_reach, d_followed = ctx.leave.measures(f)
+    record = Decision(
+        s=state.travelled, position=state.position, mode=FOLLOW, box="follow_boundary",
+        d_goal=float(math.hypot(*(ctx.goal - x))), d_local_min=f.d_local_min,
+        d_followed=d_followed, d_reach=d_reach,
+    )  # fmt: skip
+    state = _evolve(state, decisions=(record,))
     if f.target is not None:
         # Approach: straight to where the followed piece of border ends in view.
         target = np.asarray(f.target, dtype=np.float64)
@@ -88,15 +97,16 @@ def _walk_and_check(
     total = float(cum[-1])
     # The goal on the way (it may lie on the border).
     s_goal = _first_within(path, cum, g, ctx.tol)
-    f, stop_at = ctx.leave.check(ctx, f, path, cum)
+    f, stop_at, d_reach = ctx.leave.check(ctx, f, path, cum)
     if s_goal is not None and (stop_at is None or s_goal <= stop_at):
         piece = _cut(path, cum, s_goal)
         piece[-1] = g
-        return _finish(
+        out = _finish(
             state, g.copy(), (Move(FOLLOW, piece, None),), (), REACHED, None, "goal"
         )
+        return _closing(out, "reached", 0.0)
     if stop_at is not None:
-        return _leave(ctx, state, f, _cut(path, cum, stop_at), stop_at)
+        return _leave(ctx, state, f, _cut(path, cum, stop_at), stop_at, d_reach)
 
     moves = (Move(FOLLOW, path, None),)
     if arrived_sigma is not None:
@@ -124,8 +134,12 @@ def _leave(
     f: Follow,
     walked_path: FloatArray,
     walked_len: float,
+    d_reach: float | None = None,
 ) -> BugState:
-    """Leave the border at the end of ``walked_path`` and go back to goal seeking."""
+    """Leave the border at the end of ``walked_path`` and go back to goal seeking.
+
+    ``d_reach``: the leave rule's d_reach there, for the record.
+    """
     p = walked_path[-1]
     events = (
         BugEvent(
@@ -142,11 +156,18 @@ def _leave(
     )
     moves: list[Move] = [Move(FOLLOW, walked_path, None)]
     q = p
+    after = None
     if f.exit_sigma is None:  # not after Bug1's exit
         after = ctx.leave.after_leave(ctx, f, p)
         if after is not None:
             moves.append(after)
             q = after.path[-1]
+    record = Decision(
+        s=state.travelled + walked_len, position=_pt(p), mode=SEEK, box="leave",
+        d_goal=float(math.hypot(*(p - ctx.goal))), chosen=None if after is None else after.aim,
+        d_local_min=f.d_local_min, d_followed=ctx.leave.measures(f)[1], d_reach=d_reach,
+    )  # fmt: skip
+    state = _evolve(state, decisions=(*state.decisions, record))
     out = _moved(state, tuple(moves), events)
     last = moves[-1].path
     heading = (
@@ -177,7 +198,10 @@ def _full_round(
         else:
             reason = f"the robot is enclosed: it went all the way round the pocket bounded by {what} without a way out"
         out = _moved(_evolve(state, follow=f), moves, ())
-        return _evolve(out, mode=UNREACHABLE, reason=reason, terminated="loop")
+        out = _evolve(out, mode=UNREACHABLE, reason=reason, terminated="loop")
+        return _closing(
+            out, "unreachable", float(math.hypot(*(np.asarray(out.position) - g)))
+        )
     # Not a proof of unreachability: walk on to the closest point and leave there (Bug1).
     a = geo.start[geo.offset[f.ring] : geo.offset[f.ring + 1]]
     b = geo.end[geo.offset[f.ring] : geo.offset[f.ring + 1]]
@@ -191,3 +215,11 @@ def _full_round(
         (),
     )
     return out
+
+
+def _closing(state: BugState, box: str, d_goal: float) -> BugState:
+    """Add the run's last decision (``"reached"`` or ``"unreachable"``) where it ended."""
+    record = Decision(
+        s=state.travelled, position=state.position, mode=FOLLOW, box=box, d_goal=d_goal
+    )
+    return _evolve(state, decisions=(*state.decisions, record))

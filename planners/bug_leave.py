@@ -64,12 +64,15 @@ def _reach(ctx: _Context, y: FloatArray, ring: int) -> tuple[float, FloatArray]:
     return float(dist[k]), closest[k]
 
 
-def _leaves(ctx: _Context, f: Follow, y: FloatArray) -> tuple[bool, float]:
-    """Tell whether the leave rule holds at ``y``: (leave, d_followed updated with y's view)."""
+def _leaves(ctx: _Context, f: Follow, y: FloatArray) -> tuple[bool, float | None]:
+    """Tell whether the leave rule holds at ``y``: (leave, d_reach at ``y``).
+
+    d_reach is None where the view cannot matter (:func:`_may_come_closer`): not sensed.
+    """
     if not _may_come_closer(ctx, f, y):
-        return False, f.d_followed
+        return False, None
     d_reach, _ = _reach(ctx, y, f.ring)
-    return d_reach < f.d_followed - ctx.tol, min(f.d_followed, d_reach)
+    return d_reach < f.d_followed - ctx.tol, d_reach
 
 
 def _may_come_closer(ctx: _Context, f: Follow, y: FloatArray) -> bool:
@@ -109,24 +112,33 @@ def _may_come_closer(ctx: _Context, f: Follow, y: FloatArray) -> bool:
     return False
 
 
-def _refine_leave(ctx: _Context, f: Follow, path: FloatArray, cum: FloatArray) -> float:
-    """Locate (bisection, then the ring vertices nearby) where the leave rule first holds."""
+def _refine_leave(
+    ctx: _Context, f: Follow, path: FloatArray, cum: FloatArray, d_end: float | None
+) -> tuple[float, float | None]:
+    """Locate (bisection, then the ring vertices nearby) where the leave rule first holds.
+
+    The rule holds at the end of ``path``, where d_reach is ``d_end``. Returns the
+    arclength and d_reach there.
+    """
     total = float(cum[-1])
-    if _leaves(ctx, f, path[0])[0]:
-        return 0.0
-    lo, hi = 0.0, total
+    fires, d_reach = _leaves(ctx, f, path[0])
+    if fires:
+        return 0.0, d_reach
+    lo, hi, d_hi = 0.0, total, d_end
     for _ in range(ctx.refine):
         mid = 0.5 * (lo + hi)
-        if _leaves(ctx, f, _point_along(path, cum, mid))[0]:
-            hi = mid
+        fires, d_reach = _leaves(ctx, f, _point_along(path, cum, mid))
+        if fires:
+            hi, d_hi = mid, d_reach
         else:
             lo = mid
     # New border comes into view when the robot rounds a corner: prefer the corner itself.
     inner = np.flatnonzero((cum > lo) & (cum < hi))
     for i in inner.tolist():
-        if _leaves(ctx, f, path[i])[0]:
-            return float(cum[i])
-    return hi
+        fires, d_reach = _leaves(ctx, f, path[i])
+        if fires:
+            return float(cum[i]), d_reach
+    return hi, d_hi
 
 
 # --------------------------------------------------------------------------- the rules
@@ -139,6 +151,8 @@ class LeaveCheck(NamedTuple):
     """The boundary-following memory, updated with what the rule saw on the way."""
     stop: float | None
     """Arclength along the piece where the rule first holds [m], None if nowhere."""
+    d_reach: float | None = None
+    """TangentBug rule: d_reach where the rule holds (None: not that rule)."""
 
 
 class LeaveRule(Protocol):
@@ -166,6 +180,10 @@ class LeaveRule(Protocol):
 
     def after_leave(self, ctx: _Context, f: Follow, p: FloatArray) -> Move | None:
         """Return the move the robot makes right after leaving at ``p``, if any."""
+        ...
+
+    def measures(self, f: Follow) -> tuple[float | None, float | None]:
+        """Return the rule's quantities in ``f`` for the decision records: d_reach, d_followed."""
         ...
 
 
@@ -212,12 +230,12 @@ class TangentBugLeave:
         self, ctx: _Context, f: Follow, path: FloatArray, cum: FloatArray
     ) -> LeaveCheck:
         """Sense at the end of ``path``; where the rule holds there, locate where it began."""
-        fires, d_followed = _leaves(ctx, f, path[-1])
+        fires, d_reach = _leaves(ctx, f, path[-1])
         if fires:
-            return LeaveCheck(f, _refine_leave(ctx, f, path, cum))
-        if d_followed != f.d_followed:
-            f = _evolve(f, d_followed=d_followed)
-        return LeaveCheck(f, None)
+            return LeaveCheck(f, *_refine_leave(ctx, f, path, cum, d_reach))
+        # d_followed takes in what the robot saw; min() as the definition reads.
+        d_followed = f.d_followed if d_reach is None else min(f.d_followed, d_reach)
+        return LeaveCheck(_evolve(f, d_followed=d_followed, d_reach=d_reach), None)
 
     def after_leave(self, ctx: _Context, f: Follow, p: FloatArray) -> Move | None:
         """Head for the point that made the rule hold until closer to the goal than d_followed."""
@@ -233,6 +251,10 @@ class TangentBugLeave:
         s = min(span, s + min(ctx.tol, 0.5 * (span - s)))
         q = p + s * (target - p) / span if span > 0 else p
         return Move(SEEK, np.array([p, q]), _pt(target))
+
+    def measures(self, f: Follow) -> tuple[float | None, float | None]:
+        """Return d_reach where the robot last looked, and d_followed."""
+        return f.d_reach, f.d_followed
 
 
 class ChapterLeave:
@@ -286,6 +308,10 @@ class ChapterLeave:
     def after_leave(self, ctx: _Context, f: Follow, p: FloatArray) -> Move | None:
         """Nothing: goal seeking decides from the leave point."""
         return None
+
+    def measures(self, f: Follow) -> tuple[float | None, float | None]:
+        """Return nothing: the rule compares d(r, g) with d(M, g) only."""
+        return None, None
 
 
 def leave_rule(name: str) -> LeaveRule:

@@ -79,6 +79,8 @@ __all__ = [
     "BugParams",
     "BugState",
     "BugTrace",
+    "Candidate",
+    "Decision",
     "Follow",
     "Move",
     "heuristic_distances",
@@ -88,6 +90,7 @@ __all__ = [
     "step",
 ]
 
+import bisect
 import dataclasses
 import functools
 import math
@@ -104,6 +107,8 @@ from planners.bug_context import (
     BugEvent,
     BugParams,
     BugState,
+    Candidate,
+    Decision,
     FloatArray,
     Follow,
     Move,
@@ -154,6 +159,9 @@ class BugTrace:
     """Number of :func:`step` calls."""
     terminated: str
     """``"goal"``, ``"loop"`` (went round an enclosing border), ``"step_cap"`` or ``"invalid"``."""
+    decisions: tuple[Decision, ...] = ()
+    """Every sensing and decision step in order (the boxes of Fig. 9.15 with their
+    grounds): what the app draws as the robot's choice, and what an explanation shows."""
     cspace: ConfigurationSpace | None = None
     """The configuration space the robot moved in (for :meth:`sensing_at`)."""
     planner: str = "dsb"
@@ -164,10 +172,7 @@ class BugTrace:
     @functools.cached_property
     def arclength(self) -> FloatArray:
         """Cumulative arclength at each path vertex, shape (N,) [m]."""
-        if len(self.path) == 0:
-            return np.zeros(0)
-        steps = np.hypot(*np.diff(self.path, axis=0).T)
-        return np.concatenate([[0.0], np.cumsum(steps)])
+        return _arclength(self.path)
 
     def position_at(self, s: float) -> FloatArray:
         """Return the robot's position after travelling ``s`` metres (clamped to the run) [m]."""
@@ -201,6 +206,34 @@ class BugTrace:
         cum = self.arclength
         i = int(np.searchsorted(cum, float(s), side="right")) - 1
         return self.aims[min(max(i, 0), len(self.aims) - 1)]
+
+    @functools.cached_property
+    def _decision_s(self) -> list[float]:
+        return [d.s for d in self.decisions]
+
+    def decision_at(self, s: float) -> Decision | None:
+        """Return the decision in force after travelling ``s`` metres (None before any).
+
+        The last one taken at or before ``s``: while seeking its ``chosen`` point is
+        :meth:`aim_at`; while following it has none (the chapter's robot chooses no O_i
+        then).
+
+        Examples
+        --------
+        >>> from shapely import Polygon
+        >>> from planners.expansion import configuration_space
+        >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
+        >>> trace = run(space, (-1.0, 1.0), BugParams(goal=(3.0, 1.0), sensor_range=math.inf))
+        >>> d = trace.decision_at(0.5)
+        >>> d.box, d.chosen, [(c.point, c.valid) for c in d.candidates]
+        ('choose_O_i', (0.0, 2.0), [((0.0, 0.0), True), ((0.0, 2.0), True)])
+        >>> d.chosen == trace.aim_at(0.5)
+        True
+        >>> trace.decision_at(trace.travelled).box
+        'reached'
+        """
+        i = bisect.bisect_right(self._decision_s, float(s)) - 1
+        return self.decisions[i] if i >= 0 else None
 
     def sensing_at(self, s: float) -> Sensing:
         """Return what the robot's sensor saw after travelling ``s`` metres.
@@ -351,6 +384,7 @@ def run(
     modes: list[str] = []
     aims: list[Point | None] = []
     events: list[BugEvent] = []
+    decisions: list[Decision] = []
     while state.mode in (SEEK, FOLLOW) and state.steps < ctx.max_steps:
         state = step(state, cspace, params)
         for move in state.moves:
@@ -360,27 +394,14 @@ def run(
                     modes.append(move.mode)
                     aims.append(move.aim)
         events.extend(state.events)
+        decisions.extend(state.decisions)
     path, modes, aims = _simplify(
         np.asarray(points, dtype=np.float64).reshape(-1, 2), modes, aims
     )
     travelled = (
         float(np.hypot(*np.diff(path, axis=0).T).sum()) if len(path) > 1 else 0.0
     )
-    if state.mode == REACHED:
-        status, length, reason, terminated = REACHED, travelled, None, "goal"
-    elif state.mode == UNREACHABLE:
-        status, length, reason, terminated = (
-            UNREACHABLE,
-            None,
-            state.reason,
-            state.terminated or "loop",
-        )
-    else:
-        status, length, terminated = UNREACHABLE, None, "step_cap"
-        reason = (
-            f"gave up after {state.steps} steps (the step cap for this scene) without reaching "
-            "the goal; this is not a proof that the goal is unreachable"
-        )
+    status, length, reason, terminated = _outcome(state, travelled)
     return BugTrace(
         status=status,
         path=path,
@@ -396,8 +417,53 @@ def run(
         leave_rule=ctx.rule,
         steps=state.steps,
         terminated=terminated,
+        decisions=_snapped(decisions, _arclength(path)),
         cspace=cspace,
     )
+
+
+def _outcome(
+    state: BugState, travelled: float
+) -> tuple[str, float | None, str | None, str]:
+    """Return the run's status, length, reason and termination from its last state."""
+    if state.mode == REACHED:
+        return REACHED, travelled, None, "goal"
+    if state.mode == UNREACHABLE:
+        return UNREACHABLE, None, state.reason, state.terminated or "loop"
+    reason = (
+        f"gave up after {state.steps} steps (the step cap for this scene) without reaching "
+        "the goal; this is not a proof that the goal is unreachable"
+    )
+    return UNREACHABLE, None, reason, "step_cap"
+
+
+def _arclength(path: FloatArray) -> FloatArray:
+    """Cumulative arclength at each vertex of ``path`` (N, 2), shape (N,) [m]."""
+    if len(path) == 0:
+        return np.zeros(0)
+    steps = np.hypot(*np.diff(path, axis=0).T)
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
+def _snapped(decisions: list[Decision], cum: FloatArray) -> tuple[Decision, ...]:
+    """Put the decisions taken at a path vertex exactly at its arclength ``cum``.
+
+    A decision's ``s`` sums the moves before it, the trace's arclength the simplified
+    path's segments: they differ in the last bits, and at a vertex
+    :meth:`BugTrace.decision_at` and :meth:`BugTrace.aim_at` must agree.
+    """
+    if len(cum) < 2:  # the robot did not move
+        return tuple(decisions)
+    s = np.array([d.s for d in decisions])
+    j = np.clip(np.searchsorted(cum, s), 1, len(cum) - 1)
+    lower, upper = cum[j - 1], cum[j]
+    nearest = np.where(np.abs(lower - s) <= np.abs(upper - s), lower, upper)
+    tol = 1e-9 * max(1.0, float(cum[-1]))
+    move = (nearest != s) & (np.abs(nearest - s) <= tol)
+    out = list(decisions)
+    for i in np.flatnonzero(move).tolist():
+        out[i] = dataclasses.replace(decisions[i], s=float(nearest[i]))
+    return tuple(out)
 
 
 def plan_tangent_bug(

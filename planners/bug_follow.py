@@ -163,7 +163,7 @@ def _leave(
             moves.append(after)
             q = after.path[-1]
     record = Decision(
-        s=state.travelled + walked_len, position=_pt(p), mode=SEEK, box="leave",
+        s=state.travelled + _length(walked_path), position=_pt(p), mode=SEEK, box="leave",
         d_goal=float(math.hypot(*(p - ctx.goal))), chosen=None if after is None else after.aim,
         d_local_min=f.d_local_min, d_followed=ctx.leave.measures(f)[1], d_reach=d_reach,
     )  # fmt: skip
@@ -215,6 +215,15 @@ def _full_round(
         (),
     )
     return out
+
+
+def _length(path: FloatArray) -> float:
+    """Length of a polyline, summed as :func:`_moved` sums the path travelled [m].
+
+    A decision's arclength must order with the next step's: the leave rule's own
+    arclength along the walk may differ from it in the last bits.
+    """
+    return float(np.hypot(*np.diff(path, axis=0).T).sum())
 
 
 def _closing(state: BugState, box: str, d_goal: float) -> BugState:

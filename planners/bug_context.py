@@ -343,12 +343,6 @@ def make_context(
     # seek_step / 2**refine; heuristic distances change at most twice as fast as the robot
     # moves, so there the two choices differ by less than this band.
     slide_band = 4.0 * seek_step / 2.0**params.refine + 10.0 * tol
-    goal_edge = _segment_distances(np.stack([geo.start, geo.end], axis=1), goal)
-    edges_by_goal = []
-    for k in range(len(geo.rings)):
-        lo, hi = int(geo.offset[k]), int(geo.offset[k + 1])
-        order = lo + np.argsort(goal_edge[lo:hi], kind="stable")
-        edges_by_goal.append((goal_edge[order].tolist(), order.tolist()))
     return _Context(
         cspace=cspace,
         geo=geo,
@@ -365,8 +359,21 @@ def make_context(
         max_steps=max_steps,
         refine=params.refine,
         labels=labels,
-        edges_by_goal=tuple(edges_by_goal),
+        edges_by_goal=_edges_by_goal(geo, goal),
     )
+
+
+def _edges_by_goal(
+    geo: RingGeometry, goal: FloatArray
+) -> tuple[tuple[list[float], list[int]], ...]:
+    """Per ring: the distances from the goal to its edges, ascending, and those edges."""
+    goal_edge = _segment_distances(np.stack([geo.start, geo.end], axis=1), goal)
+    out = []
+    for k in range(len(geo.rings)):
+        lo, hi = int(geo.offset[k]), int(geo.offset[k + 1])
+        order = lo + np.argsort(goal_edge[lo:hi], kind="stable")
+        out.append((goal_edge[order].tolist(), order.tolist()))
+    return tuple(out)
 
 
 def _obstacle_at(ctx: _Context, point: FloatArray) -> int | None:
@@ -423,9 +430,16 @@ def _moved(
 
 
 def _finish(
-    state: BugState, end: FloatArray, moves: tuple[Move, ...], events: tuple[BugEvent, ...],
-    mode: str, reason: str | None, terminated: str,
-) -> BugState:  # fmt: skip
+    state: BugState,
+    end: FloatArray,
+    moves: tuple[Move, ...],
+    events: tuple[BugEvent, ...],
+    *,
+    mode: str = REACHED,
+    reason: str | None = None,
+    terminated: str = "goal",
+) -> BugState:
+    """Make the final state after ``moves``: at the goal unless told otherwise."""
     out = _moved(state, moves, events)
     return _evolve(
         out,

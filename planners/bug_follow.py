@@ -21,7 +21,6 @@ import shapely
 
 from planners.bug_context import (
     FOLLOW,
-    REACHED,
     SEEK,
     UNREACHABLE,
     BugEvent,
@@ -101,13 +100,31 @@ def _walk_and_check(
     if s_goal is not None and (stop_at is None or s_goal <= stop_at):
         piece = _cut(path, cum, s_goal)
         piece[-1] = g
-        out = _finish(
-            state, g.copy(), (Move(FOLLOW, piece, None),), (), REACHED, None, "goal"
-        )
+        out = _finish(state, g.copy(), (Move(FOLLOW, piece, None),), ())
         return _closing(out, "reached", 0.0)
     if stop_at is not None:
-        return _leave(ctx, state, f, _cut(path, cum, stop_at), stop_at, d_reach)
+        cut = _cut(path, cum, stop_at)
+        return _leave(ctx, state, f, cut, stop_at, d_reach=d_reach)
+    return _walk_on(
+        ctx, state, f, path, arrived_sigma=arrived_sigma, walked=walked, total=total
+    )
 
+
+def _walk_on(
+    ctx: _Context,
+    state: BugState,
+    f: Follow,
+    path: FloatArray,
+    *,
+    arrived_sigma: float | None,
+    walked: float | None,
+    total: float,
+) -> BugState:
+    """Nothing stopped the move along ``path``: keep track of where on the border it ended.
+
+    Arriving at the border, the robot starts walking it; a walk that reaches Bug1's exit
+    leaves there, one that completes the round ends in :func:`_full_round`.
+    """
     moves = (Move(FOLLOW, path, None),)
     if arrived_sigma is not None:
         f = _evolve(f, target=None, sigma=arrived_sigma, walked=0.0)
@@ -134,6 +151,7 @@ def _leave(
     f: Follow,
     walked_path: FloatArray,
     walked_len: float,
+    *,
     d_reach: float | None = None,
 ) -> BugState:
     """Leave the border at the end of ``walked_path`` and go back to goal seeking.

@@ -23,7 +23,6 @@ import numpy.typing as npt
 
 from planners.bug_context import (
     FOLLOW,
-    REACHED,
     SEEK,
     BugEvent,
     BugState,
@@ -98,6 +97,14 @@ class _View(NamedTuple):
     valid: BoolArray  # candidates: closer to the goal than r, or downhill
 
 
+class _Ray(NamedTuple):
+    """The goal ray from the robot, blocked within R."""
+
+    u: FloatArray  # unit direction toward the goal
+    ring: int  # the ring that blocks it
+    hit: FloatArray  # where
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class _Seek:
     """The goal-seeking decision at one position (a pure function of it)."""
@@ -140,7 +147,7 @@ def _decide(ctx: _Context, x: FloatArray, prefer: _Key | None = None) -> _Seek:
         return _Seek("ahead", _GOAL, -1, None, ahead=extent - ctx.radius + ctx.margin)
     seen = sense(ctx.geo, x, ctx.radius, near=near)
     view = _tangent_graph(ctx, seen, x, dg, prefer)
-    return _choose(ctx, x, u, ring, hit, seen, view, prefer)
+    return _choose(ctx, x, _Ray(u, ring, hit), seen, view, prefer=prefer)
 
 
 def _tangent_graph(
@@ -177,11 +184,10 @@ def _tangent_graph(
 def _choose(
     ctx: _Context,
     x: FloatArray,
-    u: FloatArray,
-    ring: int,
-    hit: FloatArray,
+    ray: _Ray,
     seen: Sensing,
     view: _View,
+    *,
     prefer: _Key | None,
 ) -> _Seek:
     """Choose r_next = the candidate O_i minimising d(r, O_i) + d(O_i, g), or find M.
@@ -192,6 +198,7 @@ def _choose(
     (Choset et al.: "the direction that minimizes the heuristic begins to increase
     d(x, q_goal)").
     """
+    ring, hit = ray.ring, ray.hit
     local_min = _Key("local_min", ring)
     if view.going.any() and not view.downhill.any():
         overall = int(np.argmin(np.where(view.seen_ok, view.h, np.inf)))
@@ -203,46 +210,66 @@ def _choose(
     if not view.valid.any():
         return _Seek("local_min", local_min, ring, hit, sensing=seen, view=view)
     h = np.where(view.valid, view.h, np.inf)
-    best = _best(ctx, x, u, ring, seen, view.okeys, h, prefer)
-    target = seen.points[best]
+    best = _best(ctx, x, ray, seen, h, okeys=view.okeys, prefer=prefer)
+    chosen = _Seek(
+        "toward", _Key("toward", ring, frozenset((view.okeys[best],))), ring, hit,
+        target=seen.points[best], index=best, sensing=seen, view=view,
+    )  # fmt: skip
     # When a second choice is (about) as good, the continuous algorithm would chatter
     # between the two: moving toward either makes the other the better. Like a sliding
     # mode, the robot then moves between them (see _seek_move) until one clearly wins.
     n = len(seen.points)
     others = np.where(np.arange(n) == best, np.inf, h)
     second = int(np.argmin(others)) if n > 1 else -1
-    chosen = _Seek(
-        "toward", _Key("toward", ring, frozenset((view.okeys[best],))), ring, hit,
-        target=target, index=best, sensing=seen, view=view,
-    )  # fmt: skip
     if second < 0:
         return chosen
-    # The pair is unordered: only equality and membership of keys are ever asked.
-    key = _Key("toward", ring, frozenset((view.okeys[best], view.okeys[second])), True)
     gap = float(others[second] - h[best])
+    return _slide(ctx, x, chosen, second, gap=gap, prefer=prefer)
+
+
+def _slide(
+    ctx: _Context,
+    x: FloatArray,
+    chosen: _Seek,
+    second: int,
+    *,
+    gap: float,
+    prefer: _Key | None,
+) -> _Seek:
+    """Turn ``chosen`` into a sliding decision with the O_i ``second``, if they chatter.
+
+    ``gap`` is how much worse ``second`` is. Sliding straight away from the goal is a
+    local minimum.
+    """
+    assert chosen.sensing is not None and chosen.view is not None
+    okeys, ring = chosen.view.okeys, chosen.blocking
+    # The pair is unordered: only equality and membership of keys are ever asked.
+    key = _Key("toward", ring, frozenset((okeys[chosen.index], okeys[second])), True)
     # Enter the sliding mode within a narrow band; once in it, stay in a wider one
     # (a straight step along the sliding direction drifts off the curved switching line).
     if not (gap <= ctx.slide_band or (prefer == key and gap <= ctx.stay_band)):
         return chosen
-    f = _sliding_direction(ctx, seen, x, best, second)
+    f = _sliding_direction(ctx, chosen.sensing, x, chosen.index, second)
     if f is None:
         return chosen
     if float(np.dot(f, ctx.goal - x)) <= 1e-9 * float(math.hypot(*(ctx.goal - x))):
-        return dataclasses.replace(chosen, kind="local_min", key=local_min)
+        return dataclasses.replace(
+            chosen, kind="local_min", key=_Key("local_min", ring)
+        )
     return dataclasses.replace(chosen, key=key, sibling=second, slide=True, direction=f)
 
 
 def _best(
     ctx: _Context,
     x: FloatArray,
-    u: FloatArray,
-    ring: int,
+    ray: _Ray,
     seen: Sensing,
-    okeys: list[_OKey],
     h: FloatArray,
+    *,
+    okeys: list[_OKey],
     prefer: _Key | None,
 ) -> int:
-    """Index of the least heuristic distance ``h`` (inf: not a candidate).
+    """Return the index of the least heuristic distance ``h`` (inf: not a candidate).
 
     Exact ties (symmetric scenes) keep the previous choice, else go to the left-hand one.
     """
@@ -254,10 +281,11 @@ def _best(
         same = [
             int(i)
             for i in tied
-            if okeys[i] in prefer.aim and (prefer.pair or prefer.ring == ring)
+            if okeys[i] in prefer.aim and (prefer.pair or prefer.ring == ray.ring)
         ]
         if same:
             return same[0]
+    u = ray.u
     rel = seen.points[tied] - x
     left = u[0] * rel[:, 1] - u[1] * rel[:, 0]
     return int(tied[int(np.argmax(left))])
@@ -340,9 +368,7 @@ def _seek_step(ctx: _Context, state: BugState) -> BugState:
     if dec.kind in ("reached", "goal"):
         # Within the tolerance: step onto the goal itself, so the path ends there exactly.
         move = Move(SEEK, np.array([x, ctx.goal]), _pt(ctx.goal))
-        out = _finish(
-            base, ctx.goal.copy(), (move,), tuple(events), REACHED, None, "goal"
-        )
+        out = _finish(base, ctx.goal.copy(), (move,), tuple(events))
         if dec.kind == "reached":
             return out
         at_goal = Decision(
@@ -413,6 +439,7 @@ def _record(
     state: BugState,
     x: FloatArray,
     dec: _Seek,
+    *,
     mode: str = SEEK,
     follow: Follow | None = None,
 ) -> Decision:
@@ -483,7 +510,7 @@ def _switch_point(
     before = s - gap
     if not (before > 0 and _decide(ctx, x + before * w, dec.key).key != dec.key):
         return y, nxt
-    lo, hi, at_hi = _corner_probe(ctx, x, w, dec, gap, before)
+    lo, hi, at_hi = _corner_probe(ctx, x, w, dec, gap=gap, before=before)
     resolution = before / 2.0**ctx.refine
     while hi - lo > resolution:
         mid = 0.5 * (lo + hi)
@@ -497,7 +524,13 @@ def _switch_point(
 
 
 def _corner_probe(
-    ctx: _Context, x: FloatArray, w: FloatArray, dec: _Seek, gap: float, before: float
+    ctx: _Context,
+    x: FloatArray,
+    w: FloatArray,
+    dec: _Seek,
+    *,
+    gap: float,
+    before: float,
 ) -> tuple[float, float, _Seek | None]:
     """Bracket the switch in [0, ``before``] around the guess of :func:`_corner_in_range`.
 
@@ -615,12 +648,12 @@ def _start_following(
         if state.heading is not None
         else None
     )
-    follow = _join(ctx, state, x, dec, seen, on_ring, heading)
+    follow = _join(ctx, state, x, dec, seen=seen, on_ring=on_ring, heading=heading)
     follow = _evolve(
         follow, local_min=_pt(x), d_local_min=d_m, d_followed=d_followed, d_reach=d_seen,
         obstacle=obstacle,
     )  # fmt: skip
-    record = _record(ctx, state, x, dec, FOLLOW, follow)
+    record = _record(ctx, state, x, dec, mode=FOLLOW, follow=follow)
     return _evolve(
         state, mode=FOLLOW, follow=follow, moves=(), events=tuple(events),
         steps=state.steps + 1, decisions=(record,),
@@ -632,6 +665,7 @@ def _join(
     state: BugState,
     x: FloatArray,
     dec: _Seek,
+    *,
     seen: Sensing,
     on_ring: BoolArray,
     heading: FloatArray | None,
@@ -643,7 +677,7 @@ def _join(
     """
     geo, ring = ctx.geo, dec.blocking
     direction, target, target_edge, target_t = _piece_end(
-        ctx, x, dec, seen, on_ring, heading
+        ctx, x, dec, seen=seen, on_ring=on_ring, heading=heading
     )
     sigma_here = _sigma_on_ring(geo, x, ring, ctx.tol)
     blank = Follow(
@@ -683,6 +717,7 @@ def _piece_end(
     ctx: _Context,
     x: FloatArray,
     dec: _Seek,
+    *,
     seen: Sensing,
     on_ring: BoolArray,
     heading: FloatArray | None,

@@ -723,7 +723,9 @@ def visible_pieces(
     return np.array(mine, dtype=np.float64).reshape(-1, 2, 2)
 
 
-def _sweep(
+# A numeric kernel, kept whole: one pass over the critical angles on Python floats (see
+# the docstring); cut into pieces it would hand a dozen arrays and scalars between them.
+def _sweep(  # noqa: PLR0912, PLR0915
     geo: RingGeometry, x: FloatArray, radius: float, near: Near | None = None
 ) -> list[_Item]:
     """Cut the full turn at the critical angles and say what each interval sees.
@@ -861,6 +863,7 @@ def _facing_parts(
     return out
 
 
+# A numeric kernel, kept whole: one sort and one pass over the angles, merging runs.
 def _merge_close_angles(
     theta: FloatArray,
     reach: Callable[[], FloatArray],
@@ -954,7 +957,8 @@ def _ccw_gaps(theta: FloatArray) -> FloatArray:
     return gap
 
 
-def _t_at(
+# Scalar kernels, called per edge and critical angle: plain floats in, nothing packed.
+def _t_at(  # noqa: PLR0917
     angle: float,
     ax: float,
     ay: float,
@@ -1030,7 +1034,7 @@ def _leave_disk(
     return t_out if direction > 0 else t_in
 
 
-def disk_span(
+def disk_span(  # noqa: PLR0917 - a scalar kernel (see _t_at)
     ax: float, ay: float, dx: float, dy: float, len2: float, r2: float
 ) -> tuple[float, float, bool]:
     """Return where a segment lies in a disk: (t_in, t_out, whether its line meets it).
@@ -1079,6 +1083,7 @@ def _angle_gap(a: float, b: float) -> float:
     return abs((a - b + math.pi) % TAU - math.pi)
 
 
+# A numeric kernel, kept whole: one pass over the sweep's items, joining chains.
 def _assemble(
     geo: RingGeometry, x: FloatArray, radius: float, items: list[_Item]
 ) -> Sensing:
@@ -1172,6 +1177,7 @@ def _assemble(
 # --------------------------------------------------------------------------- one ray
 
 
+# A numeric kernel, kept whole: vectorised tests over every edge, then the few hits.
 def free_extent(
     geo: RingGeometry,
     position: npt.ArrayLike,

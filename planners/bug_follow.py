@@ -50,10 +50,15 @@ def _follow_step(ctx: _Context, state: BugState) -> BugState:
     geo = ctx.geo
     d_reach, d_followed = ctx.leave.measures(f)
     record = Decision(
-        s=state.travelled, position=state.position, mode=FOLLOW, box="follow_boundary",
-        d_goal=float(math.hypot(*(ctx.goal - x))), d_local_min=f.d_local_min,
-        d_followed=d_followed, d_reach=d_reach,
-    )  # fmt: skip
+        s=state.travelled,
+        position=state.position,
+        mode=FOLLOW,
+        box="follow_boundary",
+        d_goal=float(math.hypot(*(ctx.goal - x))),
+        d_local_min=f.d_local_min,
+        d_followed=d_followed,
+        d_reach=d_reach,
+    )
     state = _evolve(state, decisions=(record,))
     if f.target is not None:
         # Approach: straight to where the followed piece of border ends in view.
@@ -181,10 +186,16 @@ def _leave(
             moves.append(after)
             q = after.path[-1]
     record = Decision(
-        s=state.travelled + _length(walked_path), position=_pt(p), mode=SEEK, box="leave",
-        d_goal=float(math.hypot(*(p - ctx.goal))), chosen=None if after is None else after.aim,
-        d_local_min=f.d_local_min, d_followed=ctx.leave.measures(f)[1], d_reach=d_reach,
-    )  # fmt: skip
+        s=state.travelled + _length(walked_path),
+        position=_pt(p),
+        mode=SEEK,
+        box="leave",
+        d_goal=float(math.hypot(*(p - ctx.goal))),
+        chosen=None if after is None else after.aim,
+        d_local_min=f.d_local_min,
+        d_followed=ctx.leave.measures(f)[1],
+        d_reach=d_reach,
+    )
     state = _evolve(state, decisions=(*state.decisions, record))
     out = _moved(state, tuple(moves), events)
     last = moves[-1].path
@@ -194,9 +205,17 @@ def _leave(
         else state.heading
     )
     return _evolve(
-        out, mode=SEEK, follow=None, blocking=f.ring, blocking_obstacle=f.obstacle, quiet_depart=True, position=_pt(q),
-        heading=None if heading is None else _pt(heading), left=left, cache=None,
-    )  # fmt: skip
+        out,
+        mode=SEEK,
+        follow=None,
+        blocking=f.ring,
+        blocking_obstacle=f.obstacle,
+        quiet_depart=True,
+        position=_pt(q),
+        heading=None if heading is None else _pt(heading),
+        left=left,
+        cache=None,
+    )
 
 
 def _full_round(

@@ -204,17 +204,29 @@ def _choose(
         overall = int(np.argmin(np.where(view.seen_ok, view.h, np.inf)))
         if view.going[overall]:
             return _Seek(
-                "local_min", local_min, ring, hit, target=seen.points[overall],
-                index=overall, sensing=seen, view=view,
-            )  # fmt: skip
+                "local_min",
+                local_min,
+                ring,
+                hit,
+                target=seen.points[overall],
+                index=overall,
+                sensing=seen,
+                view=view,
+            )
     if not view.valid.any():
         return _Seek("local_min", local_min, ring, hit, sensing=seen, view=view)
     h = np.where(view.valid, view.h, np.inf)
     best = _best(ctx, x, ray, seen, h, okeys=view.okeys, prefer=prefer)
     chosen = _Seek(
-        "toward", _Key("toward", ring, frozenset((view.okeys[best],))), ring, hit,
-        target=seen.points[best], index=best, sensing=seen, view=view,
-    )  # fmt: skip
+        "toward",
+        _Key("toward", ring, frozenset((view.okeys[best],))),
+        ring,
+        hit,
+        target=seen.points[best],
+        index=best,
+        sensing=seen,
+        view=view,
+    )
     # When a second choice is (about) as good, the continuous algorithm would chatter
     # between the two: moving toward either makes the other the better. Like a sliding
     # mode, the robot then moves between them (see _seek_move) until one clearly wins.
@@ -372,9 +384,13 @@ def _seek_step(ctx: _Context, state: BugState) -> BugState:
         if dec.kind == "reached":
             return out
         at_goal = Decision(
-            s=out.travelled, position=out.position, mode=SEEK, box="reached",
-            d_goal=0.0, chosen=_pt(ctx.goal),
-        )  # fmt: skip
+            s=out.travelled,
+            position=out.position,
+            mode=SEEK,
+            box="reached",
+            d_goal=0.0,
+            chosen=_pt(ctx.goal),
+        )
         return _evolve(out, decisions=(*out.decisions, at_goal))
     if dec.kind == "ahead":
         u = (ctx.goal - x) / math.hypot(*(ctx.goal - x))
@@ -650,14 +666,23 @@ def _start_following(
     )
     follow = _join(ctx, state, x, dec, seen=seen, on_ring=on_ring, heading=heading)
     follow = _evolve(
-        follow, local_min=_pt(x), d_local_min=d_m, d_followed=d_followed, d_reach=d_seen,
+        follow,
+        local_min=_pt(x),
+        d_local_min=d_m,
+        d_followed=d_followed,
+        d_reach=d_seen,
         obstacle=obstacle,
-    )  # fmt: skip
+    )
     record = _record(ctx, state, x, dec, mode=FOLLOW, follow=follow)
     return _evolve(
-        state, mode=FOLLOW, follow=follow, moves=(), events=tuple(events),
-        steps=state.steps + 1, decisions=(record,),
-    )  # fmt: skip
+        state,
+        mode=FOLLOW,
+        follow=follow,
+        moves=(),
+        events=tuple(events),
+        steps=state.steps + 1,
+        decisions=(record,),
+    )
 
 
 def _join(
@@ -681,9 +706,17 @@ def _join(
     )
     sigma_here = _sigma_on_ring(geo, x, ring, ctx.tol)
     blank = Follow(
-        ring=ring, direction=direction, local_min=(0.0, 0.0), d_local_min=0.0,
-        d_followed=0.0, target=None, target_sigma=0.0, sigma=0.0, walked=0.0, obstacle=None,
-    )  # fmt: skip
+        ring=ring,
+        direction=direction,
+        local_min=(0.0, 0.0),
+        d_local_min=0.0,
+        d_followed=0.0,
+        target=None,
+        target_sigma=0.0,
+        sigma=0.0,
+        walked=0.0,
+        obstacle=None,
+    )
     if sigma_here is not None:
         if heading is not None:
             forward, backward = _tangents(geo, ring, sigma_here)

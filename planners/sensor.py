@@ -380,9 +380,23 @@ def _build_ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
         empty = np.zeros((0, 2))
         none = np.zeros(0, dtype=np.intp)
         return RingGeometry(
-            (), empty, empty, np.zeros(0), none, np.zeros(1, dtype=np.intp),
-            (), np.zeros(0), np.zeros(0), empty, empty, empty, np.zeros(0), none, cspace.eps, 1.0,
-        )  # fmt: skip
+            rings=(),
+            start=empty,
+            end=empty,
+            length=np.zeros(0),
+            ring=none,
+            offset=np.zeros(1, dtype=np.intp),
+            cum=(),
+            perimeter=np.zeros(0),
+            area=np.zeros(0),
+            prev_dir=empty,
+            step=empty,
+            unit=empty,
+            len2=np.zeros(0),
+            prev_edge=none,
+            eps=cspace.eps,
+            scale=1.0,
+        )
     start = np.vstack(rings)
     end = np.vstack([np.roll(r, -1, axis=0) for r in rings])
     prev = np.vstack([np.roll(r, 1, axis=0) for r in rings])
@@ -412,9 +426,23 @@ def _build_ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
         [np.roll(np.arange(offset[k], offset[k + 1]), 1) for k in range(len(rings))]
     ).astype(np.intp)
     return RingGeometry(
-        tuple(rings), start, end, length, ring, offset, cum, perimeter, area, prev_dir,
-        step, step / length[:, None], length * length, prev_edge, cspace.eps, scale,
-    )  # fmt: skip
+        rings=tuple(rings),
+        start=start,
+        end=end,
+        length=length,
+        ring=ring,
+        offset=offset,
+        cum=cum,
+        perimeter=perimeter,
+        area=area,
+        prev_dir=prev_dir,
+        step=step,
+        unit=step / length[:, None],
+        len2=length * length,
+        prev_edge=prev_edge,
+        eps=cspace.eps,
+        scale=scale,
+    )
 
 
 # --------------------------------------------------------------------------- what the sensor sees
@@ -857,9 +885,21 @@ def _facing_parts(
             if not (t_out - t_in) * length > eps:
                 continue
         out.append(
-            _Part(e, ax, ay, dx, dy, c, t_in, t_out,
-                  ax + t_in * dx, ay + t_in * dy, ax + t_out * dx, ay + t_out * dy)
-        )  # fmt: skip
+            _Part(
+                edge=e,
+                ax=ax,
+                ay=ay,
+                dx=dx,
+                dy=dy,
+                cross=c,
+                t_in=t_in,
+                t_out=t_out,
+                inx=ax + t_in * dx,
+                iny=ay + t_in * dy,
+                outx=ax + t_out * dx,
+                outy=ay + t_out * dy,
+            )
+        )
     return out
 
 

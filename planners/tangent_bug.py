@@ -61,7 +61,17 @@ good the continuous algorithm would chatter between them; the robot then moves l
 sliding mode, along the combination of both headings that keeps them equal. A run is
 :func:`run`, a loop over the pure :func:`step`; it returns a :class:`BugTrace` that the
 app can scrub, and that answers what the robot saw anywhere along the run
-(:meth:`BugTrace.sensing_at`) and where it was heading (:meth:`BugTrace.aim_at`).
+(:meth:`BugTrace.sensing_at`), where it was heading (:meth:`BugTrace.aim_at`) and on
+what grounds: every decision is a :class:`Decision` record (the box of Fig. 9.15, the
+O_i with d(r, O_i) and d(O_i, g), r_next, d_reach and d_followed), in
+:attr:`BugTrace.decisions` and :meth:`BugTrace.decision_at`.
+
+The code follows the flowchart: goal seeking (:mod:`planners.bug_seek`) and boundary
+following (:mod:`planners.bug_follow`) never import each other and hand over by the
+mode of the state they return; the leave rule is one object (:mod:`planners.bug_leave`);
+the records and the context derived once per (configuration space, parameters), kept on
+the configuration space, are in :mod:`planners.bug_context`. This module is the entry
+point: the step, the run and the trace.
 
 References
 ----------
@@ -505,10 +515,22 @@ def plan_tangent_bug(
     if blocked.any():
         which = "start" if blocked[0] else "goal"
         return BugTrace(
-            status="invalid", path=np.zeros((0, 2)), length=None, reason=f"the {which} is not in free space",
-            events=(), modes=(), aims=(), travelled=0.0, start=_pt(s), goal=_pt(g), sensor_range=float(sensor_range),
-            leave_rule=leave_rule, steps=0, terminated="invalid", cspace=cspace,
-        )  # fmt: skip
+            status="invalid",
+            path=np.zeros((0, 2)),
+            length=None,
+            reason=f"the {which} is not in free space",
+            events=(),
+            modes=(),
+            aims=(),
+            travelled=0.0,
+            start=_pt(s),
+            goal=_pt(g),
+            sensor_range=float(sensor_range),
+            leave_rule=leave_rule,
+            steps=0,
+            terminated="invalid",
+            cspace=cspace,
+        )
     return run(
         cspace,
         s,

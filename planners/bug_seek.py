@@ -254,12 +254,16 @@ def _slide(
     local minimum.
     """
     assert chosen.sensing is not None and chosen.view is not None
+    # Enter the sliding mode within a narrow band; once in it, stay in a wider one
+    # (a straight step along the sliding direction drifts off the curved switching line).
+    if gap > ctx.slide_band and (
+        gap > ctx.stay_band or prefer is None or not prefer.pair
+    ):
+        return chosen  # (asked first: most decisions are far from a tie)
     okeys, ring = chosen.view.okeys, chosen.blocking
     # The pair is unordered: only equality and membership of keys are ever asked.
     key = _Key("toward", ring, frozenset((okeys[chosen.index], okeys[second])), True)
-    # Enter the sliding mode within a narrow band; once in it, stay in a wider one
-    # (a straight step along the sliding direction drifts off the curved switching line).
-    if not (gap <= ctx.slide_band or (prefer == key and gap <= ctx.stay_band)):
+    if gap > ctx.slide_band and prefer != key:
         return chosen
     f = _sliding_direction(ctx, chosen.sensing, x, chosen.index, second)
     if f is None:
@@ -493,18 +497,19 @@ def _candidates(dec: _Seek) -> tuple[Candidate, ...]:
     seen, view = dec.sensing, dec.view
     if seen is None or view is None:
         return ()
+    # Candidate._make: a tuple from the values in field order, without parsing arguments.
     return tuple(
-        Candidate(
-            point=(p[0], p[1]), kind=kind, d_robot=a, d_goal=b, heuristic=h, valid=v
-        )
-        for p, kind, a, b, h, v in zip(
-            seen.points.tolist(),
-            seen.kinds,
-            view.dist.tolist(),
-            view.to_goal.tolist(),
-            view.h.tolist(),
-            view.valid.tolist(),
-            strict=True,
+        map(
+            Candidate._make,
+            zip(
+                map(tuple, seen.points.tolist()),
+                seen.kinds,
+                view.dist.tolist(),
+                view.to_goal.tolist(),
+                view.h.tolist(),
+                view.valid.tolist(),
+                strict=True,
+            ),
         )
     )
 

@@ -464,15 +464,17 @@ def _snapped(decisions: list[Decision], cum: FloatArray) -> tuple[Decision, ...]
     """
     if len(cum) < 2:  # the robot did not move
         return tuple(decisions)
-    s = np.array([d.s for d in decisions])
-    j = np.clip(np.searchsorted(cum, s), 1, len(cum) - 1)
-    lower, upper = cum[j - 1], cum[j]
-    nearest = np.where(np.abs(lower - s) <= np.abs(upper - s), lower, upper)
-    tol = 1e-9 * max(1.0, float(cum[-1]))
-    move = (nearest != s) & (np.abs(nearest - s) <= tol)
-    out = list(decisions)
-    for i in np.flatnonzero(move).tolist():
-        out[i] = dataclasses.replace(decisions[i], s=float(nearest[i]))
+    # A few dozen decisions: plain Python beats numpy's per-call cost here.
+    at = cum.tolist()
+    tol = 1e-9 * max(1.0, at[-1])
+    out = []
+    for d in decisions:
+        j = min(max(bisect.bisect_left(at, d.s), 1), len(at) - 1)
+        lower, upper = at[j - 1], at[j]
+        nearest = lower if abs(lower - d.s) <= abs(upper - d.s) else upper
+        if nearest != d.s and abs(nearest - d.s) <= tol:
+            d = dataclasses.replace(d, s=nearest)  # noqa: PLW2901 - the snapped copy
+        out.append(d)
     return tuple(out)
 
 

@@ -207,7 +207,9 @@ class TangentBugLeave:
     >>> from planners.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
     >>> ctx = make_context(space, BugParams(goal=(3.0, 1.0)), TangentBugLeave())
-    >>> f = Follow(0, 1, (0.0, 1.0), 3.0, 3.0, None, 0.0, 0.0, 0.0, 1)
+    >>> f = Follow(ring=0, direction=1, local_min=(0.0, 1.0), d_local_min=3.0,
+    ...            d_followed=3.0, target=None, target_sigma=0.0, sigma=0.0, walked=0.0,
+    ...            obstacle=1)
     >>> d_reach, at = _reach(ctx, np.array([0.0, 2.0]), 0)
     >>> round(d_reach, 6), at.tolist()
     (1.414214, [2.0, 2.0])
@@ -276,7 +278,9 @@ class ChapterLeave:
     >>> from planners.expansion import configuration_space
     >>> space = configuration_space((), 0.0)
     >>> ctx = make_context(space, BugParams(goal=(3.0, 1.0)), ChapterLeave())
-    >>> f = Follow(0, 1, (0.0, 1.0), 3.0, 3.0, None, 0.0, 0.0, 0.0, 1)
+    >>> f = Follow(ring=0, direction=1, local_min=(0.0, 1.0), d_local_min=3.0,
+    ...            d_followed=3.0, target=None, target_sigma=0.0, sigma=0.0, walked=0.0,
+    ...            obstacle=1)
     >>> path = np.array([[0.0, 1.0], [0.0, 2.0], [2.0, 2.0], [2.0, 1.0]])
     >>> cum = np.array([0.0, 1.0, 3.0, 4.0])
     >>> found = ChapterLeave().check(ctx, f, path, cum)

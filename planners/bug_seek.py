@@ -178,7 +178,16 @@ def _tangent_graph(
         else np.zeros(0, dtype=bool)
     )
     downhill = going & (slope < -1e-9)
-    return _View(okeys, dist, to_goal, h, seen_ok, going, downhill, closer | downhill)
+    return _View(
+        okeys=okeys,
+        dist=dist,
+        to_goal=to_goal,
+        h=h,
+        seen_ok=seen_ok,
+        going=going,
+        downhill=downhill,
+        valid=closer | downhill,
+    )
 
 
 def _choose(
@@ -262,7 +271,8 @@ def _slide(
         return chosen  # (asked first: most decisions are far from a tie)
     okeys, ring = chosen.view.okeys, chosen.blocking
     # The pair is unordered: only equality and membership of keys are ever asked.
-    key = _Key("toward", ring, frozenset((okeys[chosen.index], okeys[second])), True)
+    both = frozenset((okeys[chosen.index], okeys[second]))
+    key = _Key("toward", ring, both, pair=True)
     if gap > ctx.slide_band and prefer != key:
         return chosen
     f = _sliding_direction(ctx, chosen.sensing, x, chosen.index, second)

@@ -51,10 +51,11 @@ def _check_decisions_agree_with_trace(trace) -> None:
             assert d.chosen == aim == trace.aim_at(s), (i, s, d)
             if mode == FOLLOW:
                 assert d.chosen is None
-    # ... and at the vertices, where the choice changes.
-    for i in range(len(trace.modes)):
-        d = trace.decision_at(cum[i])
-        assert d is not None and d.chosen == trace.aim_at(cum[i]), (i, d)
+    # ... at the vertices, where the choice changes, and wherever an animation samples.
+    for s in [*cum[:-1], *np.linspace(0.0, cum[-1], 301)]:
+        d = trace.decision_at(s)
+        assert d is not None and d.chosen == trace.aim_at(s), (s, d)
+        assert d.mode == trace.mode_at(s), (s, d)
     # Where a choice is in force over a stretch of path, the path heads for r_next.
     following = [*decisions[1:], None]
     for d, nxt in zip(decisions, following, strict=True):

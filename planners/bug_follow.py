@@ -164,27 +164,14 @@ def _leave(
     ``d_reach``: the leave rule's d_reach there, for the record.
     """
     p = walked_path[-1]
-    events = (
-        BugEvent(
-            "leave",
-            _pt(p),
-            _label("L", f.obstacle),
-            f.obstacle,
-            state.travelled + walked_len,
-        ),
-    )
-    left = (
-        _evolve(f, walked=f.walked + (walked_len if f.target is None else 0.0)),
-        state.travelled + walked_len,
-    )
+    at = state.travelled + walked_len
+    events = (BugEvent("leave", _pt(p), _label("L", f.obstacle), f.obstacle, at),)
+    left = (_evolve(f, walked=f.walked + (walked_len if f.target is None else 0.0)), at)
     moves: list[Move] = [Move(FOLLOW, walked_path, None)]
-    q = p
-    after = None
-    if f.exit_sigma is None:  # not after Bug1's exit
-        after = ctx.leave.after_leave(ctx, f, p)
-        if after is not None:
-            moves.append(after)
-            q = after.path[-1]
+    # What the rule does right after leaving (not after Bug1's exit: nothing).
+    after = ctx.leave.after_leave(ctx, f, p) if f.exit_sigma is None else None
+    if after is not None:
+        moves.append(after)
     record = Decision(
         s=state.travelled + _length(walked_path),
         position=_pt(p),
@@ -211,10 +198,10 @@ def _leave(
         blocking=f.ring,
         blocking_obstacle=f.obstacle,
         quiet_depart=True,
-        position=_pt(q),
-        heading=None if heading is None else _pt(heading),
+        position=_pt(last[-1]),
         left=left,
         cache=None,
+        heading=None if heading is None else _pt(heading),
     )
 
 

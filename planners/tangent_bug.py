@@ -104,6 +104,7 @@ import bisect
 import dataclasses
 import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -390,23 +391,12 @@ def run(
     """
     ctx = _context(cspace, params)
     state = initial_state(start)
-    points: list[FloatArray] = [np.asarray(state.position, dtype=np.float64)]
-    modes: list[str] = []
-    aims: list[Point | None] = []
-    events: list[BugEvent] = []
-    decisions: list[Decision] = []
+    log = _Log([np.asarray(state.position, dtype=np.float64)], [], [], [], [])
     while state.mode in (SEEK, FOLLOW) and state.steps < ctx.max_steps:
         state = step(state, cspace, params)
-        for move in state.moves:
-            for p in move.path[1:]:
-                if math.hypot(*(p - points[-1])) > 0.0:
-                    points.append(np.asarray(p, dtype=np.float64))
-                    modes.append(move.mode)
-                    aims.append(move.aim)
-        events.extend(state.events)
-        decisions.extend(state.decisions)
+        log.add(state)
     path, modes, aims = _simplify(
-        np.asarray(points, dtype=np.float64).reshape(-1, 2), modes, aims
+        np.asarray(log.points, dtype=np.float64).reshape(-1, 2), log.modes, log.aims
     )
     travelled = (
         float(np.hypot(*np.diff(path, axis=0).T).sum()) if len(path) > 1 else 0.0
@@ -417,7 +407,7 @@ def run(
         path=path,
         length=length,
         reason=reason,
-        events=tuple(events),
+        events=tuple(log.events),
         modes=tuple(modes),
         aims=tuple(aims),
         travelled=travelled,
@@ -427,9 +417,31 @@ def run(
         leave_rule=ctx.rule,
         steps=state.steps,
         terminated=terminated,
-        decisions=_snapped(decisions, _arclength(path)),
+        decisions=_snapped(log.decisions, _arclength(path)),
         cspace=cspace,
     )
+
+
+class _Log(NamedTuple):
+    """What :func:`run` gathers step by step (lists it appends to, owned by one run)."""
+
+    points: list[FloatArray]  # the path's vertices, without repeats
+    modes: list[str]  # the mode of each segment
+    aims: list[Point | None]  # ... and its aim
+    events: list[BugEvent]
+    decisions: list[Decision]
+
+    def add(self, state: BugState) -> None:
+        """Append what the step that led to ``state`` did."""
+        points = self.points
+        for move in state.moves:
+            for p in move.path[1:]:
+                if math.hypot(*(p - points[-1])) > 0.0:
+                    points.append(np.asarray(p, dtype=np.float64))
+                    self.modes.append(move.mode)
+                    self.aims.append(move.aim)
+        self.events.extend(state.events)
+        self.decisions.extend(state.decisions)
 
 
 def _outcome(

@@ -70,14 +70,15 @@ class _Key(NamedTuple):
     until the key changes (:func:`_switch_point`).
     """
 
-    kind: (
-        str  # "reached" | "goal" (straight or ahead toward it) | "local_min" | "toward"
-    )
-    ring: int = -1  # the ring blocking the goal ray ("local_min", "toward")
-    aim: frozenset[_OKey] = (
-        frozenset()
-    )  # "toward": the O_i headed for, or the sliding pair
-    pair: bool = False  # "toward": sliding between two equally good O_i (unordered)
+    kind: str
+    """``"reached"``, ``"goal"`` (straight to it, or on toward it), ``"local_min"`` or
+    ``"toward"``."""
+    ring: int = -1
+    """The ring blocking the goal ray (``"local_min"``, ``"toward"``)."""
+    aim: frozenset[_OKey] = frozenset()
+    """``"toward"``: the O_i headed for, or the two of a sliding pair (unordered)."""
+    pair: bool = False
+    """``"toward"``: sliding between two equally good O_i."""
 
 
 _REACHED = _Key("reached")
@@ -358,7 +359,7 @@ def _sliding_direction(
 
 
 def _o_key(geo: RingGeometry, seen: Sensing, i: int) -> _OKey:
-    """Identity of an O_i across readings: a corner by its vertex, else by ring and side."""
+    """Return the identity of an O_i across readings (corner: vertex; else ring, side)."""
     kind = seen.kinds[i]
     if kind != RANGE:
         e, t = int(seen.edge[i]), float(seen.t[i])
@@ -392,7 +393,7 @@ def _seek_step(ctx: _Context, state: BugState) -> BugState:
     if dec.kind == "local_min":
         return _start_following(ctx, base, x, dec, events)
     if dec.kind in ("reached", "goal"):
-        # Within the tolerance: step onto the goal itself, so the path ends there exactly.
+        # Straight to the goal (from within the tolerance too: the path ends on it exactly).
         move = Move(SEEK, np.array([x, ctx.goal]), _pt(ctx.goal))
         out = _finish(base, ctx.goal.copy(), (move,), tuple(events))
         if dec.kind == "reached":
@@ -527,11 +528,12 @@ def _candidates(dec: _Seek) -> tuple[Candidate, ...]:
 def _switch_point(
     ctx: _Context, x: FloatArray, w: FloatArray, s: float, dec: _Seek
 ) -> tuple[FloatArray, _Seek]:
-    """Where, moving ``s`` along ``w`` from ``x``, the decision first changes; and the new one.
+    """Find where, moving ``s`` along ``w`` from ``x``, the decision first changes.
 
     Bisection on the sensor, whose first probes are where the chosen range point turns
     into a corner (:func:`_corner_in_range`), the most common switch, then found exactly.
-    The whole move and the decision at its end when the decision does not change.
+    Returns that point and the decision there; the whole move and the decision at its end
+    when the decision does not change.
     """
     y = x + s * w
     nxt = _decide(ctx, y, dec.key)

@@ -223,11 +223,11 @@ class BugTrace:
         return [d.s for d in self.decisions]
 
     def decision_at(self, s: float) -> Decision | None:
-        """Return the decision in force after travelling ``s`` metres (None before any).
+        """Return the decision in force after travelling ``s`` metres (clamped to the run).
 
         The last one taken at or before ``s``: while seeking its ``chosen`` point is
         :meth:`aim_at`; while following it has none (the chapter's robot chooses no O_i
-        then).
+        then). None for an ``"invalid"`` trace, which has no decisions.
 
         Examples
         --------
@@ -243,8 +243,10 @@ class BugTrace:
         >>> trace.decision_at(trace.travelled).box
         'reached'
         """
+        if not self.decisions:
+            return None  # "invalid": the robot never looked
         i = bisect.bisect_right(self._decision_s, float(s)) - 1
-        return self.decisions[i] if i >= 0 else None
+        return self.decisions[max(i, 0)]
 
     def sensing_at(self, s: float) -> Sensing:
         """Return what the robot's sensor saw after travelling ``s`` metres.

@@ -142,7 +142,7 @@ def test_decision_records_the_choice_of_fig_9_16():
         ("goal_visible", (3.0, 1.0)),
         ("reached", (3.0, 1.0)),
     ]
-    assert trace.decision_at(-1.0) is None
+    assert trace.decision_at(-1.0) == first  # clamped to the run, as aim_at
 
 
 def test_decisions_while_following_carry_the_leave_rule_quantities():

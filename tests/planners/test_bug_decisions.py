@@ -292,3 +292,10 @@ def test_a_decision_is_a_frozen_value():
     d = Decision(s=0.0, position=(0.0, 0.0), mode=SEEK, box="reached", d_goal=0.0)
     with pytest.raises(AttributeError):
         d.s = 1.0  # type: ignore[misc]
+
+
+def test_an_invalid_trace_has_no_decisions():
+    space = configuration_space((square(0, 0, 2, 2),), 0.0)
+    trace = planners.plan_tangent_bug(space, (1.0, 1.0), (3.0, 1.0))
+    assert trace.status == "invalid"
+    assert trace.decisions == () and trace.decision_at(0.0) is None

@@ -110,20 +110,22 @@ Scenario = Scene  # the file format's name for the same value
 # --------------------------------------------------------------------------- validation
 
 
-_TOP_KEYS = {
-    "format",
-    "name",
-    "description",
-    "boundary",
-    "obstacles",
-    "start",
-    "goal",
-    "robot",
-    "expansion",
-    "sensor_range",
-}
+_TOP_KEYS = frozenset(
+    {
+        "format",
+        "name",
+        "description",
+        "boundary",
+        "obstacles",
+        "start",
+        "goal",
+        "robot",
+        "expansion",
+        "sensor_range",
+    }
+)
 _REQUIRED_KEYS = ("format", "obstacles", "start", "goal")
-_ROBOT_KEYS = {"kind", "radius", "wheel_radius", "wheel_distance"}
+_ROBOT_KEYS = frozenset({"kind", "radius", "wheel_radius", "wheel_distance"})
 
 
 def _number(source: str, field: str, value: Any) -> float:

@@ -44,6 +44,7 @@ __all__ = [
     "Sensing",
     "disk_span",
     "free_extent",
+    "measure_border",
     "ring_geometry",
     "sense",
     "visible_pieces",
@@ -348,9 +349,11 @@ def _clean_ring(ring: FloatArray, tol: float) -> FloatArray:
     return pts
 
 
-@functools.lru_cache(maxsize=64)
 def ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
-    """Build (once per configuration space) the border arrays the sensor and planner use.
+    """Return (built once per configuration space) the border arrays the sensor and planner use.
+
+    Kept on the configuration space (:meth:`ConfigurationSpace.derive`), not in a module
+    cache, so that it goes away with it.
 
     Examples
     --------
@@ -360,7 +363,14 @@ def ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
     >>> geo = ring_geometry(space)
     >>> len(geo.rings), float(geo.perimeter[0]), float(geo.area[0])
     (1, 4.0, 1.0)
+    >>> ring_geometry(space) is geo
+    True
     """
+    return cspace.derive(_build_ring_geometry)
+
+
+def _build_ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
+    """Build the border arrays of :func:`ring_geometry` (pure)."""
     rings = []
     for r in cspace.rings:
         cleaned = _clean_ring(r, cspace.eps)
@@ -370,9 +380,23 @@ def ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
         empty = np.zeros((0, 2))
         none = np.zeros(0, dtype=np.intp)
         return RingGeometry(
-            (), empty, empty, np.zeros(0), none, np.zeros(1, dtype=np.intp),
-            (), np.zeros(0), np.zeros(0), empty, empty, empty, np.zeros(0), none, cspace.eps, 1.0,
-        )  # fmt: skip
+            rings=(),
+            start=empty,
+            end=empty,
+            length=np.zeros(0),
+            ring=none,
+            offset=np.zeros(1, dtype=np.intp),
+            cum=(),
+            perimeter=np.zeros(0),
+            area=np.zeros(0),
+            prev_dir=empty,
+            step=empty,
+            unit=empty,
+            len2=np.zeros(0),
+            prev_edge=none,
+            eps=cspace.eps,
+            scale=1.0,
+        )
     start = np.vstack(rings)
     end = np.vstack([np.roll(r, -1, axis=0) for r in rings])
     prev = np.vstack([np.roll(r, 1, axis=0) for r in rings])
@@ -402,9 +426,23 @@ def ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
         [np.roll(np.arange(offset[k], offset[k + 1]), 1) for k in range(len(rings))]
     ).astype(np.intp)
     return RingGeometry(
-        tuple(rings), start, end, length, ring, offset, cum, perimeter, area, prev_dir,
-        step, step / length[:, None], length * length, prev_edge, cspace.eps, scale,
-    )  # fmt: skip
+        rings=tuple(rings),
+        start=start,
+        end=end,
+        length=length,
+        ring=ring,
+        offset=offset,
+        cum=cum,
+        perimeter=perimeter,
+        area=area,
+        prev_dir=prev_dir,
+        step=step,
+        unit=step / length[:, None],
+        len2=length * length,
+        prev_edge=prev_edge,
+        eps=cspace.eps,
+        scale=scale,
+    )
 
 
 # --------------------------------------------------------------------------- what the sensor sees
@@ -501,31 +539,32 @@ class _Occurrence:
         return self.n[0] * self.q[1] - self.n[1] * self.q[0] > 0
 
 
-_Near = tuple[FloatArray, FloatArray, FloatArray, list["_Occurrence"]]
-# The last measurement, for the planner's habit of asking two questions (one ray, then
-# the full view) from the same position: (geometry, x, y, result), replaced as a whole so
-# that concurrent readers see a consistent entry.
-_LAST_NEAR: tuple[RingGeometry, float, float, _Near] | None = None
+Near = tuple[FloatArray, FloatArray, FloatArray, list["_Occurrence"]]
+"""The border measured from one position (:func:`measure_border`): edge starts relative to
+it, distance to each edge, cross(a, b) per edge, and the blocked wedges at its feet."""
 
 
-def _near(geo: RingGeometry, x: FloatArray) -> _Near:
-    """Measure the border from ``x``.
+def measure_border(geo: RingGeometry, position: npt.ArrayLike) -> Near:
+    """Measure the border from ``position``, for several questions asked from there.
 
-    Returns the edge starts relative to ``x``, the distance from ``x`` to each edge,
-    cross(a, b) (negative when the edge faces ``x``), and where the robot touches the
-    border.
+    A planner often asks two questions from the same position (one ray with
+    :func:`free_extent`, then the full view with :func:`sense` or
+    :func:`visible_pieces`); passing them this measurement as ``near`` spares the second
+    one the work. The value is read only, never changed by the functions it is passed to.
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> geo = ring_geometry(configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0))
+    >>> near = measure_border(geo, (-1.0, 0.5))
+    >>> free_extent(geo, (-1.0, 0.5), (1.0, 0.0), 5.0, near=near)
+    (1.0, 0)
     """
-    global _LAST_NEAR  # noqa: PLW0603 - a one-entry cache of a pure function
-    last = _LAST_NEAR
-    x0, y0 = float(x[0]), float(x[1])
-    if last is not None and last[0] is geo and last[1] == x0 and last[2] == y0:
-        return last[3]
-    result = _measure(geo, x)
-    _LAST_NEAR = (geo, x0, y0, result)
-    return result
+    return _measure(geo, np.asarray(position, dtype=np.float64).reshape(2))
 
 
-def _measure(geo: RingGeometry, x: FloatArray) -> _Near:
+def _measure(geo: RingGeometry, x: FloatArray) -> Near:
     """Measure the border from ``x`` and find the blocked wedges at the robot's feet.
 
     Within eps of the border the robot touches it, and a ray is blocked only where it goes
@@ -633,6 +672,8 @@ def sense(
     cspace: ConfigurationSpace | RingGeometry,
     position: npt.ArrayLike,
     sensor_range: float,
+    *,
+    near: Near | None = None,
 ) -> Sensing:
     """Compute what a 360-degree range sensor of range R sees from ``position``.
 
@@ -644,6 +685,8 @@ def sense(
         The robot, shape (2,), in closed free space (it may touch the border) [m].
     sensor_range
         R [m], positive; ``math.inf`` for an unlimited sensor.
+    near
+        :func:`measure_border` at ``position``, if the caller already has it.
 
     Returns
     -------
@@ -681,12 +724,17 @@ def sense(
     radius = float(sensor_range)
     if not radius > 0:
         raise ValueError(f"sensor_range must be positive, got {sensor_range}")
-    items = _sweep(geo, x, radius)
+    items = _sweep(geo, x, radius, near)
     return _assemble(geo, x, radius, items)
 
 
 def visible_pieces(
-    geo: RingGeometry, position: npt.ArrayLike, sensor_range: float, ring: int
+    geo: RingGeometry,
+    position: npt.ArrayLike,
+    sensor_range: float,
+    ring: int,
+    *,
+    near: Near | None = None,
 ) -> FloatArray:
     """Return the pieces of ``ring`` that :func:`sense` reports, shape (K, 2, 2) [m].
 
@@ -697,13 +745,17 @@ def visible_pieces(
     rings = geo.ring_list
     mine = [
         (it.p0, it.p1)
-        for it in _sweep(geo, x, float(sensor_range))
+        for it in _sweep(geo, x, float(sensor_range), near)
         if it.kind == "piece" and rings[it.edge] == ring
     ]
     return np.array(mine, dtype=np.float64).reshape(-1, 2, 2)
 
 
-def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
+# A numeric kernel, kept whole: one pass over the critical angles on Python floats (see
+# the docstring); cut into pieces it would hand a dozen arrays and scalars between them.
+def _sweep(  # noqa: PLR0912, PLR0915
+    geo: RingGeometry, x: FloatArray, radius: float, near: Near | None = None
+) -> list[_Item]:
     """Cut the full turn at the critical angles and say what each interval sees.
 
     The border is measured from the robot as arrays; the few edges that face it within R
@@ -715,7 +767,7 @@ def _sweep(geo: RingGeometry, x: FloatArray, radius: float) -> list[_Item]:
     finite = math.isfinite(radius)
     if len(geo.start) == 0:
         return []
-    a, dist, cr, occ = _near(geo, x)
+    a, dist, cr, occ = near if near is not None else _measure(geo, x)
     # Every edge that faces the robot, however obliquely (an edge whose line passes within
     # eps of the robot still hides what lies behind it), except the edges of the wedges at
     # its feet, which include every edge it touches.
@@ -833,12 +885,25 @@ def _facing_parts(
             if not (t_out - t_in) * length > eps:
                 continue
         out.append(
-            _Part(e, ax, ay, dx, dy, c, t_in, t_out,
-                  ax + t_in * dx, ay + t_in * dy, ax + t_out * dx, ay + t_out * dy)
-        )  # fmt: skip
+            _Part(
+                edge=e,
+                ax=ax,
+                ay=ay,
+                dx=dx,
+                dy=dy,
+                cross=c,
+                t_in=t_in,
+                t_out=t_out,
+                inx=ax + t_in * dx,
+                iny=ay + t_in * dy,
+                outx=ax + t_out * dx,
+                outy=ay + t_out * dy,
+            )
+        )
     return out
 
 
+# A numeric kernel, kept whole: one sort and one pass over the angles, merging runs.
 def _merge_close_angles(
     theta: FloatArray,
     reach: Callable[[], FloatArray],
@@ -932,7 +997,8 @@ def _ccw_gaps(theta: FloatArray) -> FloatArray:
     return gap
 
 
-def _t_at(
+# Scalar kernels, called per edge and critical angle: plain floats in, nothing packed.
+def _t_at(  # noqa: PLR0917
     angle: float,
     ax: float,
     ay: float,
@@ -1008,7 +1074,7 @@ def _leave_disk(
     return t_out if direction > 0 else t_in
 
 
-def disk_span(
+def disk_span(  # noqa: PLR0917 - a scalar kernel (see _t_at)
     ax: float, ay: float, dx: float, dy: float, len2: float, r2: float
 ) -> tuple[float, float, bool]:
     """Return where a segment lies in a disk: (t_in, t_out, whether its line meets it).
@@ -1057,6 +1123,7 @@ def _angle_gap(a: float, b: float) -> float:
     return abs((a - b + math.pi) % TAU - math.pi)
 
 
+# A numeric kernel, kept whole: one pass over the sweep's items, joining chains.
 def _assemble(
     geo: RingGeometry, x: FloatArray, radius: float, items: list[_Item]
 ) -> Sensing:
@@ -1150,13 +1217,20 @@ def _assemble(
 # --------------------------------------------------------------------------- one ray
 
 
+# A numeric kernel, kept whole: vectorised tests over every edge, then the few hits.
 def free_extent(
-    geo: RingGeometry, position: npt.ArrayLike, direction: npt.ArrayLike, limit: float
+    geo: RingGeometry,
+    position: npt.ArrayLike,
+    direction: npt.ArrayLike,
+    limit: float,
+    *,
+    near: Near | None = None,
 ) -> tuple[float, int]:
     """How far the robot can go from ``position`` along a unit ``direction``, up to ``limit``.
 
     Exact on the polygons: the segment may run along the border or touch a vertex (that is
-    free), it stops where it would enter blocked space.
+    free), it stops where it would enter blocked space. ``near`` is
+    :func:`measure_border` at ``position``, if the caller already has it.
 
     Returns
     -------
@@ -1178,7 +1252,7 @@ def free_extent(
     if len(geo.start) == 0 or limit <= 0:
         return max(float(limit), 0.0), -1
     tol = geo.eps
-    a, _, _, occ = _near(geo, x)
+    a, _, _, occ = near if near is not None else _measure(geo, x)
     # At the robot's feet: touching the border, it may look straight into blocked space.
     ux, uy = float(u[0]), float(u[1])
     for o in occ:

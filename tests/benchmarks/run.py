@@ -69,7 +69,7 @@ TOOLS = ("ours_vg", "ours_svg", "pyvisgraph", "extremitypathfinder")
 
 # Module-level one-entry caches of the planners (not functools caches) that let a later
 # call reuse an earlier call's work; reset to None so that each timed run starts cold.
-ONE_ENTRY_CACHES = ("_LAST_VISIBILITY", "_LAST_NEAR")
+ONE_ENTRY_CACHES = ("_LAST_VISIBILITY",)
 
 
 def planner_caches() -> list[tuple[str, Callable[[], object]]]:

@@ -12,13 +12,13 @@ from numpy.testing import assert_allclose
 
 from planners import PlanOptions, load_scene, plan_all, result_to_json
 from planners.__main__ import main
+from planners.bug_context import _evolve
 from planners.sensor import ring_geometry
 from planners.tangent_bug import (
     BugParams,
     BugState,
     BugTrace,
     Follow,
-    _evolve,
     initial_state,
     plan_tangent_bug,
     run,

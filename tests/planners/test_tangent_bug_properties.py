@@ -11,12 +11,11 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from planners import PlanOptions, load_scene, plan_all
+from planners.bug_leave import _may_come_closer, _reach
 from planners.tangent_bug import (
     BugParams,
     Follow,
     _context,
-    _may_come_closer,
-    _reach,
     plan_tangent_bug,
 )
 from planners.visibility import segments_free
@@ -219,7 +218,16 @@ def test_skipped_readings_could_not_have_changed_boundary_following(
         d_now = _reach(ctx, y, ring)[0]
         # d_followed around the value that decides: below, at and above d_reach.
         follow = Follow(
-            ring, 1, (0.0, 0.0), 0.0, d_now + slack, None, 0.0, 0.0, 0.0, None
+            ring=ring,
+            direction=1,
+            local_min=(0.0, 0.0),
+            d_local_min=0.0,
+            d_followed=d_now + slack,
+            target=None,
+            target_sigma=0.0,
+            sigma=0.0,
+            walked=0.0,
+            obstacle=None,
         )
         if not _may_come_closer(ctx, follow, y):
             assert d_now >= follow.d_followed, (y, ring, d_now, follow.d_followed)

@@ -722,41 +722,81 @@ def snapshot(
         Exit code: 0 when the PNG is written, 2 for a bad scenario or argument, 1 when
         the browser or the app fails.
     """
+    try:
+        _take_snapshot(
+            scenario,
+            Path(out),
+            width=width,
+            height=height,
+            view=view,
+            robot_time=robot_time,
+            timeout=timeout,
+            chromium=chromium,
+        )
+    except _Failure as failure:
+        return _fail(failure.message, failure.code)
+    except SnapshotError as error:
+        return _fail(str(error), 1)
+    except KeyboardInterrupt:
+        return _fail("interrupted", 130)
+    except Exception as error:  # a snapshot is a command-line tool: no traceback
+        return _fail(
+            f"snapshot failed: {type(error).__name__}: {_first_line(error)}", 1
+        )
+    return 0
+
+
+class _Failure(Exception):
+    """Why a snapshot stopped, as the one line to print and the exit code."""
+
+    def __init__(self, message: str, code: int) -> None:
+        super().__init__(message)
+        self.message = message
+        self.code = code
+
+
+def _take_snapshot(
+    scenario: Any,
+    path: Path,
+    *,
+    width: int,
+    height: int,
+    view: str,
+    robot_time: float | None,
+    timeout: float,
+    chromium: str | None,
+) -> None:
+    """Do what :func:`snapshot` says; raise :class:`_Failure` with the exit code."""
     problem = _check_args(width, height, view, robot_time)
     if problem is not None:
-        return _fail(problem, 2)
+        raise _Failure(problem, 2)
     chromium = chromium or chromium_path()
     try:
         check_chromium(chromium)
     except SnapshotError as error:
-        return _fail(str(error), 1)
-    path = Path(out)
+        raise _Failure(str(error), 1) from None
     try:  # before the slow part: a picture that cannot be written is not worth taking
         path.parent.mkdir(parents=True, exist_ok=True)
         if not os.access(path.parent, os.W_OK):
             raise PermissionError(13, "folder not writable")
     except OSError as error:
-        return _fail(f"cannot write {out}: {error.strerror or error}", 1)
+        raise _Failure(f"cannot write {path}: {error.strerror or error}", 1) from None
     # Imported here: app/__init__ imports the server, and this module must stay importable
     # on its own (the app's __main__ imports it only for --snapshot).
     from app import start_app  # noqa: PLC0415
 
-    planner_app = None
     try:
-        try:
-            with _quiet_stdout():
-                planner_app = start_app(
-                    scenario, host="127.0.0.1", port=0, print_url=False
-                )
-        except (ValueError, LookupError, FileNotFoundError) as error:
-            # planners.ScenarioError is a ValueError; an unknown name may be a LookupError.
-            return _fail(f"cannot load scenario: {_first_line(error)}", 2)
-        shown = planner_app
+        with _quiet_stdout():
+            planner_app = start_app(scenario, host="127.0.0.1", port=0, print_url=False)
+    except (ValueError, LookupError, FileNotFoundError) as error:
+        # planners.ScenarioError is a ValueError; an unknown name may be a LookupError.
+        raise _Failure(f"cannot load scenario: {_first_line(error)}", 2) from None
+    try:
 
         def take() -> bytes:
             with launch_browser(chromium) as browser:
                 return capture(
-                    shown,
+                    planner_app,
                     browser,
                     width=width,
                     height=height,
@@ -771,17 +811,9 @@ def snapshot(
             partial.write_bytes(png)
             partial.replace(path)
         except OSError as error:
-            return _fail(f"cannot write {out}: {error.strerror or error}", 1)
-        return 0
-    except SnapshotError as error:
-        return _fail(str(error), 1)
-    except KeyboardInterrupt:
-        return _fail("interrupted", 130)
-    except Exception as error:  # a snapshot is a command-line tool: no traceback
-        return _fail(
-            f"snapshot failed: {type(error).__name__}: {_first_line(error)}", 1
-        )
+            raise _Failure(
+                f"cannot write {path}: {error.strerror or error}", 1
+            ) from None
     finally:
-        if planner_app is not None:
-            with _quiet_stdout(), contextlib.suppress(Exception):
-                planner_app.stop()
+        with _quiet_stdout(), contextlib.suppress(Exception):
+            planner_app.stop()

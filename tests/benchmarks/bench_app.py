@@ -137,6 +137,54 @@ def percentile(values: list[float], q: float) -> float:
     return float(np.percentile(values, q)) if values else math.nan
 
 
+def step_drag(
+    controller: Any, probe: Probe, handle: Any, points: Any
+) -> tuple[list[float], list[float]]:
+    """One event at a time, each waited for until drawn: edit-to-redraw [ms] per event."""
+    step_fast, step_full = [], []
+    for xy in points:
+        t0 = time.perf_counter()
+        controller.edits.drag_handle(handle, xy, "update")
+        v = controller.version
+        step_fast.append((probe.wait(probe.fast, v) - t0) * 1e3)
+        if probe.slow:
+            step_full.append((probe.wait(probe.full, v) - t0) * 1e3)
+    controller.edits.drag_handle(handle, points[-1], "end")
+    return step_fast, step_full
+
+
+def mouse_drag(
+    controller: Any, handle: Any, points: Any, rate: float
+) -> list[tuple[float, int]]:
+    """Events at a fixed rate, as a mouse sends them, no waiting: (time, version) sent."""
+    sent: list[tuple[float, int]] = []
+    period = 1.0 / rate
+    controller.edits.drag_handle(handle, points[0], "start")
+    t_next = time.perf_counter()
+    for xy in points:
+        now = time.perf_counter()
+        if now < t_next:
+            time.sleep(t_next - now)
+        t0 = time.perf_counter()
+        controller.edits.drag_handle(handle, xy, "update")
+        sent.append((t0, controller.version))
+        t_next += period
+    controller.edits.drag_handle(handle, points[-1], "end")
+    return sent
+
+
+def latencies(
+    probe: Probe, table: dict[int, float], sent: list[tuple[float, int]]
+) -> list[float]:
+    """Latency [ms] of each sent event to the first frame drawn at or after its version."""
+    out = []
+    for t0, v in sent:
+        t = probe.first_at_or_after(table, v)
+        if t is not None:
+            out.append((t - t0) * 1e3)
+    return out
+
+
 def bench(name: str, events: int, rate: float, drag: str = "goal") -> dict[str, Any]:
     steal = StealMeter()
     with contextlib.redirect_stdout(io.StringIO()):
@@ -156,43 +204,12 @@ def bench(name: str, events: int, rate: float, drag: str = "goal") -> dict[str, 
             controller.edits.drag_handle(handle, xy, "update")
             assert app.wait_idle(60)
 
-        # step: one event, wait until drawn.
-        step_fast, step_full = [], []
-        for xy in points:
-            t0 = time.perf_counter()
-            controller.edits.drag_handle(handle, xy, "update")
-            v = controller.version
-            step_fast.append((probe.wait(probe.fast, v) - t0) * 1e3)
-            if slow:
-                step_full.append((probe.wait(probe.full, v) - t0) * 1e3)
-        controller.edits.drag_handle(handle, points[-1], "end")
+        step_fast, step_full = step_drag(controller, probe, handle, points)
         assert app.wait_idle(60)
-
-        # mouse: events at a fixed rate, no waiting; latency to the first frame >= version.
-        sent: list[tuple[float, int]] = []
-        period = 1.0 / rate
-        controller.edits.drag_handle(handle, points[0], "start")
-        t_next = time.perf_counter()
-        for xy in points[::-1]:
-            now = time.perf_counter()
-            if now < t_next:
-                time.sleep(t_next - now)
-            t0 = time.perf_counter()
-            controller.edits.drag_handle(handle, xy, "update")
-            sent.append((t0, controller.version))
-            t_next += period
-        controller.edits.drag_handle(handle, points[0], "end")
+        sent = mouse_drag(controller, handle, points[::-1], rate)
         assert app.wait_idle(120)
-        mouse_fast = []
-        mouse_full = []
-        for t0, v in sent:
-            t = probe.first_at_or_after(probe.fast, v)
-            if t is not None:
-                mouse_fast.append((t - t0) * 1e3)
-            if slow:
-                t = probe.first_at_or_after(probe.full, v)
-                if t is not None:
-                    mouse_full.append((t - t0) * 1e3)
+        mouse_fast = latencies(probe, probe.fast, sent)
+        mouse_full = latencies(probe, probe.full, sent) if slow else []
         drawn = len([v for v in probe.fast if v >= sent[0][1]])
         frame = controller.frame
         stats = {

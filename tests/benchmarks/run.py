@@ -69,7 +69,7 @@ TOOLS = ("ours_vg", "ours_svg", "pyvisgraph", "extremitypathfinder")
 
 # Module-level one-entry caches of the planners (not functools caches) that let a later
 # call reuse an earlier call's work; reset to None so that each timed run starts cold.
-ONE_ENTRY_CACHES = ("_LAST_VISIBILITY",)
+ONE_ENTRY_CACHES: tuple[str, ...] = ()
 
 
 def planner_caches() -> list[tuple[str, Callable[[], object]]]:
@@ -659,20 +659,48 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.quick
         else SIZES
     )
-    repeats = args.repeats or (3 if args.quick else 5)
     lecture_runs = args.lecture_runs or (10 if args.quick else 50)
-
-    def out(text: str = "") -> None:
-        print(text, flush=True)
-
-    def log(text: str) -> None:
-        print(text, file=sys.stderr, flush=True)
-
     t_start = time.perf_counter()
     out(f"machine: {machine()}")
-    peers, why = (
-        (None, "--no-random") if args.no_random else start_peers(args.peers_python)
-    )
+    results = [] if args.no_random else run_random(args, sizes)
+    problems = [(r, p) for r in results for p in r.problems]
+    if results:
+        report_random(results, problems, args.queries)
+    rows: list[LectureRow] = []
+    has_dsb = False
+    if not args.no_lecture:
+        rows, has_dsb = bench_lecture(lecture_runs, log)
+        out("== Lecture budget: plan_all on static_scenarios, disk expansion (ms) ==")
+        print_lecture(rows, has_dsb, lecture_runs, out)
+        out("")
+
+    out("== Targets (judged on wall-time medians; other statistics in brackets) ==")
+    missed = judge_random(results, problems) + judge_lecture(rows, has_dsb)
+    if args.profile and results:
+        out("")
+        profile_ours(max((r.scene for r in results), key=lambda s: s["vertices"]), out)
+    if args.json:
+        args.json.write_text(json.dumps(raw_json(results, rows), indent=1) + "\n")
+    out("")
+    out(f"machine at the end: {machine()}")
+    out(f"total {time.perf_counter() - t_start:.0f} s; {len(missed)} target(s) missed")
+    return 1 if args.strict and missed else 0
+
+
+def out(text: str = "") -> None:
+    """Print a line of the report."""
+    print(text, flush=True)
+
+
+def log(text: str) -> None:
+    """Print a progress line (stderr, so the report stays clean)."""
+    print(text, file=sys.stderr, flush=True)
+
+
+def run_random(args: argparse.Namespace, sizes: tuple[int, ...]) -> list[SizeResult]:
+    """Time ours and the peers on the random scenes of every size."""
+    repeats = args.repeats or (3 if args.quick else 5)
+    peers, why = start_peers(args.peers_python)
     if peers is not None:
         v = peers.versions
         out(
@@ -683,13 +711,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         out(f"!! peers not run: {why}")
     out(f"ours: numpy {np.__version__}, shapely {shapely.__version__}")
     names = [name.removeprefix("planners.") for name, _ in planner_caches()]
-    out(f"caches cleared before every timed run of ours: {', '.join(names)}")
+    out(
+        f"caches cleared before every timed run of ours: {', '.join(names)}"
+        if names
+        else "ours is cold on every run: no planner module keeps a cache, and each run "
+        "builds its configuration space without a memo"
+    )
     out("")
-
     results: list[SizeResult] = []
-    if args.no_random:
-        sizes = ()
-    missed: list[str] = []
     try:
         for k, n in enumerate(sizes):
             scene = scenes.make_scene(n, seed=args.seed + k, queries=args.queries)
@@ -702,38 +731,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if peers is not None:
             peers.close()
+    return results
 
-    problems = [(r, p) for r in results for p in r.problems]
-    if results:
+
+def report_random(
+    results: list[SizeResult], problems: list[tuple[SizeResult, str]], queries: int
+) -> None:
+    """Print the random scenes' table and whether all tools agree on the lengths."""
+    out("== Random scenes: build + one shortest-path query, median ms over repeats ==")
+    out(
+        f"   ({queries} queries per scene, point robot; "
+        "ratio = peer / ours, above 1 = ours faster)"
+    )
+    print_table(results, out)
+    out("")
+    if problems:
+        out("!!!!!!!! PATH LENGTH DISAGREEMENT OR FAILURE !!!!!!!!")
+        for r, p in problems:
+            out(f"!! {r.scene['name']}: {p}")
+        save_problem_scenes(results, Path("/tmp/bench-disagreements"), out)
+    else:
         out(
-            "== Random scenes: build + one shortest-path query, median ms over repeats =="
+            f"path lengths: all tools agree on every query (relative tolerance {LENGTH_RTOL:g})"
         )
-        out(
-            f"   ({args.queries} queries per scene, point robot; "
-            "ratio = peer / ours, above 1 = ours faster)"
-        )
-        print_table(results, out)
-        out("")
-        if problems:
-            out("!!!!!!!! PATH LENGTH DISAGREEMENT OR FAILURE !!!!!!!!")
-            for r, p in problems:
-                out(f"!! {r.scene['name']}: {p}")
-            save_problem_scenes(results, Path("/tmp/bench-disagreements"), out)
-        else:
-            out(
-                f"path lengths: all tools agree on every query (relative tolerance {LENGTH_RTOL:g})"
-            )
-        out("")
+    out("")
 
-    rows: list[LectureRow] = []
-    has_dsb = False
-    if not args.no_lecture:
-        rows, has_dsb = bench_lecture(lecture_runs, log)
-        out("== Lecture budget: plan_all on static_scenarios, disk expansion (ms) ==")
-        print_lecture(rows, has_dsb, lecture_runs, out)
-        out("")
 
-    out("== Targets (judged on wall-time medians; other statistics in brackets) ==")
+def judge_random(
+    results: list[SizeResult], problems: list[tuple[SizeResult, str]]
+) -> list[str]:
+    """Print PASS/FAIL for agreement and the ratios to the peers; return what missed."""
+    missed: list[str] = []
     if results:
         worst_diff = max((r.max_rel_diff or 0.0 for r in results), default=0.0)
         label = (
@@ -751,70 +779,60 @@ def main(argv: Sequence[str] | None = None) -> int:
         if r is None:
             out(f"SKIP  {label} (size not run)")
             continue
-        pv, ours = r.timings.get("pyvisgraph"), r.timings["ours_vg"]
-        value = ratio(pv, ours)
-        if value is None:
-            out(f"SKIP  {label} (not measured)")
-            missed.append(label)
-            continue
-        verdict = "PASS" if value >= VG_TARGET_RATIO else "FAIL"
-        out(f"{verdict}  {label}: {value:.1f}x{other_stats(pv, ours)}")
-        if verdict == "FAIL":
-            missed.append(label)
+        missed += judge_ratio(
+            label, r.timings.get("pyvisgraph"), r.timings["ours_vg"], VG_TARGET_RATIO
+        )
     for r in results:
         label = f"SVG faster than extremitypathfinder at {r.scene['vertices']} vertices"
-        epf, ours = r.timings.get("extremitypathfinder"), r.timings["ours_svg"]
-        value = ratio(epf, ours)
-        if value is None:
-            out(f"SKIP  {label} (not measured)")
-            missed.append(label)
-            continue
-        verdict = "PASS" if value > 1.0 else "FAIL"
-        out(f"{verdict}  {label}: {value:.2f}x{other_stats(epf, ours)}")
+        missed += judge_ratio(
+            label, r.timings.get("extremitypathfinder"), r.timings["ours_svg"], 1.0
+        )
+    return missed
+
+
+def judge_ratio(label: str, peer: Any, ours: Any, target: float) -> list[str]:
+    """Print one ratio target's verdict; return [label] if it is missed."""
+    value = ratio(peer, ours)
+    if value is None:
+        out(f"SKIP  {label} (not measured)")
+        return [label]
+    verdict = "PASS" if value >= target and value > 1.0 else "FAIL"
+    digits = 1 if target > 1.0 else 2
+    out(f"{verdict}  {label}: {value:.{digits}f}x{other_stats(peer, ours)}")
+    return [label] if verdict == "FAIL" else []
+
+
+def judge_lecture(rows: list[LectureRow], has_dsb: bool) -> list[str]:
+    """Print PASS/FAIL for the lecture budgets; return what missed."""
+    if not rows:
+        return []
+    missed: list[str] = []
+    budgets = [("expansion + VG + SVG", BUDGET_MS, [(r.ms, r.cpu_ms) for r in rows])]
+    if has_dsb:
+        budgets.append(
+            (
+                "expansion + VG + SVG + DSB",
+                BUDGET_DSB_MS,
+                [(r.ms_dsb or [math.inf], r.cpu_ms_dsb or [math.inf]) for r in rows],
+            )
+        )
+    for what, budget, samples in budgets:
+        label = f"{what} p95 <= {budget:g} ms on every lecture scenario"
+        worst = max(percentile(w, 95) for w, _ in samples)
+        worst_cpu = max(percentile(c, 95) for _, c in samples)
+        verdict = "PASS" if worst <= budget else "FAIL"
+        cpu_verdict = "within" if worst_cpu <= budget else "over"
+        out(
+            f"{verdict}  {label}: worst p95 {worst:.2f} ms "
+            f"(worst CPU-time p95 {worst_cpu:.2f} ms, {cpu_verdict} budget)"
+        )
         if verdict == "FAIL":
             missed.append(label)
-    if rows:
-        budgets = [
-            ("expansion + VG + SVG", BUDGET_MS, [(r.ms, r.cpu_ms) for r in rows])
-        ]
-        if has_dsb:
-            budgets.append(
-                (
-                    "expansion + VG + SVG + DSB",
-                    BUDGET_DSB_MS,
-                    [
-                        (r.ms_dsb or [math.inf], r.cpu_ms_dsb or [math.inf])
-                        for r in rows
-                    ],
-                )
-            )
-        for what, budget, samples in budgets:
-            label = f"{what} p95 <= {budget:g} ms on every lecture scenario"
-            worst = max(percentile(w, 95) for w, _ in samples)
-            worst_cpu = max(percentile(c, 95) for _, c in samples)
-            verdict = "PASS" if worst <= budget else "FAIL"
-            cpu_verdict = "within" if worst_cpu <= budget else "over"
-            out(
-                f"{verdict}  {label}: worst p95 {worst:.2f} ms "
-                f"(worst CPU-time p95 {worst_cpu:.2f} ms, {cpu_verdict} budget)"
-            )
-            if verdict == "FAIL":
-                missed.append(label)
-        if not has_dsb:
-            out(
-                f"SKIP  expansion + VG + SVG + DSB p95 <= {BUDGET_DSB_MS:g} ms (no 'dsb' planner yet)"
-            )
-
-    if args.profile and results:
-        out("")
-        profile_ours(max((r.scene for r in results), key=lambda s: s["vertices"]), out)
-
-    if args.json:
-        args.json.write_text(json.dumps(raw_json(results, rows), indent=1) + "\n")
-    out("")
-    out(f"machine at the end: {machine()}")
-    out(f"total {time.perf_counter() - t_start:.0f} s; {len(missed)} target(s) missed")
-    return 1 if args.strict and missed else 0
+    if not has_dsb:
+        out(
+            f"SKIP  expansion + VG + SVG + DSB p95 <= {BUDGET_DSB_MS:g} ms (no 'dsb' planner yet)"
+        )
+    return missed
 
 
 def raw_json(results: list[SizeResult], rows: list[LectureRow]) -> dict[str, Any]:

@@ -156,7 +156,7 @@ def test_unlimited_range_around_one_convex_obstacle_is_near_optimal_almost_alway
     ],
 )
 def test_unlimited_range_is_not_optimal_in_general(
-    obstacles, start, goal, radius, expansion, excess
+    obstacles, start, goal, *, radius, expansion, excess
 ):
     # Known limitation, shown rather than hidden: the heuristic d(r, O_i) + d(O_i, g)
     # ignores what lies between O_i and the goal.

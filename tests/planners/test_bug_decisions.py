@@ -4,10 +4,7 @@ from __future__ import annotations
 
 import ast
 import functools
-import importlib
 import math
-import pkgutil
-import types
 from pathlib import Path
 
 import numpy as np
@@ -262,32 +259,6 @@ def test_the_modes_do_not_branch_on_the_leave_rule():
 
 
 # Modules other branches are rewriting (issue 12, item 4); remove once they land.
-MUTABLE_STATE_ELSEWHERE = {"planners.visibility"}
-
-
-def _planner_modules() -> list[types.ModuleType]:
-    return [
-        importlib.import_module(f"planners.{info.name}")
-        for info in pkgutil.iter_modules(planners.__path__)
-    ]
-
-
-@pytest.mark.parametrize("module", _planner_modules(), ids=lambda m: m.__name__)
-def test_no_module_level_mutable_state(module):
-    if module.__name__ in MUTABLE_STATE_ELSEWHERE:
-        pytest.xfail("being rewritten elsewhere")
-    for name, value in vars(module).items():
-        if name.startswith("__"):
-            continue  # __all__ and the like
-        assert not isinstance(value, (dict, list, set, bytearray)), name
-        if getattr(value, "__module__", None) == module.__name__:
-            assert not hasattr(value, "cache_clear"), f"{name} is a module-level cache"
-    tree = ast.parse(Path(module.__file__).read_text())
-    assert not [n for n in ast.walk(tree) if isinstance(n, ast.Global)], (
-        "global statement"
-    )
-
-
 def test_a_decision_is_a_frozen_value():
     d = Decision(s=0.0, position=(0.0, 0.0), mode=SEEK, box="reached", d_goal=0.0)
     with pytest.raises(AttributeError):

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from planners import (
     api,
+    border,
+    bug2,
     expansion,
     memo,
     registry,
@@ -74,6 +76,8 @@ __all__ = [
     "Sensing",
     "VisibilityResult",
     "api",
+    "border",
+    "bug2",
     "configuration_space",
     "expand_disk",
     "expand_polygon",

@@ -45,8 +45,11 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
+from planners.border import RingGeometry, ring_geometry
 from planners.expansion import ConfigurationSpace
-from planners.sensor import RingGeometry, free_extent, ring_geometry
+from planners.geometry import as_point as _pt
+from planners.geometry import unit as _unit
+from planners.sensor import free_extent
 from planners.tangent_bug import BugEvent
 from planners.trace import SEEK, WalkedPath, simplify_walk
 
@@ -367,10 +370,6 @@ def _point(geo: RingGeometry, spot: _Spot) -> FloatArray:
     return geo.start[spot[0]] + spot[1] * geo.step[spot[0]]
 
 
-def _unit(v: FloatArray) -> FloatArray:
-    return v / math.hypot(*v)
-
-
 def _leaving_angle(geo: RingGeometry, spot: _Spot) -> float:
     """Return the direction [rad] in which the robot leaves ``spot`` (walking backward)."""
     ux, uy = geo.unit[spot[0]]
@@ -457,11 +456,6 @@ def _decision(
     text: str,
 ) -> Bug2Decision:
     return Bug2Decision(walk.travelled, _pt(at), box, math.dist(at, g), d_hit, text)
-
-
-def _pt(p: npt.ArrayLike) -> Point:
-    x, y = np.asarray(p, dtype=np.float64).reshape(2)
-    return (float(x), float(y))
 
 
 def _trace(run: _Run, walk: _Walk, status: str, reason: str | None) -> Bug2Trace:

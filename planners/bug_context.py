@@ -36,8 +36,10 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
+from planners.border import RingGeometry, ring_geometry
 from planners.expansion import ConfigurationSpace
-from planners.sensor import RingGeometry, ring_geometry
+from planners.geometry import as_point as _pt
+from planners.geometry import segment_closest as _segment_closest
 
 if TYPE_CHECKING:
     from planners.bug_leave import LeaveRule
@@ -400,16 +402,6 @@ def _label(prefix: str, obstacle: int | None) -> str:
 # --------------------------------------------------------------------------- helpers
 
 
-def _pt(p: npt.ArrayLike) -> Point:
-    x, y = np.asarray(p, dtype=np.float64).reshape(2)
-    return (float(x), float(y))
-
-
-def _unit(v: FloatArray) -> FloatArray:
-    n = math.hypot(*v)
-    return v / n if n > 0 else v
-
-
 def _moved(
     state: BugState, moves: tuple[Move, ...], events: tuple[BugEvent, ...]
 ) -> BugState:
@@ -449,18 +441,6 @@ def _finish(
         terminated=terminated,
         follow=None,
     )
-
-
-def _segment_closest(
-    segments: FloatArray, p: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Distance from ``p`` to each segment (K, 2, 2) and the closest points (K, 2)."""
-    a, b = segments[:, 0], segments[:, 1]
-    d = b - a
-    dd = np.einsum("ij,ij->i", d, d)
-    t = np.clip(np.einsum("ij,ij->i", p - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    closest = a + t[:, None] * d
-    return np.hypot(*(closest - p).T), closest
 
 
 def _segment_distances(segments: FloatArray, p: FloatArray) -> FloatArray:

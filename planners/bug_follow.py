@@ -38,8 +38,8 @@ from planners.bug_context import (
     _moved,
     _pt,
     _segment_closest,
-    _unit,
 )
+from planners.geometry import unit as _unit
 
 
 def _follow_step(ctx: _Context, state: BugState) -> BugState:

@@ -41,8 +41,8 @@ from planners.bug_context import (
     _segment_distances,
     _sigma_on_ring,
     _tangents,
-    _unit,
 )
+from planners.geometry import unit as _unit
 from planners.sensor import (
     RANGE,
     RingGeometry,

@@ -51,7 +51,6 @@ __all__ = [
 ]
 
 import dataclasses
-import functools
 import math
 from collections.abc import Callable
 from typing import NamedTuple
@@ -59,7 +58,9 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from planners.border import RingGeometry, ring_geometry
 from planners.expansion import ConfigurationSpace
+from planners.geometry import cross
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -73,376 +74,6 @@ _ANGLE_TOL = 1e-12
 # Rounding error allowed on a difference of two coordinates, relative to the scene's size
 # (256 ulps: the sensor's arithmetic and GEOS's agree far better than that).
 _ROUNDING = 2.0**-44
-# Two visible pieces whose ends are closer than this (relative to the scene's size) are
-# one continuous piece of border: the range function does not jump there.
-_JOIN_REL = 1e-7
-
-
-# --------------------------------------------------------------------------- the border
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class RingGeometry:
-    """The free space's border as flat edge arrays with arclength along each ring.
-
-    Rings are those of :attr:`ConfigurationSpace.rings` (blocked space on the left of each
-    directed edge) with repeated and collinear vertices removed, so that every vertex is a
-    real corner. Edge ``e`` of ring ``k`` is edge ``offset[k] + i`` of the flat arrays; it
-    starts at vertex ``i`` of the ring.
-    """
-
-    rings: tuple[FloatArray, ...]
-    """Open rings, shape (n_k, 2) [m]."""
-    start: FloatArray
-    """(m, 2) start of each edge [m]."""
-    end: FloatArray
-    """(m, 2) end of each edge [m]."""
-    length: FloatArray
-    """(m,) edge lengths [m]."""
-    ring: IntArray
-    """(m,) ring of each edge."""
-    offset: IntArray
-    """(n_rings + 1,) index of each ring's first edge; the last entry is m."""
-    cum: tuple[FloatArray, ...]
-    """Per ring, (n_k + 1,) arclength at each vertex; the last entry is the perimeter [m]."""
-    perimeter: FloatArray
-    """(n_rings,) ring lengths [m]."""
-    area: FloatArray
-    """(n_rings,) signed areas: > 0 when the ring encloses blocked space (an obstacle),
-    < 0 when it encloses free space (the walls, or a pocket) [m^2]."""
-    prev_dir: FloatArray
-    """(m, 2) unit direction from each edge's start vertex back to the previous vertex."""
-    step: FloatArray
-    """(m, 2) end - start of each edge [m]."""
-    unit: FloatArray
-    """(m, 2) unit direction of each edge."""
-    len2: FloatArray
-    """(m,) squared edge lengths [m^2]."""
-    prev_edge: IntArray
-    """(m,) flat index of the previous edge of the same ring."""
-    eps: float
-    """Touching tolerance [m] (that of the configuration space)."""
-    scale: float
-    """Size of the scene [m] (largest extent of the border, at least 1)."""
-
-    @functools.cached_property
-    def join_tol(self) -> float:
-        """Ends of visible pieces closer than this [m] are one continuous piece."""
-        return max(_JOIN_REL * self.scale, 100.0 * self.eps)
-
-    @functools.cached_property
-    def eps_length(self) -> FloatArray:
-        """(m,) eps times each edge's length: bound on ``|cross|`` within eps of its line."""
-        return self.eps * self.length
-
-    @functools.cached_property
-    def step_x(self) -> FloatArray:
-        """(m,) x component of each edge's step (contiguous, for speed)."""
-        return np.ascontiguousarray(self.step[:, 0])
-
-    @functools.cached_property
-    def step_y(self) -> FloatArray:
-        """(m,) y component of each edge's step."""
-        return np.ascontiguousarray(self.step[:, 1])
-
-    @functools.cached_property
-    def next_edge(self) -> IntArray:
-        """(m,) flat index of the next edge of the same ring."""
-        out = np.empty_like(self.prev_edge)
-        out[self.prev_edge] = np.arange(len(self.prev_edge))
-        return out
-
-    @functools.cached_property
-    def start_convex(self) -> BoolArray:
-        """(m,) whether each edge's start vertex is a corner (blocked wedge under a half turn)."""
-        return _cross(self.unit, self.prev_dir) > 0
-
-    @functools.cached_property
-    def eroded_start(self) -> FloatArray:
-        """(m, 2) the corner at each edge's start vertex moved eps into blocked space [m].
-
-        It is where the two edges' lines, each shifted by eps into blocked space, cross:
-        the apex of the corner's blocked wedge shrunk by eps (the touching tolerance). Only
-        meaningful at convex corners, where it lies eps / sin(half the wedge) from the
-        vertex along the wedge's bisector.
-        """
-        d_out, d_in = self.unit, -self.prev_dir
-        nu_out = np.column_stack([-d_out[:, 1], d_out[:, 0]])
-        nu_in = np.column_stack([-d_in[:, 1], d_in[:, 0]])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            k = self.eps / (1.0 + np.einsum("ij,ij->i", nu_in, nu_out))
-        return self.start + k[:, None] * (nu_in + nu_out)
-
-    @functools.cached_property
-    def corner_list(self) -> list[bool]:
-        """:attr:`start_convex` as Python booleans."""
-        return self.start_convex.tolist()
-
-    @functools.cached_property
-    def eroded_list(self) -> list[tuple[float, float]]:
-        """:attr:`eroded_start` as Python float pairs [m]."""
-        return [(float(a), float(b)) for a, b in self.eroded_start]
-
-    @functools.cached_property
-    def start_list(self) -> list[tuple[float, float]]:
-        """Edge starts as Python float pairs [m]."""
-        return [(float(a), float(b)) for a, b in self.start]
-
-    @functools.cached_property
-    def step_list(self) -> list[tuple[float, float]]:
-        """Edge steps as Python float pairs [m]."""
-        return [(float(a), float(b)) for a, b in self.step]
-
-    @functools.cached_property
-    def ring_list(self) -> list[int]:
-        """The ring of each edge, as Python ints."""
-        return self.ring.tolist()
-
-    @functools.cached_property
-    def len2_list(self) -> list[float]:
-        """Squared edge lengths as Python floats [m^2]."""
-        return self.len2.tolist()
-
-    @functools.cached_property
-    def length_list(self) -> list[float]:
-        """Edge lengths as Python floats [m]."""
-        return self.length.tolist()
-
-    def edge_index(self, ring: int, i: int) -> int:
-        """Flat index of edge ``i`` (taken cyclically) of ``ring``."""
-        n = int(self.offset[ring + 1] - self.offset[ring])
-        return int(self.offset[ring]) + i % n
-
-    def sigma(self, edge: int, t: float) -> float:
-        """Arclength along its ring of the point at parameter ``t`` of flat edge ``edge``."""
-        k = int(self.ring[edge])
-        return float(self.cum[k][edge - int(self.offset[k])] + t * self.length[edge])
-
-    def locate(self, ring: int, sigma: float) -> tuple[FloatArray, int, float]:
-        """Point, flat edge index and edge parameter at arclength ``sigma`` of ``ring``."""
-        cum = self.cum[ring]
-        sigma = float(sigma) % float(cum[-1])
-        i = int(np.searchsorted(cum, sigma, side="right")) - 1
-        i = min(max(i, 0), len(cum) - 2)
-        e = int(self.offset[ring]) + i
-        t = min(max((sigma - float(cum[i])) / float(self.length[e]), 0.0), 1.0)
-        return self.start[e] + t * (self.end[e] - self.start[e]), e, t
-
-    def walk(
-        self, ring: int, sigma: float, direction: int, distance: float
-    ) -> tuple[FloatArray, float]:
-        """Walk ``distance`` along ``ring`` from arclength ``sigma`` (+1 forward, -1 back).
-
-        Returns the polyline walked, shape (n, 2) with both ends, and the arclength reached.
-        Forward means with blocked space on the left.
-        """
-        cum = self.cum[ring]
-        perimeter = float(cum[-1])
-        verts = self.rings[ring]
-        n = len(verts)
-        s0 = float(sigma) % perimeter
-        points = [self.locate(ring, s0)[0]]
-        if direction > 0:
-            # Vertices strictly ahead, in order, until the distance is used up.
-            i = int(
-                np.searchsorted(cum, s0, side="right")
-            )  # next vertex index (may be n)
-            travelled = 0.0
-            at = s0
-            while True:
-                nxt = float(cum[i]) if i <= n else perimeter
-                gap = nxt - at
-                if travelled + gap >= distance:
-                    break
-                travelled += gap
-                points.append(verts[i % n])
-                at = nxt
-                if i >= n:
-                    at = 0.0
-                    i = 1
-                else:
-                    i += 1
-        else:
-            i = (
-                int(np.searchsorted(cum, s0, side="left")) - 1
-            )  # previous vertex index (may be -1)
-            travelled = 0.0
-            at = s0
-            while True:
-                prv = float(cum[i]) if i >= 0 else 0.0
-                gap = at - prv
-                if i < 0:  # wrap: s0 was exactly at vertex 0
-                    i = n - 1
-                    at = perimeter
-                    continue
-                if travelled + gap >= distance:
-                    break
-                travelled += gap
-                points.append(verts[i])
-                at = prv
-                if i == 0:
-                    at = perimeter
-                    i = n - 1
-                else:
-                    i -= 1
-        s1 = (s0 + direction * distance) % perimeter
-        points.append(self.locate(ring, s1)[0])
-        return np.asarray(points, dtype=np.float64), s1
-
-    @functools.cached_property
-    def convex(self) -> tuple[FloatArray, ...]:
-        """Per ring, the arclengths of its corners.
-
-        A corner is a vertex where the border turns round blocked space (the blocked
-        wedge there is narrower than a half turn): the robot rounds it.
-        """
-        out = []
-        for k in range(len(self.rings)):
-            lo, hi = int(self.offset[k]), int(self.offset[k + 1])
-            out.append(self.cum[k][:-1][self.start_convex[lo:hi]])
-        return tuple(out)
-
-    def to_corner(self, ring: int, sigma: float, direction: int, gap: float) -> float:
-        """Return the arclength from ``sigma`` to the next corner in ``direction``.
-
-        Corners closer than ``gap`` are skipped; ``inf`` when there is none.
-        """
-        corners = self.convex[ring]
-        if len(corners) == 0:
-            return math.inf
-        ahead = ((corners - sigma) * direction) % float(self.perimeter[ring])
-        ahead = ahead[ahead >= gap]
-        return float(ahead.min()) if len(ahead) else math.inf
-
-    def ring_distance(
-        self, ring: int, sigma0: float, sigma1: float, direction: int
-    ) -> float:
-        """Arclength from ``sigma0`` to ``sigma1`` walking in ``direction`` along ``ring``."""
-        perimeter = float(self.perimeter[ring])
-        return ((sigma1 - sigma0) * direction) % perimeter
-
-
-def _clean_ring(ring: FloatArray, tol: float) -> FloatArray:
-    """Drop repeated vertices and vertices that lie on the segment joining their neighbours."""
-    pts = np.asarray(ring, dtype=np.float64)
-    changed = True
-    while changed and len(pts) > 3:
-        changed = False
-        step = np.roll(pts, -1, axis=0) - pts
-        short = np.hypot(step[:, 0], step[:, 1]) <= tol
-        if short.any():
-            pts = pts[~short]
-            changed = True
-            continue
-        prev, nxt = np.roll(pts, 1, axis=0), np.roll(pts, -1, axis=0)
-        chord = nxt - prev
-        length = np.hypot(chord[:, 0], chord[:, 1])
-        cross = chord[:, 0] * (pts[:, 1] - prev[:, 1]) - chord[:, 1] * (
-            pts[:, 0] - prev[:, 0]
-        )
-        between = np.einsum("ij,ij->i", pts - prev, chord) > 0
-        flat = (np.abs(cross) <= tol * np.maximum(length, tol)) & between
-        flat &= ~np.roll(flat, 1)  # never two neighbours at once
-        if flat.any():
-            pts = pts[~flat]
-            changed = True
-    return pts
-
-
-def ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
-    """Return (built once per configuration space) the border arrays the sensor and planner use.
-
-    Kept on the configuration space (:meth:`ConfigurationSpace.derive`), not in a module
-    cache, so that it goes away with it.
-
-    Examples
-    --------
-    >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
-    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
-    >>> geo = ring_geometry(space)
-    >>> len(geo.rings), float(geo.perimeter[0]), float(geo.area[0])
-    (1, 4.0, 1.0)
-    >>> ring_geometry(space) is geo
-    True
-    """
-    return cspace.derive(_build_ring_geometry)
-
-
-def _build_ring_geometry(cspace: ConfigurationSpace) -> RingGeometry:
-    """Build the border arrays of :func:`ring_geometry` (pure)."""
-    rings = []
-    for r in cspace.rings:
-        cleaned = _clean_ring(r, cspace.eps)
-        if len(cleaned) >= 3:
-            rings.append(cleaned)
-    if not rings:
-        empty = np.zeros((0, 2))
-        none = np.zeros(0, dtype=np.intp)
-        return RingGeometry(
-            rings=(),
-            start=empty,
-            end=empty,
-            length=np.zeros(0),
-            ring=none,
-            offset=np.zeros(1, dtype=np.intp),
-            cum=(),
-            perimeter=np.zeros(0),
-            area=np.zeros(0),
-            prev_dir=empty,
-            step=empty,
-            unit=empty,
-            len2=np.zeros(0),
-            prev_edge=none,
-            eps=cspace.eps,
-            scale=1.0,
-        )
-    start = np.vstack(rings)
-    end = np.vstack([np.roll(r, -1, axis=0) for r in rings])
-    prev = np.vstack([np.roll(r, 1, axis=0) for r in rings])
-    step = end - start
-    length = np.hypot(step[:, 0], step[:, 1])
-    back = prev - start
-    prev_dir = back / np.hypot(back[:, 0], back[:, 1])[:, None]
-    sizes = [len(r) for r in rings]
-    offset = np.concatenate([[0], np.cumsum(sizes)]).astype(np.intp)
-    ring = np.repeat(np.arange(len(rings)), sizes).astype(np.intp)
-    cum = tuple(
-        np.concatenate([[0.0], np.cumsum(length[offset[k] : offset[k + 1]])])
-        for k in range(len(rings))
-    )
-    perimeter = np.array([c[-1] for c in cum])
-    area = np.array(
-        [
-            0.5
-            * float(
-                np.sum(r[:, 0] * np.roll(r[:, 1], -1) - np.roll(r[:, 0], -1) * r[:, 1])
-            )
-            for r in rings
-        ]
-    )
-    scale = max(1.0, float(np.abs(start).max()))
-    prev_edge = np.concatenate(
-        [np.roll(np.arange(offset[k], offset[k + 1]), 1) for k in range(len(rings))]
-    ).astype(np.intp)
-    return RingGeometry(
-        rings=tuple(rings),
-        start=start,
-        end=end,
-        length=length,
-        ring=ring,
-        offset=offset,
-        cum=cum,
-        perimeter=perimeter,
-        area=area,
-        prev_dir=prev_dir,
-        step=step,
-        unit=step / length[:, None],
-        len2=length * length,
-        prev_edge=prev_edge,
-        eps=cspace.eps,
-        scale=scale,
-    )
 
 
 # --------------------------------------------------------------------------- what the sensor sees
@@ -495,10 +126,6 @@ class Sensing:
     def blocked(self) -> bool:
         """Whether any border is in view."""
         return len(self.segments) > 0
-
-
-def _cross(u: FloatArray, v: FloatArray) -> FloatArray:
-    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
 
 
 @dataclasses.dataclass
@@ -1286,12 +913,12 @@ def free_extent(
         idx = np.flatnonzero(on)
         nxt = geo.unit[idx]
         prv = geo.prev_dir[idx]
-        narrow = _cross(nxt, prv) > 0
+        narrow = cross(nxt, prv) > 0
         uu = np.broadcast_to(u, nxt.shape)
         inside = np.where(
             narrow,
-            (_cross(nxt, uu) > 1e-12) & (_cross(uu, prv) > 1e-12),
-            ~((_cross(prv, uu) >= -1e-12) & (_cross(uu, nxt) >= -1e-12)),
+            (cross(nxt, uu) > 1e-12) & (cross(uu, prv) > 1e-12),
+            ~((cross(prv, uu) >= -1e-12) & (cross(uu, nxt) >= -1e-12)),
         )
         if inside.any():
             cand = idx[inside]

@@ -55,7 +55,9 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
+from planners.border import ring_geometry
 from planners.expansion import ConfigurationSpace
+from planners.geometry import cross, unit_rows
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -342,42 +344,33 @@ class _Border:
 
 
 def _build_border(cspace: ConfigurationSpace) -> _Border:
-    rings = [r for r in cspace.rings if len(r) >= 3]
-    if not rings:
+    # The border model every planner reads, with every vertex as expanded (module
+    # docstring of planners.border): its edges, and at each vertex the directions to
+    # the next and the previous vertex of its ring.
+    geo = ring_geometry(cspace, cleaned=False)
+    if not geo.rings:
         empty = np.zeros((0, 2))
         none = np.zeros(0, dtype=np.intp)
         return _Border(empty, empty, empty, none, empty, empty, np.zeros(0, dtype=bool))
-    allv = np.vstack(rings)
     # Vertices shared by several rings (obstacles touching at a point) become one node.
-    points, occ_node = np.unique(allv, axis=0, return_inverse=True)
+    points, occ_node = np.unique(geo.start, axis=0, return_inverse=True)
     occ_node = occ_node.reshape(-1)
-    nxt = np.vstack([np.roll(r, -1, axis=0) for r in rings])
-    prv = np.vstack([np.roll(r, 1, axis=0) for r in rings])
-    to_next = _unit(nxt - allv)
-    to_prev = _unit(prv - allv)
+    to_next = unit_rows(geo.step)
+    to_prev = unit_rows(geo.start[geo.prev_edge] - geo.start)
     # Blocked space is on the left of each ring: the blocked wedge at a vertex turns
     # counter-clockwise from the next edge to the previous one.
-    convex = _cross(to_next, to_prev) > _ANGLE_TOL
-    return _Border(points, allv, nxt, occ_node, to_next, to_prev, convex)
-
-
-def _unit(v: FloatArray) -> FloatArray:
-    n = np.hypot(v[:, 0], v[:, 1])
-    return v / np.where(n > 0, n, 1.0)[:, None]
-
-
-def _cross(u: FloatArray, v: FloatArray) -> FloatArray:
-    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    convex = cross(to_next, to_prev) > _ANGLE_TOL
+    return _Border(points, geo.start, geo.end, occ_node, to_next, to_prev, convex)
 
 
 def _strictly_inside_wedge(
     nxt: FloatArray, prv: FloatArray, d: FloatArray
 ) -> BoolArray:
     """Tell if unit direction ``d`` points strictly into the blocked wedge at a vertex."""
-    narrow = _cross(nxt, prv) > _ANGLE_TOL
-    inside_narrow = (_cross(nxt, d) > _ANGLE_TOL) & (_cross(d, prv) > _ANGLE_TOL)
+    narrow = cross(nxt, prv) > _ANGLE_TOL
+    inside_narrow = (cross(nxt, d) > _ANGLE_TOL) & (cross(d, prv) > _ANGLE_TOL)
     # A wedge of pi or more: inside unless in the closed free wedge from prv to nxt.
-    in_free = (_cross(prv, d) >= -_ANGLE_TOL) & (_cross(d, nxt) >= -_ANGLE_TOL)
+    in_free = (cross(prv, d) >= -_ANGLE_TOL) & (cross(d, nxt) >= -_ANGLE_TOL)
     return np.where(narrow, inside_narrow, ~in_free)
 
 
@@ -877,7 +870,7 @@ def _svg_arrays(
     candidate = np.flatnonzero((q.node < 0) | convex[q.node] | pinch[q.node])
     ii, jj = np.triu_indices(len(candidate), 1)
     i, j = candidate[ii], candidate[jj]
-    d = _unit(q.points[j] - q.points[i])
+    d = unit_rows(q.points[j] - q.points[i])
     # Tangent at both ends: the segment's extension beyond an obstacle vertex does not
     # enter the blocked wedge there. Where obstacles touch at a vertex (a pinch), the path
     # may bend around one obstacle while the extension points into the other, so no

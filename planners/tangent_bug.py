@@ -133,12 +133,13 @@ from planners.bug_leave import leave_rule
 from planners.bug_seek import _seek_step
 from planners.expansion import ConfigurationSpace
 from planners.sensor import Sensing, sense
+from planners.trace import WalkedPath, arclength, simplify_walk
 
 # --------------------------------------------------------------------------- the run
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class BugTrace:
+class BugTrace(WalkedPath):
     """A whole DSB run: the path, its modes and events, and what the robot saw along it."""
 
     status: str
@@ -181,44 +182,6 @@ class BugTrace:
     """Compute time [ms], set by :func:`planners.plan_all` (shared expansion included)."""
 
     @functools.cached_property
-    def arclength(self) -> FloatArray:
-        """Cumulative arclength at each path vertex, shape (N,) [m]."""
-        return _arclength(self.path)
-
-    def position_at(self, s: float) -> FloatArray:
-        """Return the robot's position after travelling ``s`` metres (clamped to the run) [m]."""
-        if len(self.path) == 0:
-            return np.asarray(self.start, dtype=np.float64)
-        cum = self.arclength
-        s = min(max(float(s), 0.0), float(cum[-1]))
-        i = min(int(np.searchsorted(cum, s, side="right")) - 1, len(cum) - 2)
-        if i < 0:
-            return self.path[0].copy()
-        span = cum[i + 1] - cum[i]
-        t = (s - cum[i]) / span if span > 0 else 0.0
-        return self.path[i] + t * (self.path[i + 1] - self.path[i])
-
-    def mode_at(self, s: float) -> str:
-        """Return the mode (``"seek"`` or ``"follow"``) of the path at arclength ``s``."""
-        if not self.modes:
-            return SEEK
-        cum = self.arclength
-        i = int(np.searchsorted(cum, float(s), side="right")) - 1
-        return self.modes[min(max(i, 0), len(self.modes) - 1)]
-
-    def aim_at(self, s: float) -> Point | None:
-        """Return the O_i (or the goal) the robot was heading for at arclength ``s``.
-
-        None while it follows a border. Together with :meth:`sensing_at` this is the
-        local tangent graph of Fig. 9.16 with the robot's choice.
-        """
-        if not self.aims:
-            return None
-        cum = self.arclength
-        i = int(np.searchsorted(cum, float(s), side="right")) - 1
-        return self.aims[min(max(i, 0), len(self.aims) - 1)]
-
-    @functools.cached_property
     def _decision_s(self) -> list[float]:
         return [d.s for d in self.decisions]
 
@@ -257,17 +220,6 @@ class BugTrace:
         if self.cspace is None:
             raise ValueError("this trace carries no configuration space")
         return sense(self.cspace, self.position_at(s), self.sensor_range)
-
-    @property
-    def pieces(self) -> tuple[tuple[str, FloatArray], ...]:
-        """The path cut where the mode changes: (mode, polyline (k, 2)) in order."""
-        out: list[tuple[str, FloatArray]] = []
-        begin = 0
-        for i in range(1, len(self.modes) + 1):
-            if i == len(self.modes) or self.modes[i] != self.modes[begin]:
-                out.append((self.modes[begin], self.path[begin : i + 1].copy()))
-                begin = i
-        return tuple(out)
 
 
 def heuristic_distances(sensing: Sensing, goal: npt.ArrayLike) -> FloatArray:
@@ -397,7 +349,7 @@ def run(
     while state.mode in (SEEK, FOLLOW) and state.steps < ctx.max_steps:
         state = step(state, cspace, params)
         log.add(state)
-    path, modes, aims = _simplify(
+    path, modes, aims = simplify_walk(
         np.asarray(log.points, dtype=np.float64).reshape(-1, 2), log.modes, log.aims
     )
     travelled = (
@@ -419,7 +371,7 @@ def run(
         leave_rule=ctx.rule,
         steps=state.steps,
         terminated=terminated,
-        decisions=_snapped(log.decisions, _arclength(path)),
+        decisions=_snapped(log.decisions, arclength(path)),
         cspace=cspace,
     )
 
@@ -459,14 +411,6 @@ def _outcome(
         "the goal; this is not a proof that the goal is unreachable"
     )
     return UNREACHABLE, None, reason, "step_cap"
-
-
-def _arclength(path: FloatArray) -> FloatArray:
-    """Cumulative arclength at each vertex of ``path`` (N, 2), shape (N,) [m]."""
-    if len(path) == 0:
-        return np.zeros(0)
-    steps = np.hypot(*np.diff(path, axis=0).T)
-    return np.concatenate([[0.0], np.cumsum(steps)])
 
 
 def _snapped(decisions: list[Decision], cum: FloatArray) -> tuple[Decision, ...]:
@@ -552,32 +496,3 @@ def plan_tangent_bug(
         s,
         BugParams(goal=_pt(g), sensor_range=float(sensor_range), leave_rule=leave_rule),
     )
-
-
-def _simplify(
-    path: FloatArray, modes: list[str], aims: list[Point | None]
-) -> tuple[FloatArray, list[str], list[Point | None]]:
-    """Drop path vertices where the robot went straight on (same mode, same aim).
-
-    Steps end wherever the robot looked again; where nothing changed, the vertex
-    carries no information. Arclengths, and hence event positions, are unchanged.
-    """
-    if len(path) < 3:
-        return path, modes, aims
-    keep = [0]
-    for i in range(1, len(path) - 1):
-        a, b, c = path[keep[-1]], path[i], path[i + 1]
-        u, v = b - a, c - b
-        straight = abs(float(u[0] * v[1] - u[1] * v[0])) <= 1e-12 * max(
-            float(np.dot(u, u) + np.dot(v, v)), 1e-300
-        )
-        if not (
-            straight
-            and float(np.dot(u, v)) > 0
-            and modes[i - 1] == modes[i]
-            and aims[i - 1] == aims[i]
-        ):
-            keep.append(i)
-    keep.append(len(path) - 1)
-    seg = keep[:-1]
-    return path[keep], [modes[i] for i in seg], [aims[i] for i in seg]

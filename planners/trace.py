@@ -8,7 +8,9 @@ the path cut into its modes.
 
 from __future__ import annotations
 
-__all__ = ["SEEK", "WalkedPath", "simplify_walk"]
+__all__ = ["SEEK", "WalkedPath", "arclength", "simplify_walk"]
+
+import functools
 
 import numpy as np
 import numpy.typing as npt
@@ -33,18 +35,10 @@ class WalkedPath:
     aims: tuple[Point | None, ...]
     start: Point
 
-    @property
+    @functools.cached_property
     def arclength(self) -> FloatArray:
         """Cumulative arclength at each path vertex, shape (N,) [m]."""
-        cached = self.__dict__.get("_arclength")
-        if cached is None:
-            if len(self.path) == 0:
-                cached = np.zeros(0)
-            else:
-                steps = np.hypot(*np.diff(self.path, axis=0).T)
-                cached = np.concatenate([[0.0], np.cumsum(steps)])
-            self.__dict__["_arclength"] = cached  # derived once; the record is frozen
-        return cached
+        return arclength(self.path)
 
     def _segment_at(self, s: float) -> int:
         """Index of the path segment the robot is on after ``s`` metres (clamped)."""
@@ -90,6 +84,20 @@ class WalkedPath:
                 out.append((self.modes[begin], self.path[begin : i + 1].copy()))
                 begin = i
         return tuple(out)
+
+
+def arclength(path: FloatArray) -> FloatArray:
+    """Cumulative arclength at each vertex of ``path`` (N, 2), shape (N,) [m].
+
+    Examples
+    --------
+    >>> arclength(np.array([[0.0, 0.0], [3.0, 4.0], [3.0, 5.0]])).tolist()
+    [0.0, 5.0, 6.0]
+    """
+    if len(path) == 0:
+        return np.zeros(0)
+    steps = np.hypot(*np.diff(path, axis=0).T)
+    return np.concatenate([[0.0], np.cumsum(steps)])
 
 
 def simplify_walk(

@@ -43,9 +43,10 @@ class RingGeometry:
     """The free space's border as flat edge arrays with arclength along each ring.
 
     Rings are those of :attr:`ConfigurationSpace.rings` (blocked space on the left of each
-    directed edge) with repeated and collinear vertices removed, so that every vertex is a
-    real corner. Edge ``e`` of ring ``k`` is edge ``offset[k] + i`` of the flat arrays; it
-    starts at vertex ``i`` of the ring.
+    directed edge), by default with repeated and collinear vertices removed, so that every
+    vertex is a real corner. Edge ``e`` of ring ``k`` is edge ``offset[k] + i`` of the flat
+    arrays; it starts at vertex ``i`` of the ring. What only walking the border needs
+    (arclengths, perimeters, areas) is computed on first use.
     """
 
     rings: tuple[FloatArray, ...]
@@ -60,13 +61,6 @@ class RingGeometry:
     """(m,) ring of each edge."""
     offset: IntArray
     """(n_rings + 1,) index of each ring's first edge; the last entry is m."""
-    cum: tuple[FloatArray, ...]
-    """Per ring, (n_k + 1,) arclength at each vertex; the last entry is the perimeter [m]."""
-    perimeter: FloatArray
-    """(n_rings,) ring lengths [m]."""
-    area: FloatArray
-    """(n_rings,) signed areas: > 0 when the ring encloses blocked space (an obstacle),
-    < 0 when it encloses free space (the walls, or a pocket) [m^2]."""
     prev_dir: FloatArray
     """(m, 2) unit direction from each edge's start vertex back to the previous vertex."""
     step: FloatArray
@@ -81,6 +75,39 @@ class RingGeometry:
     """Touching tolerance [m] (that of the configuration space)."""
     scale: float
     """Size of the scene [m] (largest extent of the border, at least 1)."""
+
+    @functools.cached_property
+    def cum(self) -> tuple[FloatArray, ...]:
+        """Per ring, (n_k + 1,) arclength at each vertex; the last entry is the perimeter [m]."""
+        offset, length = self.offset, self.length
+        return tuple(
+            np.concatenate([[0.0], np.cumsum(length[offset[k] : offset[k + 1]])])
+            for k in range(len(self.rings))
+        )
+
+    @functools.cached_property
+    def perimeter(self) -> FloatArray:
+        """(n_rings,) ring lengths [m]."""
+        return np.array([c[-1] for c in self.cum])
+
+    @functools.cached_property
+    def area(self) -> FloatArray:
+        """(n_rings,) signed areas [m^2].
+
+        > 0 when the ring encloses blocked space (an obstacle), < 0 when it encloses free
+        space (the walls, or a pocket).
+        """
+        return np.array(
+            [
+                0.5
+                * float(
+                    np.sum(
+                        r[:, 0] * np.roll(r[:, 1], -1) - np.roll(r[:, 0], -1) * r[:, 1]
+                    )
+                )
+                for r in self.rings
+            ]
+        )
 
     @functools.cached_property
     def join_tol(self) -> float:
@@ -346,9 +373,6 @@ def _build_ring_geometry(cspace: ConfigurationSpace, cleaned: bool) -> RingGeome
             length=np.zeros(0),
             ring=none,
             offset=np.zeros(1, dtype=np.intp),
-            cum=(),
-            perimeter=np.zeros(0),
-            area=np.zeros(0),
             prev_dir=empty,
             step=empty,
             unit=empty,
@@ -358,33 +382,21 @@ def _build_ring_geometry(cspace: ConfigurationSpace, cleaned: bool) -> RingGeome
             scale=1.0,
         )
     start = np.vstack(rings)
-    end = np.vstack([np.roll(r, -1, axis=0) for r in rings])
-    prev = np.vstack([np.roll(r, 1, axis=0) for r in rings])
-    step = end - start
-    length = np.hypot(step[:, 0], step[:, 1])
-    back = prev - start
-    prev_dir = back / np.hypot(back[:, 0], back[:, 1])[:, None]
     sizes = [len(r) for r in rings]
     offset = np.concatenate([[0], np.cumsum(sizes)]).astype(np.intp)
     ring = np.repeat(np.arange(len(rings)), sizes).astype(np.intp)
-    cum = tuple(
-        np.concatenate([[0.0], np.cumsum(length[offset[k] : offset[k + 1]])])
-        for k in range(len(rings))
-    )
-    perimeter = np.array([c[-1] for c in cum])
-    area = np.array(
-        [
-            0.5
-            * float(
-                np.sum(r[:, 0] * np.roll(r[:, 1], -1) - np.roll(r[:, 0], -1) * r[:, 1])
-            )
-            for r in rings
-        ]
-    )
+    # Each ring's next and previous vertex, by index (each ring wraps round at its end).
+    first, last = offset[:-1], offset[1:] - 1
+    following = np.arange(1, len(start) + 1, dtype=np.intp)
+    following[last] = first
+    prev_edge = np.arange(-1, len(start) - 1, dtype=np.intp)
+    prev_edge[first] = last
+    end = start[following]
+    step = end - start
+    length = np.hypot(step[:, 0], step[:, 1])
+    back = start[prev_edge] - start
+    prev_dir = back / np.hypot(back[:, 0], back[:, 1])[:, None]
     scale = max(1.0, float(np.abs(start).max()))
-    prev_edge = np.concatenate(
-        [np.roll(np.arange(offset[k], offset[k + 1]), 1) for k in range(len(rings))]
-    ).astype(np.intp)
     return RingGeometry(
         rings=tuple(rings),
         start=start,
@@ -392,9 +404,6 @@ def _build_ring_geometry(cspace: ConfigurationSpace, cleaned: bool) -> RingGeome
         length=length,
         ring=ring,
         offset=offset,
-        cum=cum,
-        perimeter=perimeter,
-        area=area,
         prev_dir=prev_dir,
         step=step,
         unit=step / length[:, None],

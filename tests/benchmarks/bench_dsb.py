@@ -41,11 +41,12 @@ BUDGET_DSB_MS = 50.0
 
 
 def clear_caches(*spaces: object) -> None:
-    """Forget every cached expansion, border and context of the planners.
+    """Forget whatever a planner could reuse from an earlier run.
 
-    What the planners derive from a configuration space (the sensor's ring geometry,
-    TangentBug's context) is kept on it (``ConfigurationSpace.derive``); for ``spaces``
-    reused across runs that is forgotten too.
+    What the planners derive from a configuration space (the border model, the
+    visibility matrix) is kept on it (``ConfigurationSpace.derive``); for ``spaces``
+    reused across runs that is forgotten. No planner module keeps a cache of its own
+    (``tests/test_purity.py``); should one appear, it is cleared here too.
     """
     for space in spaces:
         vars(space).pop("_derived", None)

@@ -250,6 +250,14 @@ def frame_camera(
             near=distance / 10,
             far=distance * 10,
         )
+    return _perspective_camera((cx, cy), (half_x, half_y), aspect)
+
+
+def _perspective_camera(
+    center: tuple[float, float], half: tuple[float, float], aspect: float
+) -> CameraPose:
+    """Place the ``"perspective"`` camera of :func:`frame_camera` on a floor box of half-sizes ``half``."""
+    (cx, cy), (half_x, half_y) = center, half
     fov = _PERSPECTIVE_FOV
     ce = math.cos(_PERSPECTIVE_ELEVATION)
     back = np.array(

@@ -577,6 +577,26 @@ class PlannerView:
         self.target = target
         self.scene = target.scene
         self._on_drag = on_drag
+        self._last: dict[str, Any] = {}
+        self.rendered_version = -1
+        self.robot_model_fn: Callable[[Any], tuple[Any, RobotModel]] | None = None
+        self._add_scene_nodes()
+        # One layer per registered planner, drawn as its kind says (planners.registry).
+        self.graphs = {
+            name: _GraphLayer(self.scene, name, planner_look(name))
+            for name, spec in registry.items()
+            if spec.kind == "graph"
+        }
+        self.traces = {
+            name: _TraceLayer(self.scene, name, planner_look(name))
+            for name, spec in registry.items()
+            if spec.kind == "trace"
+        }
+        self._add_markers()
+        self._add_robot_nodes()
+
+    def _add_scene_nodes(self) -> None:
+        """Create the floor, walls, obstacles, expansions, selection and draft nodes."""
         s = self.scene
         self.grid = s.add_grid(
             "/floor",
@@ -614,24 +634,18 @@ class PlannerView:
         self.other_edges = _Segments(
             s, "/expanded/other", COLORS["other_expansion"], WIDTHS["outline"] * 0.8
         )
-        # One layer per registered planner, drawn as its kind says (planners.registry).
-        self.graphs = {
-            name: _GraphLayer(s, name, planner_look(name))
-            for name, spec in registry.items()
-            if spec.kind == "graph"
-        }
-        self.traces = {
-            name: _TraceLayer(s, name, planner_look(name))
-            for name, spec in registry.items()
-            if spec.kind == "trace"
-        }
         self.selection = _Segments(
             s, "/selection", COLORS["selection"], WIDTHS["selection"]
         )
         self.draft = _Segments(s, "/draft", COLORS["draft"], WIDTHS["outline"] * 1.5)
 
-        # Start and goal: a gizmo each, with the marker and its label as children so they
-        # follow the mouse in the browser even before the server has replanned.
+    def _add_markers(self) -> None:
+        """Create the start and goal gizmos, each with its marker, rim and label.
+
+        The marker and label are the gizmo's children, so they follow the mouse in the
+        browser even before the server has replanned.
+        """
+        s = self.scene
         self.handles: dict[str, viser.TransformControlsHandle] = {}
         self.markers: dict[str, viser.MeshHandle] = {}
         self.marker_rims: dict[str, viser.LineSegmentsHandle] = {}
@@ -672,7 +686,9 @@ class PlannerView:
         self.vertex_slots: list[tuple[int, int]] = []
         self.obstacle_handles: list[viser.TransformControlsHandle] = []
 
-        # The robot: a frame moved each animation step; body and wheels are children.
+    def _add_robot_nodes(self) -> None:
+        """Create the robot's frame (body and wheels are its children) and sensor layers."""
+        s = self.scene
         self.robot = s.add_frame("/robot", show_axes=False, visible=False)
         self.robot_parts: list[Any] = []
         self.body_parts: list[viser.MeshHandle] = []
@@ -687,14 +703,10 @@ class PlannerView:
         self.sensing_seen = _Segments(
             s, "/sensing/seen", COLORS["sensed"], WIDTHS["sensing"] * 3
         )
-        # The planner's choice r_next: r -> O_i -> g, bold in the goal-seeking colour.
+        # The planner's choice r_next: r -> O_i -> g, black and bold.
         self.sensing_chosen = _Segments(
             s, "/sensing/chosen", COLORS["chosen"], WIDTHS["sensing"] * 2.4
         )
-
-        self._last: dict[str, Any] = {}
-        self.rendered_version = -1
-        self.robot_model_fn: Callable[[Any], tuple[Any, RobotModel]] | None = None
 
     # ------------------------------------------------------------------ helpers
 
@@ -754,44 +766,53 @@ class PlannerView:
     def _render(self, frame: Frame) -> None:
         scene = frame.scene
         layers = frame.layers
-        cspace = frame.plans.get("cspace")
         radius = scene.robot.radius
         self.set_layer_flags(layers.get("robot", True), layers.get("sensing", True))
         if self.robot_model_fn is not None and self._changed(
             "robot_model", scene.robot
         ):
             self.set_robot_model(*self.robot_model_fn(scene.robot))
+        self._render_floor_and_obstacles(frame)
+        self._render_expansion(frame)
+        for graph in self.graphs.values():
+            graph.render(frame, self._changed)
+        markers = (scene.start, scene.goal)
+        for trace in self.traces.values():
+            trace.render(frame, markers, _marker_size(radius), self._changed)
+        self._render_markers(frame, radius)
+        self._render_handles(frame)
+        self._render_selection(frame)
 
+    def _render_floor_and_obstacles(self, frame: Frame) -> None:
+        scene = frame.scene
         if self._changed("bounds", scene_bounds(scene)):
             x0, y0, x1, y1 = self._last["bounds"]
             self.grid.width, self.grid.height = x1 - x0, y1 - y0
             self.grid.position = ((x0 + x1) / 2, (y0 + y1) / 2, -0.001)
         if self._changed("boundary", scene.boundary):
             self.walls.set(wall_mesh(scene.boundary, height=HEIGHTS["wall"]))
+        show = frame.layers.get("obstacles", True)
+        if not self._changed("obstacles", (scene.obstacles, show)):
+            return
+        self.obstacles.set(prism_mesh(scene.obstacles, HEIGHTS["obstacle"]), show)
+        self.obstacle_edges.set(
+            rings_to_segments(scene.obstacles, HEIGHTS["obstacle"] + 0.002), show
+        )
+        self.obstacle_labels.set(
+            [
+                (str(i + 1), _label_point(o, HEIGHTS["obstacle"] + 0.05))
+                for i, o in enumerate(scene.obstacles)
+            ],
+            show,
+        )
 
-        show_obstacles = layers.get("obstacles", True)
-        if self._changed("obstacles", (scene.obstacles, show_obstacles)):
-            self.obstacles.set(
-                prism_mesh(scene.obstacles, HEIGHTS["obstacle"]), show_obstacles
-            )
-            self.obstacle_edges.set(
-                rings_to_segments(scene.obstacles, HEIGHTS["obstacle"] + 0.002),
-                show_obstacles,
-            )
-            self.obstacle_labels.set(
-                [
-                    (str(i + 1), _label_point(o, HEIGHTS["obstacle"] + 0.05))
-                    for i, o in enumerate(scene.obstacles)
-                ],
-                show_obstacles,
-            )
-
-        show_expanded = layers.get("expanded", True)
+    def _render_expansion(self, frame: Frame) -> None:
+        cspace = frame.plans.get("cspace")
+        show = frame.layers.get("expanded", True)
         # The key holds the object itself (compared by identity), never its id(): an id
         # can be reused once the old configuration space is freed.
-        expanded_key = (cspace, show_expanded)
-        if self._changed("expanded", expanded_key):
-            if cspace is not None and show_expanded:
+        if self._changed("expanded", (cspace, show)):
+            if cspace is not None and show:
                 self.expanded_fill.set(
                     polygon_to_mesh(cspace.merged, HEIGHTS["expanded_fill"])
                 )
@@ -804,21 +825,13 @@ class PlannerView:
             else:
                 self.expanded_fill.set(_NO_MESH, False)
                 self.expanded_edges.set(_NO_SEGMENTS, False)
+        layers = frame.layers
         other = frame.other_expanded if layers.get("other_expansion", False) else None
         if self._changed("other", other):
             self.other_edges.set(
                 rings_to_segments(other or [], HEIGHTS["expanded_edge"] + 0.001),
                 other is not None,
             )
-
-        for graph in self.graphs.values():
-            graph.render(frame, self._changed)
-        markers = (frame.scene.start, frame.scene.goal)
-        for trace in self.traces.values():
-            trace.render(frame, markers, _marker_size(radius), self._changed)
-        self._render_markers(frame, radius)
-        self._render_handles(frame)
-        self._render_selection(frame)
 
     def _render_markers(self, frame: Frame, radius: float) -> None:
         size = _marker_size(radius)

@@ -224,6 +224,30 @@ def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
     >>> scene.start, len(scene.obstacles), scene.robot.kind
     ((-1.0, -1.0), 1, 'holonomic')
     """
+    _check_top_level(source, data)
+    # Fields are checked in the file format's order; the first problem is reported.
+    name = _text(source, "name", data.get("name", ""))
+    description = _text(source, "description", data.get("description", ""))
+    boundary = None
+    if data.get("boundary") is not None:
+        boundary = _polygon(source, "boundary", data["boundary"])
+    return Scene(
+        obstacles=_obstacles(source, data["obstacles"]),
+        start=_point(source, "start", data["start"]),
+        goal=_point(source, "goal", data["goal"]),
+        boundary=boundary,
+        robot=_robot(source, data.get("robot", {})),
+        expansion=_choice(
+            source, "expansion", data.get("expansion", "disk"), EXPANSION_MODES
+        ),
+        sensor_range=_positive(source, "sensor_range", data.get("sensor_range", 2.0)),
+        name=name,
+        description=description,
+    )
+
+
+def _check_top_level(source: str, data: Any) -> None:
+    """Check that ``data`` is a mapping with the known keys, the required ones, format 1."""
     if not isinstance(data, Mapping):
         raise ScenarioError(
             source, "(top level)", f"expected a JSON object, got {_describe(data)}"
@@ -243,58 +267,36 @@ def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
             f"expected {FORMAT_VERSION}, got {_describe(data['format'])}",
         )
 
-    name = data.get("name", "")
-    description = data.get("description", "")
-    for key, value in (("name", name), ("description", description)):
-        if not isinstance(value, str):
-            raise ScenarioError(
-                source, key, f"expected a string, got {_describe(value)}"
-            )
 
-    boundary = None
-    if data.get("boundary") is not None:
-        boundary = _polygon(source, "boundary", data["boundary"])
+def _obstacles(source: str, value: Any) -> tuple[Polygon, ...]:
+    if not isinstance(value, (list, tuple)):
+        raise ScenarioError(
+            source, "obstacles", f"expected a list of polygons, got {_describe(value)}"
+        )
+    return tuple(_polygon(source, f"obstacles[{i}]", o) for i, o in enumerate(value))
 
-    obstacles_data = data["obstacles"]
-    if not isinstance(obstacles_data, (list, tuple)):
+
+def _text(source: str, field: str, value: Any) -> str:
+    if not isinstance(value, str):
+        raise ScenarioError(source, field, f"expected a string, got {_describe(value)}")
+    return value
+
+
+def _choice(source: str, field: str, value: Any, allowed: tuple[str, ...]) -> str:
+    if value not in allowed:
         raise ScenarioError(
             source,
-            "obstacles",
-            f"expected a list of polygons, got {_describe(obstacles_data)}",
+            field,
+            f"expected one of {', '.join(allowed)}, got {_describe(value)}",
         )
-    obstacles = tuple(
-        _polygon(source, f"obstacles[{i}]", o) for i, o in enumerate(obstacles_data)
-    )
+    return value
 
-    start = _point(source, "start", data["start"])
-    goal = _point(source, "goal", data["goal"])
 
-    robot = _robot(source, data.get("robot", {}))
-
-    expansion = data.get("expansion", "disk")
-    if expansion not in EXPANSION_MODES:
-        raise ScenarioError(
-            source,
-            "expansion",
-            f"expected one of {', '.join(EXPANSION_MODES)}, got {_describe(expansion)}",
-        )
-    sensor_range = _number(source, "sensor_range", data.get("sensor_range", 2.0))
-    if sensor_range <= 0:
-        raise ScenarioError(
-            source, "sensor_range", f"must be positive, got {sensor_range!r}"
-        )
-
-    return Scene(
-        obstacles=obstacles,
-        start=start,
-        goal=goal,
-        boundary=boundary,
-        robot=robot,
-        expansion=expansion,
-        sensor_range=sensor_range,
-        name=name,
-        description=description,
-    )
+def _positive(source: str, field: str, value: Any) -> float:
+    number = _number(source, field, value)
+    if number <= 0:
+        raise ScenarioError(source, field, f"must be positive, got {number!r}")
+    return number
 
 
 def _robot(source: str, data: Any) -> Robot:

@@ -133,8 +133,13 @@ class Controller:
         fps: float = 30.0,
     ) -> None:
         self._registry = registry
-        enabled = frozenset(name for name, spec in registry.items() if spec.default)
-        self._state = SessionState(scene, scenario, UiState(enabled=enabled))
+        defaults = planners.registry.default_planners(registry)
+        ui = UiState(
+            layers=tools.default_layers(registry),
+            enabled=frozenset(defaults),
+            follow=defaults[0] if defaults else next(iter(registry), ""),
+        )
+        self._state = SessionState(scene, scenario, ui)
         self._views = Views(views)
         fast, slow = lanes_for(
             registry,
@@ -345,10 +350,6 @@ class SceneEdits:
             return dataclasses.replace(scene, sensor_range=r)
 
         self._edit(apply, gesture=("sensor_range",))
-
-    def replace_scene(self, scene: Scene, scenario: str = "") -> None:
-        """Replace the whole scene (one undo step, so a switch can be undone)."""
-        self._state.replace(scene, scenario, None)
 
 
 class MouseTools:

@@ -169,19 +169,22 @@ def build_frame(
     """
     scene = snapshot.scene
     problems = list(edits.scene_problems(scene))
+    # Planner names by reason, in the order the reasons first come.
+    reasons: dict[str, list[str]] = {}
     for name, result in plans.items():
         if name == "cspace" or name in lagging:
             continue
         reason = getattr(result, "reason", None)
         status = getattr(result, "status", "")
         if reason and status != "ok" and reason not in problems:
-            problems.append(f"{name.upper()}: {reason}")
+            reasons.setdefault(reason, []).append(name.upper())
+    problems += [f"{', '.join(names)}: {reason}" for reason, names in reasons.items()]
     ui = snapshot.ui
     return Frame(
         version=snapshot.version,
         scene=scene,
         plans=plans,
-        problems=tuple(_dedupe_reasons(problems)),
+        problems=tuple(problems),
         message=ui.message,
         tool=ui.tool,
         layers=dict(ui.layers),
@@ -199,24 +202,3 @@ def build_frame(
         slow_version=slow_version,
         enabled=ui.enabled,
     )
-
-
-def _dedupe_reasons(problems: list[str]) -> list[str]:
-    """Merge identical reasons given by several planners: "VG, SVG: the goal is ..."."""
-    by_reason: dict[str, list[str]] = {}
-    order: list[str] = []
-    for text in problems:
-        name, sep, reason = text.partition(": ")
-        if sep and name.isupper() and name.isalpha():
-            if reason not in by_reason:
-                by_reason[reason] = []
-                order.append(reason)
-            by_reason[reason].append(name)
-        else:
-            by_reason.setdefault(text, [])
-            order.append(text)
-    out = []
-    for reason in dict.fromkeys(order):
-        names = by_reason[reason]
-        out.append(f"{', '.join(names)}: {reason}" if names else reason)
-    return out

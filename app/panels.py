@@ -45,7 +45,7 @@ def legend_html(registry: Mapping[str, PlannerSpec] = planners.REGISTRY) -> str:
             "expanded obstacle (robot shrunk to a point)",
         ),
         (_swatch(COLORS["other_expansion"], "thin"), "other expansion model (outline)"),
-        *(_planner_row(name, spec) for name, spec in registry.items()),
+        *(_planner_row(name, registry) for name in registry),
         (
             _swatch(COLORS["sensing"], "thin")
             + _swatch(COLORS["sensed"])
@@ -66,11 +66,11 @@ def legend_html(registry: Mapping[str, PlannerSpec] = planners.REGISTRY) -> str:
     return f'<div style="padding:2px 4px">{body}<div style="font-size:0.8em;color:#555">Events: H hit an obstacle, M local minimum, L leave it, D goal free again.</div></div>'
 
 
-def _planner_row(name: str, spec: PlannerSpec) -> tuple[str, str]:
+def _planner_row(name: str, registry: Mapping[str, PlannerSpec]) -> tuple[str, str]:
     """One legend row: a graph planner's edges and path, a trace's two modes."""
-    look = planner_look(name)
+    look = planner_look(name, registry)
     short = name.upper()
-    if spec.kind == "graph":
+    if registry[name].kind == "graph":
         return (
             _swatch(look.edges or look.path, "thin") + _swatch(look.path),
             f"{short} edges / shortest path",

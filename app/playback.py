@@ -144,15 +144,6 @@ class Playback:
             self._playing = False
             self._state.touch_locked()
 
-    def toggle_play(self) -> None:
-        """Play when paused, pause when playing."""
-        with self._lock:
-            if self._playing:
-                self._playing = False
-                self._state.touch_locked()
-            else:
-                self._play_locked()
-
     def restart(self) -> None:
         """Put the robot back at the start of its trajectory and play."""
         with self._lock:
@@ -182,12 +173,6 @@ class Playback:
         with self._lock:
             self._state.update_ui(lambda ui: dataclasses.replace(ui, follow=planner))
             self._t = 0.0
-
-    def render_now(self) -> None:
-        """Draw the robot at the current playback time (used after a time change)."""
-        with self._lock:
-            pose = self._pose_locked()
-        self._views.render_robot(pose)
 
     def close(self) -> None:
         """Stop the animation thread."""

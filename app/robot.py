@@ -129,7 +129,7 @@ def sensing_at(
         if len(points)
         else np.zeros((0, 2, 2))
     )
-    aim = result.aim_at(s) if result.mode_at(s) == "seek" else None
+    aim = result.aim_at(s)  # the planner's: None while it follows a border
     return {
         "center": (float(position[0]), float(position[1])),
         "radius": float(seen.radius),

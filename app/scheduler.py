@@ -104,7 +104,7 @@ def _failure(name: str, error: BaseException) -> str:
     return f"{name.upper()} failed: {type(error).__name__}: {error}"
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class Pending:
     """A slow planner's place-holder while it computes: no path yet, never a stale one."""
 
@@ -118,7 +118,7 @@ class Pending:
     ms: float = 0.0
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class Failed:
     """A planner that raised: no path, and the error in words."""
 

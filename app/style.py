@@ -29,6 +29,7 @@ from collections.abc import Mapping
 from types import MappingProxyType
 
 import planners
+from planners.registry import PlannerSpec
 
 RGB = tuple[int, int, int]
 
@@ -180,8 +181,13 @@ LOOKS: Mapping[str, PlannerLook] = MappingProxyType(
 _SPARE: tuple[RGB, ...] = (SKY, YELLOW, VERMILLION, BLUE)
 
 
-def planner_look(name: str) -> PlannerLook:
-    """Return how planner ``name`` is drawn (a spare colour for one without a look).
+def planner_look(
+    name: str, registry: Mapping[str, PlannerSpec] = planners.REGISTRY
+) -> PlannerLook:
+    """Return how planner ``name`` of ``registry`` is drawn.
+
+    A planner without a look of its own (one a test or a student registers) gets the next
+    spare colour of the palette and a path above the others.
 
     Examples
     --------
@@ -190,10 +196,10 @@ def planner_look(name: str) -> PlannerLook:
     """
     if name in LOOKS:
         return LOOKS[name]
-    extra = [n for n in planners.REGISTRY if n not in LOOKS]
+    extra = [n for n in registry if n not in LOOKS]
     k = extra.index(name) if name in extra else len(extra)
     color = _SPARE[k % len(_SPARE)]
-    graph = name in planners.REGISTRY and planners.REGISTRY[name].kind == "graph"
+    graph = name in registry and registry[name].kind == "graph"
     return PlannerLook(
         path=color,
         path_height=0.058 + 0.003 * k,

@@ -160,8 +160,13 @@ class Selection:
         return what
 
 
-def _default_layers() -> Mapping[str, bool]:
-    return MappingProxyType({key: key not in _DEFAULT_OFF for key in LAYERS})
+def default_layers(
+    registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
+) -> Mapping[str, bool]:
+    """Return which layers of :func:`layer_names` show at first (all but the other model)."""
+    return MappingProxyType(
+        {key: key not in _DEFAULT_OFF for key in layer_names(registry)}
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -176,7 +181,7 @@ class UiState:
     """Corners of the obstacle being drawn with the polygon tool."""
     message: str | None = None
     """The answer to the user's last action, when it needs one."""
-    layers: Mapping[str, bool] = dataclasses.field(default_factory=_default_layers)
+    layers: Mapping[str, bool] = dataclasses.field(default_factory=default_layers)
     """Layer key -> visible."""
     enabled: frozenset[str] = frozenset()
     """Names of the planners that run (the registry's default ones to begin with)."""

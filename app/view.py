@@ -49,6 +49,7 @@ import planners
 from app.controller import Frame, Handle, RobotPose
 from app.robot import RobotModel
 from app.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
+from planners.trace import FOLLOW
 
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]
@@ -547,7 +548,7 @@ class _TraceLayer:
             return None  # an invalid result has no path, hence no segments
         follow = self.look.follow or self.look.path
         rgb = np.array(
-            [follow if m == "follow" else self.look.path for m in modes],
+            [follow if m == FOLLOW else self.look.path for m in modes],
             dtype=np.uint8,
         )
         return np.repeat(rgb[:, None, :], 2, axis=1)
@@ -583,12 +584,12 @@ class PlannerView:
         self._add_scene_nodes()
         # One layer per registered planner, drawn as its kind says (planners.registry).
         self.graphs = {
-            name: _GraphLayer(self.scene, name, planner_look(name))
+            name: _GraphLayer(self.scene, name, planner_look(name, registry))
             for name, spec in registry.items()
             if spec.kind == "graph"
         }
         self.traces = {
-            name: _TraceLayer(self.scene, name, planner_look(name))
+            name: _TraceLayer(self.scene, name, planner_look(name, registry))
             for name, spec in registry.items()
             if spec.kind == "trace"
         }

@@ -81,7 +81,8 @@ def plan_all(
         Planner name -> result (the :class:`planners.registry.PlanResult` protocol):
         ``status``, ``length`` (float or None), ``path`` ((N, 2) array, (0, 2) when there
         is none), ``reason`` and ``ms`` (time to compute, including the shared expansion),
-        plus the planner's own detail: ``graph`` for VG/SVG, the trace for DSB.
+        plus the planner's own detail: ``graph`` for VG/SVG, the trace for DSB and
+        Bug2.
         ``"cspace"`` holds the configuration space when built.
 
     Examples
@@ -126,6 +127,11 @@ def plan_all(
         t1 = time.perf_counter()
         result = registry[name].run(cspace, scene, options)
         ms = shared_ms + (time.perf_counter() - t1) * 1e3
+        if not (dataclasses.is_dataclass(result) and hasattr(result, "ms")):
+            raise TypeError(
+                f"planner {name!r} returned {type(result).__name__}, not a dataclass "
+                "with an 'ms' field (planners.registry.PlanResult)"
+            )
         # Planners cannot read a clock (STYLE.md), so the time is measured around the
         # call and the complete result is a copy with it.
         results[name] = dataclasses.replace(result, ms=ms)

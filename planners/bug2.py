@@ -51,12 +51,10 @@ from planners.geometry import as_point as _pt
 from planners.geometry import unit as _unit
 from planners.sensor import free_extent
 from planners.tangent_bug import BugEvent
-from planners.trace import SEEK, WalkedPath, simplify_walk
+from planners.trace import FOLLOW, SEEK, WalkedPath, simplify_walk
 
 FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
-
-FOLLOW = "follow"
 
 
 @dataclasses.dataclass(frozen=True)

@@ -40,6 +40,7 @@ from planners.border import RingGeometry, ring_geometry
 from planners.expansion import ConfigurationSpace
 from planners.geometry import as_point as _pt
 from planners.geometry import segment_closest as _segment_closest
+from planners.trace import FOLLOW, SEEK
 
 if TYPE_CHECKING:
     from planners.bug_leave import LeaveRule
@@ -48,8 +49,6 @@ FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
 
 LEAVE_RULES = ("tangent_bug", "chapter")
-SEEK = "seek"
-FOLLOW = "follow"
 REACHED = "reached"
 UNREACHABLE = "unreachable"
 

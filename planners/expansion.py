@@ -355,14 +355,17 @@ class ConfigurationSpace:
         """Return ``fn(self, *args)``, computed once for this configuration space.
 
         What the planners derive from a configuration space (the border's arrays, which
-        vertices see each other, the sensor's ring geometry) is kept on it, not in a
-        module-level cache, and goes away with it. ``fn`` must be pure; two threads
-        asking at once may both compute it, and either answer is the same.
+        vertices see each other) is kept on it, not in a module-level cache, and goes
+        away with it. ``fn`` must be pure and a module-level function (the key is the
+        function itself: a new lambda each call would never be found again); two threads
+        asking at once may both compute it, and either answer is the same. What is kept
+        is not pickled with the configuration space (a worker process derives it again).
 
         Examples
         --------
+        >>> from planners.border import ring_geometry
         >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1)]),), 0.0)
-        >>> space.derive(lambda cs: len(cs.rings)) == 1
+        >>> ring_geometry(space) is ring_geometry(space)  # derived once, then kept
         True
         """
         store: dict[Any, Any] = self.__dict__.setdefault("_derived", {})
@@ -376,6 +379,12 @@ class ConfigurationSpace:
     def known(self, fn: Callable[..., T], *args: Hashable) -> T | None:
         """Return ``fn(self, *args)`` if :meth:`derive` already computed it, else None."""
         return self.__dict__.get("_derived", {}).get((fn, args))
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickle the configuration space without what was derived from it."""
+        state = dict(self.__dict__)
+        state.pop("_derived", None)
+        return state
 
     def contains_blocked(self, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         """Tell, for each point of shape (2,) or (N, 2), if it is strictly in blocked space.

@@ -59,7 +59,10 @@ KINDS = ("graph", "trace")
 
 @runtime_checkable
 class PlanResult(Protocol):
-    """What every planner returns (a frozen record built complete)."""
+    """What every planner returns: a frozen dataclass, built complete.
+
+    :func:`planners.plan_all` returns a copy with ``ms`` set (planners read no clock).
+    """
 
     @property
     def planner(self) -> str:
@@ -78,7 +81,11 @@ class PlanResult(Protocol):
 
     @property
     def path(self) -> npt.NDArray[np.float64]:
-        """The path, shape (N, 2) [m]; (0, 2) when there is none."""
+        """The path, shape (N, 2) [m].
+
+        (0, 2) when a graph finds none; a trace's walk until it stopped, also when it
+        gave up.
+        """
         ...
 
     @property

@@ -8,7 +8,7 @@ the path cut into its modes.
 
 from __future__ import annotations
 
-__all__ = ["SEEK", "WalkedPath", "arclength", "simplify_walk"]
+__all__ = ["FOLLOW", "SEEK", "WalkedPath", "arclength", "simplify_walk"]
 
 import functools
 
@@ -20,6 +20,8 @@ Point = tuple[float, float]
 
 SEEK = "seek"
 """The mode of a robot heading for the goal (or for a point on the way to it)."""
+FOLLOW = "follow"
+"""The mode of a robot following a border."""
 
 
 class WalkedPath:

@@ -40,13 +40,16 @@ def test_the_drawn_r_next_is_the_planners_decision(path, sensor_range):
     seeking = following = 0
     for scene, dsb, s, sensing in _samples(path, sensor_range):
         chosen = sensing_geometry(sensing).chosen
+        decision = dsb.decision_at(s)
         if dsb.mode_at(s) == "follow":
+            # The chapter's robot chooses no O_i while it follows a border.
+            assert decision.chosen is None and dsb.aim_at(s) is None
             assert len(chosen) == 0, f"an O_i drawn while following, at s = {s:.3f}"
             following += 1
             continue
         seeking += 1
-        aim = dsb.aim_at(s)
-        assert aim is not None
+        aim = decision.chosen  # the planner's decision record at this point
+        assert aim is not None and aim == dsb.aim_at(s)
         assert tuple(chosen[0, 1]) == aim, f"at s = {s:.3f}"
         assert tuple(chosen[0, 0]) == tuple(dsb.position_at(s))
         if aim != scene.goal:

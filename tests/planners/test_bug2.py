@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import assume, given
 from numpy.testing import assert_allclose
+from shapely import Polygon
 
 from planners import PlanOptions, load_scene, plan_all
 from planners.bug2 import _pinches, _point, plan_bug2
@@ -47,7 +48,7 @@ def test_meeting_the_m_line_farther_than_the_hit_is_no_leave_point():
     # wall at x = 3, and following it (left = down) meets the M-line again at the mouth's
     # lower lip... never closer than the hit; it must go round the outside instead.
     c_shape = [(0, 0), (4, 0), (4, 4), (0, 4), (0, 3), (3, 3), (3, 1), (0, 1)]
-    trace = _bug2([c_shape_polygon(c_shape)], (-1.0, 2.0), (6.0, 2.0))
+    trace = _bug2([Polygon(c_shape)], (-1.0, 2.0), (6.0, 2.0))
     assert trace.status == "reached"
     hits = [e for e in trace.events if e.kind == "hit"]
     leaves = [e for e in trace.events if e.kind == "leave"]
@@ -58,12 +59,6 @@ def test_meeting_the_m_line_farther_than_the_hit_is_no_leave_point():
         assert math.dist(leave.at, (6.0, 2.0)) < math.dist(hit.at, (6.0, 2.0))
     assert leaves[0].at == pytest.approx((4.0, 2.0))
     assert_allclose(trace.path[-1], (6.0, 2.0))
-
-
-def c_shape_polygon(points):
-    from shapely import Polygon
-
-    return Polygon(points)
 
 
 def test_wanders_far_where_tangent_bug_does_not():
@@ -111,8 +106,6 @@ def test_start_and_goal_on_the_border():
 def test_goal_enclosed_is_unreachable_after_one_round():
     ring = [(0, 0), (6, 0), (6, 6), (0, 6)]
     hole = [(2, 2), (2, 4), (4, 4), (4, 2)]
-    from shapely import Polygon
-
     walls = Polygon(ring, [hole])
     trace = _bug2([walls], (-1.0, 3.0), (3.0, 3.0))
     assert trace.status == "unreachable"

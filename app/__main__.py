@@ -16,6 +16,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
+from app.files import FolderError
 from app.server import DEFAULT_SCENARIO, resolve_scenario, start_app
 from planners.scene import ScenarioError
 
@@ -37,6 +38,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--port", type=int, default=8080, help="port (default 8080; 0 picks a free one)"
+    )
+    parser.add_argument(
+        "--scenes-dir",
+        metavar="DIR",
+        default=None,
+        help="a folder browsers may open and save scenario files in, by plain names "
+        "(default: none; browsers download and upload)",
     )
     parser.add_argument(
         "--snapshot",
@@ -84,8 +92,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
 
     try:
-        app = start_app(scenario, host=args.host, port=args.port, print_url=True)
-    except ScenarioError as error:
+        app = start_app(
+            scenario,
+            host=args.host,
+            port=args.port,
+            print_url=True,
+            scenes_dir=args.scenes_dir,
+        )
+    except (ScenarioError, FolderError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     try:

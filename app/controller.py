@@ -60,12 +60,14 @@ __all__ = [
 import dataclasses
 import json
 import math
+import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
 import planners
 from app import tools
+from app.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
 from app.frames import Frame, RobotPose, View, Views
 from app.playback import Playback, SampleFn, TrajectoryFn
 from app.scheduler import Pending, PlanFn, Scheduler, default_plan, lanes_for
@@ -112,6 +114,9 @@ class Controller:
         Scenario key -> file, for ``files.load_scenario``.
     scenario
         Key of the starting scene in ``scenarios`` ('' if none).
+    folder
+        The scenes folder browsers may read and write by plain names
+        (``--scenes-dir``), or None.
     fps
         Animation rate of the robot [frames/s].
     """
@@ -131,6 +136,7 @@ class Controller:
         scenarios: Mapping[str, Path] | None = None,
         scenario: str = "",
         fps: float = 30.0,
+        folder: ScenesFolder | None = None,
     ) -> None:
         self._registry = registry
         defaults = planners.registry.default_planners(registry)
@@ -155,8 +161,8 @@ class Controller:
         """Edits of the scene (drags, vertices, obstacles, robot and planner settings)."""
         self.tools = MouseTools(self._state)
         """The mouse tools: what a click on the floor does, the selection, the draft."""
-        self.files = ScenarioFiles(self._state, scenarios or {})
-        """Scenario files: the shipped ones, files on the server, uploads, saving."""
+        self.files = ScenarioFiles(self._state, scenarios or {}, folder)
+        """Scenario files: shipped ones, uploads, downloads, the scenes folder."""
 
     # ------------------------------------------------------------------ reading state
 
@@ -394,15 +400,25 @@ class MouseTools:
 
 
 class ScenarioFiles:
-    """Scenario files: the shipped ones, a path on the server, an upload, saving.
+    """Scenario files: shipped ones, uploads, downloads, and the scenes folder if any.
 
-    Loading replaces the scene as one undo step; on an error the scene is kept and the
-    panel says why.
+    No text from a browser is used as a server path (:mod:`app.files`): a browser saves
+    by downloading (:meth:`download`) and loads by uploading (:meth:`load_text`) or by
+    choosing a shipped scenario; the folder named on the command line is read and
+    written by plain names only. Loading replaces the scene as one undo step; on an
+    error the scene is kept and the panel says why.
     """
 
-    def __init__(self, state: SessionState, scenarios: Mapping[str, Path]) -> None:
+    def __init__(
+        self,
+        state: SessionState,
+        scenarios: Mapping[str, Path],
+        folder: ScenesFolder | None = None,
+    ) -> None:
         self._state = state
         self._scenarios = dict(scenarios)
+        self.folder = folder
+        """The scenes folder (``--scenes-dir``), or None."""
 
     @property
     def scenarios(self) -> dict[str, Path]:
@@ -415,50 +431,71 @@ class ScenarioFiles:
         if path is None:
             self._state.say(f"Unknown scenario {key!r}.")
             return
-        self._load(path, key)
-
-    def load_file(self, path: str | Path) -> None:
-        """Load a scenario file; on an error the panel says why and the scene is kept."""
-        text = str(path).strip()
-        if not text:
-            self._state.say("Type the path of a scenario file to load.")
-            return
-        self._load(Path(text).expanduser(), "")
-
-    def load_text(self, text: str | bytes, source: str = "uploaded file") -> None:
-        """Load a scenario from JSON text (an upload); errors go to the panel."""
-        try:
-            scene = edits.scene_from_dict(json.loads(text), source)
-        except ScenarioError as error:
-            self._state.say(f"Not loaded, the scene is kept: {error}")
-            return
-        except (ValueError, UnicodeDecodeError) as error:
-            self._state.say(
-                f"Not loaded, the scene is kept: {source}: not valid JSON ({error})"
-            )
-            return
-        self._state.replace(scene, "", f"Loaded {source}.")
-
-    def _load(self, path: Path, key: str) -> None:
         try:
             scene = planners.load_scene(path)
         except ScenarioError as error:
             self._state.say(f"Not loaded, the scene is kept: {error}")
             return
-        self._state.replace(scene, key, None if key else f"Loaded {path}.")
+        self._state.replace(scene, key, None)
 
-    def save(self, path: str | Path) -> None:
-        """Save the scene to ``path`` (atomically); the panel says where, or why not."""
-        text = str(path).strip()
-        if not text:
-            self._state.say("Type a file name to save to, e.g. my_scene.json.")
+    def load_text(self, text: str | bytes, source: str = "uploaded file") -> None:
+        """Load a scenario from an upload's text; errors go to the panel, never to disk."""
+        source = _upload_name(source)
+        if len(text) > MAX_UPLOAD_BYTES:
+            self._state.say(
+                f"Not loaded, the scene is kept: {source}: {len(text):,} bytes, more "
+                f"than the {MAX_UPLOAD_BYTES:,} a scenario file may have"
+            )
             return
-        target = Path(text).expanduser()
-        if target.suffix == "":
-            target = target.with_suffix(".json")
         try:
-            written = planners.save_scene(self._state.scene, target)
+            scene = edits.scene_from_text(text, source)
         except ScenarioError as error:
+            self._state.say(f"Not loaded, the scene is kept: {error}")
+            return
+        self._state.replace(scene, "", f"Loaded {source}.")
+
+    def download(self) -> tuple[str, bytes] | None:
+        """Return (file name, JSON bytes) of the scene for the browser to download.
+
+        None when the scene is not valid (it could not be loaded again): the panel says
+        why, as it does for a save.
+        """
+        scene = self._state.scene
+        problems = edits.scene_problems(scene)
+        if problems:
+            self._state.say(f"Not downloaded: {'; '.join(problems)}")
+            return None
+        data = json.dumps(edits.scene_to_dict(scene), indent=1) + "\n"
+        stem = re.sub(r"[^A-Za-z0-9_-]+", "_", scene.name).strip("_")[:40]
+        return f"{stem or 'scene'}.json", data.encode("utf-8")
+
+    def load_from_folder(self, name: str) -> None:
+        """Load the scenes folder's file ``name`` (a plain name, see :mod:`app.files`)."""
+        if self.folder is None:
+            self._state.say("No scenes folder: start the app with --scenes-dir DIR.")
+            return
+        try:
+            scene = self.folder.read(name)
+        except (FolderError, ScenarioError) as error:
+            self._state.say(f"Not loaded, the scene is kept: {error}")
+            return
+        self._state.replace(scene, "", f"Loaded {plain_name(name)} from the folder.")
+
+    def save_to_folder(self, name: str) -> None:
+        """Save the scene in the scenes folder as ``name``; the panel says how it went."""
+        if self.folder is None:
+            self._state.say("No scenes folder: start the app with --scenes-dir DIR.")
+            return
+        try:
+            written = self.folder.write(name, self._state.scene)
+        except (FolderError, ScenarioError) as error:
             self._state.say(f"Not saved: {error}")
             return
-        self._state.say(f"Saved to {written.resolve()}.")
+        self._state.say(f"Saved {written.name} in the scenes folder.")
+
+
+def _upload_name(name: str) -> str:
+    """Return an upload's file name as messages show it: its last part, printable, short."""
+    last = re.split(r"[\\/]", str(name))[-1]
+    shown = "".join(c for c in last if c.isprintable())[:60]
+    return shown or "uploaded file"

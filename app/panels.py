@@ -20,6 +20,7 @@ import viser
 
 import planners
 from app.controller import TOOLS, Controller, Frame, RobotPose
+from app.files import ScenesFolder
 from app.style import COLORS, hex_color, planner_look
 from app.tools import layer_names
 from planners.registry import PlannerSpec
@@ -148,6 +149,9 @@ class Panels:
     registry
         The planners the controller runs (:data:`planners.REGISTRY`): one switch, layers,
         a legend row and a results row each.
+    folder
+        The scenes folder (``--scenes-dir``), or None: then the panel offers only
+        downloads, uploads and the shipped scenarios.
     """
 
     def __init__(
@@ -155,8 +159,10 @@ class Panels:
         server: viser.ViserServer,
         scenarios: Mapping[str, str],
         registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
+        folder: ScenesFolder | None = None,
     ) -> None:
         self.server = server
+        self._folder = folder
         self.controller: Controller | None = None
         self._latest_version: Callable[[], int] = lambda: -1
         self._scenario_titles = dict(scenarios)
@@ -175,15 +181,14 @@ class Panels:
                 "Scenario", options, initial_value=options[0]
             )
             self.history = gui.add_button_group("Edits", ["Undo", "Redo"])
-            self.path = gui.add_text(
-                "File",
-                "my_scene.json",
-                hint="Path on the server's disk, e.g. my_scene.json",
+            self.download = gui.add_button(
+                "Download this scene (.json)",
+                hint="Saves the scene to your computer",
             )
-            self.file_buttons = gui.add_button_group("File", ["Save", "Load"])
             self.upload = gui.add_upload_button(
                 "Upload a scenario (.json)", mime_type="application/json"
             )
+            self._build_folder(gui)
 
         with gui.add_folder("Results"):
             self.results = gui.add_markdown(results_markdown({}))
@@ -191,6 +196,22 @@ class Panels:
         self._build_settings(gui)
         self._build_motion(gui)
         self._bind()
+
+    def _build_folder(self, gui: Any) -> None:
+        # The scenes folder, when the server was started with --scenes-dir: plain names.
+        self.folder_file = self.folder_open = self.folder_name = self.folder_save = None
+        self._folder_message: str | None = None
+        if self._folder is None:
+            return
+        self._folder_names = tuple(self._folder.names())
+        self.folder_file = gui.add_dropdown(
+            "Folder file", self._folder_names or ("(empty)",)
+        )
+        self.folder_open = gui.add_button("Open from the scenes folder")
+        self.folder_name = gui.add_text(
+            "Save as", "my scene", hint="A plain name: letters, digits, spaces, _ - ."
+        )
+        self.folder_save = gui.add_button("Save to the scenes folder")
 
     def _build_settings(self, gui: Any) -> None:
         # The editing tools, the robot and planning settings, the layers.
@@ -277,21 +298,31 @@ class Panels:
         # Each callback calls exactly one controller method.
         self._on(self.scenario, lambda v, c: c.files.load_scenario(v))
         self._on_click(self.history, lambda v, c: {"Undo": c.undo, "Redo": c.redo}[v]())
-        self._on_click(
-            self.file_buttons,
-            lambda v, c: (c.files.save if v == "Save" else c.files.load_file)(
-                self.path.value
-            ),
-        )
+
+        @self.download.on_click
+        def _(event: Any) -> None:
+            # The file goes to the browser that asked; nothing is written on the server.
+            if self.controller is None or event.client is None:
+                return
+            file = self.controller.files.download()
+            if file is not None:
+                event.client.send_file_download(*file)
 
         @self.upload.on_upload
         def _(event: Any) -> None:
             if self.controller is not None:
                 file = event.target.value
-                self.controller.files.load_text(
-                    file.content.decode("utf-8", errors="replace"),
-                    file.name or "uploaded file",
-                )
+                self.controller.files.load_text(file.content, file.name)
+
+        if self.folder_open is not None and self.folder_save is not None:
+            self._on_click(
+                self.folder_open,
+                lambda v, c: c.files.load_from_folder(str(self.folder_file.value)),
+            )
+            self._on_click(
+                self.folder_save,
+                lambda v, c: c.files.save_to_folder(str(self.folder_name.value)),
+            )
 
         tool_keys = {text: key for key, text in TOOLS.items()}
         self._on(self.tool, lambda v, c: c.tools.set_tool(tool_keys[v]))
@@ -355,6 +386,7 @@ class Panels:
         _set(self.title, "content", f"### {title}")
         _set(self.description, "content", scene.description or "")
         _set(self.status, "content", status_markdown(frame))
+        self._render_folder(frame)
         _set(
             self.results,
             "content",
@@ -394,6 +426,17 @@ class Panels:
         _set(self.polygon_buttons, "visible", frame.tool == "polygon")
         _set(self.edit_buttons, "visible", frame.tool == "edit")
         self._render_plot(frame)
+
+    def _render_folder(self, frame: Frame) -> None:
+        # After a save the folder holds one more file: list it again (only then).
+        if self._folder is None or self.folder_file is None:
+            return
+        if frame.message != self._folder_message:
+            self._folder_message = frame.message
+            names = tuple(self._folder.names())
+            if names != self._folder_names:
+                self._folder_names = names
+                self.folder_file.options = names or ("(empty)",)
 
     def _render_plot(self, frame: Frame) -> None:
         trajectory = frame.trajectory

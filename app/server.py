@@ -28,6 +28,7 @@ import viser
 import planners
 from app import robot as robot_model
 from app.controller import Controller
+from app.files import ScenesFolder
 from app.panels import Panels
 from app.view import PlannerView, scene_bounds
 from planners.scene import ScenarioError, Scene
@@ -147,6 +148,7 @@ def start_app(
     host: str = "127.0.0.1",
     port: int = 0,
     print_url: bool = True,
+    scenes_dir: str | os.PathLike[str] | None = None,
 ) -> PlannerApp:
     """Start the planner's viser server with the full scene drawn.
 
@@ -161,6 +163,9 @@ def start_app(
         Port; 0 picks a free one (read :attr:`PlannerApp.port`).
     print_url
         Print the URL to open.
+    scenes_dir
+        A folder browsers may read and write scenario files in, by plain names
+        (:mod:`app.files`); None: browsers download and upload, nothing more.
 
     Returns
     -------
@@ -172,8 +177,15 @@ def start_app(
     ------
     ScenarioError
         If the scenario cannot be found or read (before any server is started).
+    FolderError
+        If ``scenes_dir`` is not a folder.
     """
     scenarios = list_scenarios()
+    folder = (
+        ScenesFolder(scenes_dir, shipped=tuple(scenarios.values()))
+        if scenes_dir is not None
+        else None
+    )
     if isinstance(scenario, Scene):
         scene, key = scenario, ""
     else:
@@ -186,7 +198,7 @@ def start_app(
     try:
         _configure(server, scene)
 
-        app = _wire(server, scene, key, scenarios, host)
+        app = _wire(server, scene, key, scenarios, host, folder=folder)
         if not app.wait_idle(60.0):
             raise RuntimeError("the first frame was not drawn within 60 s")
     except BaseException:
@@ -203,10 +215,12 @@ def _wire(
     key: str,
     scenarios: dict[str, Path],
     host: str,
+    *,
+    folder: ScenesFolder | None = None,
 ) -> PlannerApp:
     """Wire one session on ``server``: the panel, the 3-D view and their controller."""
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
-    panels = Panels(server, titles, planners.REGISTRY)
+    panels = Panels(server, titles, planners.REGISTRY, folder)
     controller_box: list[Controller] = []
 
     def on_drag(handle: tuple, xy: tuple[float, float], phase: str) -> None:
@@ -221,6 +235,7 @@ def _wire(
         sample=robot_model.sample,
         scenarios=scenarios,
         scenario=key,
+        folder=folder,
     )
     controller_box.append(controller)
     panels.attach(controller)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ from shapely import LineString, Polygon
 
 import planners
 from app.controller import Controller, Selection, default_plan, pick
+from app.files import ScenesFolder
 from tests.app.app_helpers import SCENARIO_DIR, FakeView, wait_until
 
 
@@ -431,8 +431,9 @@ def test_load_scenario_and_undo_the_switch(make_controller, scene):
 
 
 def test_bad_files_keep_the_scene(make_controller, scene, tmp_path):
-    controller, view = make_controller(scene)
-    controller.files.load_file(tmp_path / "missing.json")
+    folder = ScenesFolder(tmp_path)
+    controller, view = make_controller(scene, folder=folder)
+    controller.files.load_from_folder("missing")
     assert controller.wait_idle(10)
     assert "cannot read" in view.last.message and view.last.scene == scene
     bad = tmp_path / "bad.json"
@@ -446,7 +447,7 @@ def test_bad_files_keep_the_scene(make_controller, scene, tmp_path):
             }
         )
     )
-    controller.files.load_file(bad)
+    controller.files.load_from_folder("bad.json")
     assert controller.wait_idle(10)
     assert "obstacles[0]" in view.last.message and view.last.scene == scene
     controller.files.load_text("{not json", "upload.json")
@@ -455,23 +456,29 @@ def test_bad_files_keep_the_scene(make_controller, scene, tmp_path):
 
 
 def test_save_and_load_round_trip(make_controller, scene, tmp_path):
-    controller, view = make_controller(scene)
+    controller, view = make_controller(scene, folder=ScenesFolder(tmp_path))
     controller.edits.move_goal((8.5, 6.5))
-    target = tmp_path / "mine"
-    controller.files.save(target)
+    controller.files.save_to_folder("mine")
     assert controller.wait_idle(10)
-    saved = Path(str(target) + ".json")
-    assert "Saved to" in view.last.message and saved.is_file()
+    saved = tmp_path / "mine.json"
+    assert "Saved mine.json" in view.last.message and saved.is_file()
     controller.edits.move_goal((1.0, 7.0))
-    controller.files.load_file(saved)
+    controller.files.load_from_folder("mine")
     assert controller.wait_idle(10)
     assert view.last.scene.goal == (8.5, 6.5)
+    # The download is the same scene, for the browser.
+    name, data = controller.files.download()
+    assert name == "Two_convex_obstacles.json"
+    assert planners.scene.scene_from_text(data) == view.last.scene
     # An invalid scene is refused and the file on disk is untouched.
     controller.edits.drag_handle(("vertex", 0, 1), (3.0, 7.0), "update")
-    controller.files.save(saved)
+    controller.files.save_to_folder("mine.json")
     assert controller.wait_idle(10)
     assert "Not saved" in view.last.message
     assert planners.load_scene(saved).goal == (8.5, 6.5)
+    assert controller.files.download() is None
+    assert controller.wait_idle(10)
+    assert "Not downloaded" in view.last.message
 
 
 # ----------------------------------------------------------------------------- robot

@@ -306,7 +306,8 @@ class Panels:
                 return
             file = self.controller.files.download()
             if file is not None:
-                event.client.send_file_download(*file)
+                name, data = file
+                event.client.send_file_download(name, data, save_immediately=True)
 
         @self.upload.on_upload
         def _(event: Any) -> None:

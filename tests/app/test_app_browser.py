@@ -240,3 +240,43 @@ def test_clicking_corners_draws_a_new_polygon(browser, planner):
     assert_allclose(added, corners, atol=3 * CAMERA.metres_per_pixel())
     assert controller.frame.draft == ()
     page.close()
+
+
+def test_download_upload_and_the_scenes_folder_in_the_browser(browser, tmp_path):
+    """The panel's file buttons end to end: nothing names a server path."""
+    import planners
+    from planners.scene import scene_from_text
+
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    app = start_app("02_three_obstacles", port=0, print_url=False, scenes_dir=folder)
+    try:
+        page = browser.new_page(
+            viewport={"width": WIDTH, "height": HEIGHT}, accept_downloads=True
+        )
+        page.goto(f"{app.url}?fixedDpr=1")
+        download_button = page.get_by_text("Download this scene (.json)")
+        download_button.wait_for(timeout=30_000)
+        with page.expect_download(timeout=20_000) as info:
+            download_button.click()
+        saved = tmp_path / info.value.suggested_filename
+        info.value.save_as(saved)
+        assert scene_from_text(saved.read_bytes()) == app.controller.scene
+        # Save by a plain name: the file lands in the folder and the list shows it.
+        page.get_by_text("Save to the scenes folder").click()
+        wait_until((folder / "my scene.json").is_file, 10)
+        assert sorted(p.name for p in tmp_path.rglob("*.json")) == [
+            saved.name,
+            "my scene.json",
+        ]
+        # Upload a shipped scenario through the page's file input.
+        shipped = planners.load_scene  # noqa: F841 - the module is used below
+        page.locator("input[type=file]").set_input_files(str(saved.parent / saved.name))
+        wait_until(
+            lambda: (app.controller.message or "").startswith("Loaded"),
+            10,
+        )
+        assert app.controller.message == f"Loaded {saved.name}."
+        page.close()
+    finally:
+        app.stop()

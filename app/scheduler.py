@@ -119,17 +119,10 @@ class Pending:
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class Failed:
-    """A planner that raised: no path, and the error in words."""
+class Failed(planners.InvalidResult):
+    """A planner that raised: no path, and the error in words (a bug, not a result)."""
 
-    planner: str
-    reason: str
     status: str = "error"
-    length: float | None = None
-    path: npt.NDArray[np.float64] = dataclasses.field(
-        default_factory=lambda: np.zeros((0, 2))
-    )
-    ms: float = 0.0
 
 
 # --------------------------------------------------------------------------- lanes

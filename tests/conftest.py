@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import subprocess
@@ -18,6 +19,7 @@ from shapely.geometry.base import BaseGeometry
 
 from planners import load_scene
 from planners.expansion import ConfigurationSpace
+from planners.visibility import segments_free
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "static_scenarios").glob("*.json"))
@@ -206,3 +208,24 @@ _settings.register_profile(
     "thorough", max_examples=3000, deadline=None, suppress_health_check=_QUIET
 )
 _settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
+
+
+def check_walk(space: ConfigurationSpace, scene, walk, vg) -> None:
+    """Check a trace planner's walk against the visibility graph's answer.
+
+    It starts at the start; it never enters an expanded obstacle's interior nor leaves
+    the walls (by the planners' exact test and by shapely's); where a path exists it
+    ends on the goal, is no shorter than the VG's, and its length is its segments' sum.
+    """
+    path = walk.path
+    assert tuple(path[0]) == scene.start
+    if len(path) > 1:
+        assert segments_free(space, path[:-1], path[1:]).all()
+        for a, b in itertools.pairwise(path):
+            assert reference_segment_free(space, a, b), (a, b)
+    if vg.status == "ok":
+        assert tuple(path[-1]) == scene.goal
+        assert walk.length >= vg.length - 1e-9
+        assert walk.length == pytest.approx(
+            float(np.hypot(*np.diff(path, axis=0).T).sum()), rel=1e-12
+        )

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import itertools
 import math
 
-import numpy as np
 import pytest
 from hypothesis import assume, given
 from numpy.testing import assert_allclose
@@ -15,8 +13,12 @@ from planners import PlanOptions, load_scene, plan_all
 from planners.bug2 import _pinches, _point, plan_bug2
 from planners.expansion import configuration_space
 from planners.sensor import ring_geometry
-from planners.visibility import segments_free
-from tests.conftest import random_scenes, reference_segment_free, scene_dict, square
+from tests.conftest import (
+    check_walk,
+    random_scenes,
+    scene_dict,
+    square,
+)
 
 
 def _bug2(obstacles, start, goal, boundary=None):
@@ -185,18 +187,8 @@ def _check(scene, *, through_pinch_ok):
     assert bug2.status == ("reached" if vg.status == "ok" else "unreachable"), (
         bug2.reason
     )
-    path = bug2.path
-    assert tuple(path[0]) == scene.start
-    if len(path) > 1:
-        assert segments_free(space, path[:-1], path[1:]).all()
-        for a, b in itertools.pairwise(path):
-            assert reference_segment_free(space, a, b), (a, b)
+    check_walk(space, scene, bug2, vg)
     if vg.status == "ok":
-        assert tuple(path[-1]) == scene.goal
-        assert bug2.length >= vg.length - 1e-9
-        assert bug2.length == pytest.approx(
-            float(np.hypot(*np.diff(path, axis=0).T).sum()), rel=1e-12
-        )
         hits = [e for e in bug2.events if e.kind == "hit"]
         leaves = [e for e in bug2.events if e.kind == "leave"]
         for hit, leave in zip(hits, leaves, strict=False):

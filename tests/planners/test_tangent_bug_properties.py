@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -18,8 +17,7 @@ from planners.tangent_bug import (
     _context,
     plan_tangent_bug,
 )
-from planners.visibility import segments_free
-from tests.conftest import random_scenes, reference_segment_free, scene_dict
+from tests.conftest import check_walk, random_scenes, scene_dict
 
 
 def _check(scene, sensor_range, rule):
@@ -32,20 +30,7 @@ def _check(scene, sensor_range, rule):
     # Complete and sound: reached exactly when the visibility graph finds a path.
     assert dsb.status == ("reached" if vg.status == "ok" else "unreachable"), dsb.reason
     assert dsb.terminated == ("goal" if vg.status == "ok" else "loop")
-    path = dsb.path
-    assert tuple(path[0]) == scene.start
-    # The path never enters an expanded obstacle's interior nor leaves the walls: by the
-    # planners' exact test and by shapely's.
-    if len(path) > 1:
-        assert segments_free(space, path[:-1], path[1:]).all()
-        for a, b in itertools.pairwise(path):
-            assert reference_segment_free(space, a, b), (a, b)
-    if vg.status == "ok":
-        assert tuple(path[-1]) == scene.goal
-        assert dsb.length >= vg.length - 1e-9
-        assert dsb.length == pytest.approx(
-            float(np.hypot(*np.diff(path, axis=0).T).sum()), rel=1e-12
-        )
+    check_walk(space, scene, dsb, vg)
 
 
 @given(

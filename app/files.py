@@ -13,6 +13,7 @@ from __future__ import annotations
 
 __all__ = ["MAX_UPLOAD_BYTES", "FolderError", "ScenesFolder", "plain_name"]
 
+import os
 import re
 from pathlib import Path
 
@@ -66,7 +67,9 @@ class ScenesFolder:
         The shipped scenario files, which are never written.
     """
 
-    def __init__(self, root: str | Path, shipped: tuple[Path, ...] = ()) -> None:
+    def __init__(
+        self, root: str | os.PathLike[str], shipped: tuple[Path, ...] = ()
+    ) -> None:
         self.root = Path(root).resolve()
         if not self.root.is_dir():
             raise FolderError(f"the scenes folder {root} does not exist")

@@ -315,14 +315,16 @@ class Panels:
                 file = event.target.value
                 self.controller.files.load_text(file.content, file.name)
 
-        if self.folder_open is not None and self.folder_save is not None:
+        chosen, typed = self.folder_file, self.folder_name
+        if chosen is not None and self.folder_open is not None:
             self._on_click(
                 self.folder_open,
-                lambda v, c: c.files.load_from_folder(str(self.folder_file.value)),
+                lambda v, c: c.files.load_from_folder(str(chosen.value)),
             )
+        if typed is not None and self.folder_save is not None:
             self._on_click(
                 self.folder_save,
-                lambda v, c: c.files.save_to_folder(str(self.folder_name.value)),
+                lambda v, c: c.files.save_to_folder(str(typed.value)),
             )
 
         tool_keys = {text: key for key, text in TOOLS.items()}

@@ -487,7 +487,7 @@ class _GraphLayer:
             return
         self.edges.set(
             lift_segments(result.arrays.segments(), self.look.edges_height)
-            if show_edges
+            if show_edges and result is not None
             else _NO_SEGMENTS,
             show_edges,
         )
@@ -534,7 +534,11 @@ class _TraceLayer:
             self.labels.set([(text, (*at, z + 0.05)) for text, at in labels], show)
         if not changed(self.name, (result, show)):
             return
-        segments = path_to_segments(result.path, z) if show else _NO_SEGMENTS
+        segments = (
+            path_to_segments(result.path, z)
+            if show and result is not None
+            else _NO_SEGMENTS
+        )
         self.path.set(segments, show, self._colors(result, len(segments)))
         crosses = [_cross(at, 0.12, z + 0.004) for _, at in events]
         self.marks.set(
@@ -949,8 +953,7 @@ class PlannerView:
             spin.wxyz = _axis_quaternion(axis, angle)
         self.robot.visible = True
         sensing = pose.sensing
-        show = sensing is not None and self._last.get("sensing_layer", True)
-        if not show:
+        if sensing is None or not self._last.get("sensing_layer", True):
             self._hide_sensing()
             return
         picture = sensing_geometry(sensing)

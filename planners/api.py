@@ -127,7 +127,7 @@ def plan_all(
         t1 = time.perf_counter()
         result = registry[name].run(cspace, scene, options)
         ms = shared_ms + (time.perf_counter() - t1) * 1e3
-        if not (dataclasses.is_dataclass(result) and hasattr(result, "ms")):
+        if not _is_plan_result(result):
             raise TypeError(
                 f"planner {name!r} returned {type(result).__name__}, not a dataclass "
                 "with an 'ms' field (planners.registry.PlanResult)"
@@ -137,6 +137,15 @@ def plan_all(
         results[name] = dataclasses.replace(result, ms=ms)
     results["cspace"] = cspace
     return results
+
+
+def _is_plan_result(result: Any) -> bool:
+    """Tell whether ``result`` is a dataclass instance with an ``ms`` field to set."""
+    return (
+        dataclasses.is_dataclass(result)
+        and not isinstance(result, type)
+        and any(f.name == "ms" for f in dataclasses.fields(result))
+    )
 
 
 def _endpoint_problem(scene: Scene, cspace: ConfigurationSpace) -> str | None:

@@ -335,7 +335,7 @@ def _pinches(geo: RingGeometry, tol: float) -> dict[_Spot, _Spot]:
     keeps it near linear). The places at one point form a cycle: arriving at one, the
     robot leaves from the next.
     """
-    lines = shapely.linestrings(np.stack([geo.start, geo.end], axis=1))
+    lines = np.asarray(shapely.linestrings(np.stack([geo.start, geo.end], axis=1)))
     vertex, edge = shapely.STRtree(lines).query(
         shapely.points(geo.start), predicate="dwithin", distance=tol
     )

@@ -52,7 +52,7 @@ def test_the_check_finds_a_module_cache():
         return x
 
     cached.__module__ = "planners.fake"
-    fake.cached = cached
+    vars(fake)["cached"] = cached
     fake.__file__ = __file__
     with pytest.raises(AssertionError, match="module-level cache"):
         test_no_module_level_mutable_state(fake)

@@ -12,29 +12,35 @@ def edits(history: History, states: list[str], key=None, phased=False, dt=0.1):
     return history
 
 
+def step(result):
+    """The (history, entry) of an undo or redo that had something to do."""
+    assert result is not None
+    return result
+
+
 def test_undo_and_redo_walk_back_and_forth():
     h = edits(History(), ["a", "b"])  # a -> b -> c (current)
-    h, back = h.undo(Entry("c"))
+    h, back = step(h.undo(Entry("c")))
     assert back == Entry("b") and h.can_redo
-    h, back = h.undo(Entry("b"))
+    h, back = step(h.undo(Entry("b")))
     assert back == Entry("a") and not h.can_undo
     assert h.undo(Entry("a")) is None  # nothing to undo: the caller says so
-    h, forward = h.redo(Entry("a"))
+    h, forward = step(h.redo(Entry("a")))
     assert forward == Entry("b")
-    h, forward = h.redo(Entry("b"))
+    h, forward = step(h.redo(Entry("b")))
     assert forward == Entry("c") and not h.can_redo
     assert h.redo(Entry("c")) is None
 
 
 def test_the_scenario_travels_with_the_scene():
     h = History().record(Entry("old", "01_two_convex"), key=None, now=0.0)
-    _, back = h.undo(Entry("new", ""))
+    _, back = step(h.undo(Entry("new", "")))
     assert back == Entry("old", "01_two_convex")
 
 
 def test_a_new_edit_clears_redo():
     h = edits(History(), ["a", "b"])
-    h, _ = h.undo(Entry("c"))
+    h, _ = step(h.undo(Entry("c")))
     assert h.can_redo
     h = h.record(Entry("b"), key=None, now=5.0)
     assert not h.can_redo
@@ -44,7 +50,7 @@ def test_history_values_are_never_changed_in_place():
     h0 = History()
     h1 = h0.record(Entry("a"), key=None, now=0.0)
     assert h0 == History() and h1 is not h0
-    h2, _ = h1.undo(Entry("b"))
+    h2, _ = step(h1.undo(Entry("b")))
     assert h1.undo_stack == (Entry("a"),) and h2.undo_stack == ()
 
 
@@ -78,6 +84,6 @@ def test_a_phased_gesture_merges_until_closed_however_slow():
 def test_undo_closes_the_open_gesture():
     slider = ("radius",)
     h = History().record(Entry("a"), key=slider, now=0.0)
-    h, _ = h.undo(Entry("b"))
+    h, _ = step(h.undo(Entry("b")))
     h = h.record(Entry("a"), key=slider, now=0.1)  # same slider right after: new step
     assert h.gesture == slider and len(h.undo_stack) == 1 and not h.can_redo

@@ -111,7 +111,7 @@ def test_goal_enclosed_is_unreachable_after_one_round():
     walls = Polygon(ring, [hole])
     trace = _bug2([walls], (-1.0, 3.0), (3.0, 3.0))
     assert trace.status == "unreachable"
-    assert "unreachable" in trace.reason
+    assert "unreachable" in (trace.reason or "")
     assert [e.label for e in trace.events] == ["H1"]
     # It went once all the way round and stopped at the hit point.
     assert_allclose(trace.path[-1], (0.0, 3.0))

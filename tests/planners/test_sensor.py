@@ -384,7 +384,7 @@ def test_robot_below_squares_touching_at_a_corner_sees_up_their_common_line(k):
 def _seen(seen, p, tol=1e-9) -> bool:
     """Whether point ``p`` lies on the visible border."""
     pieces = shapely.MultiLineString([list(s) for s in seen.segments])
-    return shapely.distance(pieces, shapely.Point(p)) <= tol
+    return bool(shapely.distance(pieces, shapely.Point(p)) <= tol)
 
 
 NEAR = [0.5, 2.0, 5.0, 50.0, 1000.0]

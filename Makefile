@@ -21,7 +21,7 @@ bench: $(STAMP) $(PEERS)/.installed  ## benchmarks against pyvisgraph and extrem
 
 lint: $(STAMP)
 	$(VENV)/bin/pip install -q ruff pyright
-	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
+	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check . && $(VENV)/bin/pyright
 
 chromium:
 	@bash tools/ensure-chromium.sh

@@ -196,7 +196,7 @@ def plan_bug2(
     """
     s = np.asarray(start, dtype=np.float64).reshape(2)
     g = np.asarray(goal, dtype=np.float64).reshape(2)
-    run = _Run(cspace, ring_geometry(cspace), s, g, 10.0 * cspace.eps)
+    run = _Run(cspace, ring_geometry(cspace), s, g, _tolerance(cspace))
     walk = _Walk(points=(_pt(s),))
     # Every leave point is a crossing of the M-line with the border, closer to the goal
     # than the hit before it: there are at most as many hits as such crossings.
@@ -252,7 +252,8 @@ def _follow(run: _Run, walk: _Walk, hit: tuple[int, FloatArray]) -> tuple[_Walk,
         BugEvent("hit", _pt(h), f"H{label}", obstacle, walk.travelled),
         _decision(walk, "hit", h, g, d_hit=d_hit, text=text),
     )
-    pieces = _border_walk(geo, ring, h, _unit(g - s), tol)
+    pinches = run.cspace.derive(_pinch_map)
+    pieces = _border_walk(geo, ring, h, _unit(g - s), tol, pinches)
     for k, e, t in _m_line_crossings(run, pieces):
         p = geo.start[e] + t * geo.step[e]
         if math.dist(p, h) <= tol or math.dist(p, g) >= d_hit - tol:
@@ -287,8 +288,13 @@ _Spot = tuple[int, float]
 A vertex is (the edge ending there, 1.0)."""
 
 
-def _border_walk(
-    geo: RingGeometry, ring: int, h: FloatArray, u: FloatArray, tol: float
+def _border_walk(  # noqa: PLR0917 - the walk's six inputs, all needed
+    geo: RingGeometry,
+    ring: int,
+    h: FloatArray,
+    u: FloatArray,
+    tol: float,
+    pinches: dict[_Spot, _Spot],
 ) -> list[_Piece]:
     """Return the pieces of border the robot walks from ``h`` until it is back at ``h``.
 
@@ -296,9 +302,9 @@ def _border_walk(
     (a *pinch*: two obstacles touching at a vertex, a vertex on another obstacle's side,
     a pocket touching the outside), it passes onto the other border and comes back after
     going round it, so it walks round the whole connected obstacle, as a robot with a
-    bumper does. ``u`` is the direction the robot came in along the M-line.
+    bumper does. ``u`` is the direction the robot came in along the M-line; ``pinches``
+    is :func:`_pinches` of the border.
     """
-    pinches = _pinches(geo, tol)
     # Where the hit is itself a pinch, the robot goes on in the free sector it came from:
     # the first direction it can leave in, turning clockwise from the way back.
     back = math.atan2(-float(u[1]), -float(u[0]))
@@ -326,6 +332,19 @@ def _border_walk(
 def _spot(geo: RingGeometry, e: int, t: float) -> _Spot:
     """Return the place at parameter ``t`` of edge ``e`` in :data:`_Spot` form."""
     return (int(geo.prev_edge[e]), 1.0) if t <= 0.0 else (int(e), float(t))
+
+
+def _pinch_map(cspace: ConfigurationSpace) -> dict[_Spot, _Spot]:
+    """Return :func:`_pinches` of the configuration space's border (derived once per space).
+
+    A run with several hits walks several borders; the pinches are found once.
+    """
+    return _pinches(ring_geometry(cspace), _tolerance(cspace))
+
+
+def _tolerance(cspace: ConfigurationSpace) -> float:
+    """Points closer than this coincide [m] (TangentBug's tolerance too)."""
+    return 10.0 * cspace.eps
 
 
 def _pinches(geo: RingGeometry, tol: float) -> dict[_Spot, _Spot]:

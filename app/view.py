@@ -48,6 +48,7 @@ from shapely.geometry.base import BaseGeometry
 import planners
 from app.controller import Frame, Handle, RobotPose
 from app.robot import RobotModel
+from app.scoped import ScopedTarget
 from app.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
 from planners.trace import FOLLOW
 
@@ -564,8 +565,9 @@ class PlannerView:
     Parameters
     ----------
     target
-        A :class:`viser.ViserServer` (every browser sees the same scene) or a
-        :class:`viser.ClientHandle`.
+        A :class:`viser.ViserServer` (every browser sees the same scene), a
+        :class:`viser.ClientHandle`, or either under a root node
+        (:class:`app.scoped.ScopedTarget`, a classroom's views).
     on_drag
         Called as ``on_drag(handle, (x, y), phase)`` when a user drags a gizmo; the app
         passes :meth:`app.controller.SceneEdits.drag_handle`.
@@ -575,7 +577,7 @@ class PlannerView:
 
     def __init__(
         self,
-        target: viser.ViserServer | viser.ClientHandle,
+        target: viser.ViserServer | viser.ClientHandle | ScopedTarget,
         on_drag: HandleCallback | None = None,
         registry: Mapping[str, planners.PlannerSpec] = planners.REGISTRY,
     ) -> None:

@@ -353,15 +353,16 @@ def test_a_private_copy_is_a_session_of_its_own_freed_when_the_browser_leaves(pl
             assert not student.element("Radius [m]")["props"]["disabled"]
             # Its edits stay in its session...
             student.set_gui(student.uuid("Radius [m]"), 0.6)
+            assert wait_until(lambda: private.scene.robot.radius == 0.6, 20)
             student.drag("/own" + GOAL, (7.5, 2.5), "start", str(sid))
             student.drag("/own" + GOAL, (7.5, 2.5), "update", str(sid))
             student.drag("/own" + GOAL, (7.5, 2.5), "end", str(sid))
             assert wait_until(lambda: private.scene.goal == (7.5, 2.5), 20)
-            assert wait_until(lambda: private.scene.robot.radius == 0.6, 20)
             assert planner.controller.scene == shared_before
             # ... with its own undo history...
             student.set_gui(student.uuid("Edits"), "Undo")
             assert wait_until(lambda: private.scene.goal == shared_before.goal, 20)
+            assert private.scene.robot.radius == 0.6
             assert planner.controller.scene == shared_before
             # ... and the presenter's edits do not reach it.
             pres.drag("/own" + GOAL, (1.5, 6.5), "start", str(pres.client_id))

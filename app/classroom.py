@@ -196,9 +196,9 @@ class Seat:
     """The browser's handle."""
     presenter: bool
     """Whether it opened the presenter's URL."""
-    banner: Any
+    banner: Any = None
     """The coloured box at the top of its panel saying what mode it is in."""
-    buttons: Any
+    buttons: Any = None
     """Its classroom buttons (copy / follow), or the presenter's switch."""
     panels: Panels | None = None
     """Its control panel (built after the banner, so the banner is on top)."""
@@ -312,18 +312,19 @@ class Classroom:
         """Give a new browser its seat: banner, buttons, panel; watching by default."""
         path = connection_path(self.server, client.client_id)
         presenter = is_presenter_path(path, self.token)
-        gui = client.gui
-        banner = gui.add_html("")
-        buttons = (
-            self._presenter_switch(client) if presenter else self._copy_buttons(client)
-        )
-        seat = Seat(client, presenter, banner, buttons)
+        seat = Seat(client, presenter)
         seat.panels = Panels(
             client, self._titles, self.controller.registry, self._folder
         )
         with self._lock:
             self._seats[client.client_id] = seat
             self._follow(seat)
+        # The banner and buttons go above the panel (smaller order), built once the seat
+        # exists: a click on "Make my own copy" always finds it.
+        seat.banner = client.gui.add_html("", order=-3.0)
+        seat.buttons = (
+            self._presenter_switch(client) if presenter else self._copy_buttons(client)
+        )
         if client.client_id not in self.server.get_clients():
             # viser runs connect and disconnect callbacks in a thread pool: a browser
             # that left while its seat was being built would otherwise keep it.
@@ -473,9 +474,11 @@ class Classroom:
         cid = client.client_id
         gui = client.gui
         copy = gui.add_button(
-            "Make my own copy", hint="Your own scene: edit it without the class"
+            "Make my own copy",
+            hint="Your own scene: edit it without the class",
+            order=-2.0,
         )
-        back = gui.add_button("Follow the presenter again", visible=False)
+        back = gui.add_button("Follow the presenter again", visible=False, order=-1.0)
 
         @copy.on_click
         def _(event: Any) -> None:
@@ -495,6 +498,7 @@ class Classroom:
             "Let everyone edit",
             False,
             hint="A lab session: every student's edits reach the shared scene",
+            order=-2.0,
         )
 
         @switch.on_update
@@ -512,8 +516,8 @@ class Classroom:
             counts = self.counts()
         for seat in seats:
             mode = self.mode(seat.client_id)
-            if not mode:
-                continue
+            if not mode or seat.banner is None or seat.buttons is None:
+                continue  # its banner and buttons are being built
             try:
                 _set_banner(seat, mode, counts, self._open)
             except Exception:

@@ -851,11 +851,14 @@ class PlannerView:
 
     def _render_handles(self, frame: Frame) -> None:
         scene = frame.scene
-        key = (scene.start, scene.goal, scene.obstacles, frame.tool, frame.dragging)
+        # Gizmos are left alone while a user drags them here; a view nobody drags on (a
+        # classroom's shared view) places them always, so watchers see the drag.
+        dragging = frame.dragging if self._on_drag is not None else frozenset()
+        key = (scene.start, scene.goal, scene.obstacles, frame.tool, dragging)
         if not self._changed("handles", key):
             return
         for name, xy in (("start", scene.start), ("goal", scene.goal)):
-            if (name,) not in frame.dragging:
+            if (name,) not in dragging:
                 self.handles[name].position = (xy[0], xy[1], 0.0)
         editing = frame.tool == "edit"
         slots = [
@@ -882,7 +885,7 @@ class PlannerView:
             shown = k < len(slots) and editing
             if shown:
                 i, j = slots[k]
-                if ("vertex", i, j) not in frame.dragging:
+                if ("vertex", i, j) not in dragging:
                     x, y = scene.obstacles[i].exterior.coords[j]
                     _place(gizmo, (x, y, top))
             if gizmo.visible != shown:
@@ -902,7 +905,7 @@ class PlannerView:
             self.obstacle_handles.append(gizmo)
         for k, gizmo in enumerate(self.obstacle_handles):
             shown = k < n and editing
-            if shown and ("obstacle", k) not in frame.dragging:
+            if shown and ("obstacle", k) not in dragging:
                 _place(gizmo, _label_point(scene.obstacles[k], top + 0.01))
             if gizmo.visible != shown:
                 gizmo.visible = shown

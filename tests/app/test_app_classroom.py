@@ -63,7 +63,13 @@ def client(app: Any, presenter: bool = False) -> Iterator[ViserClient]:
         (cid,) = set(app.server.get_clients()) - before
         c.client_id = cid
         assert wait_until(lambda: app.classroom.seat(cid) is not None, 30)
-        assert c.wait_for(lambda: _has(c, "Radius [m]"), 30), "panel not received"
+        assert c.wait_for(
+            lambda: (
+                _has(c, "Radius [m]")
+                and (_has(c, "Make my own copy") or _has(c, "Let everyone edit"))
+            ),
+            30,
+        ), "panel not received"
         yield c
     finally:
         c.close()

@@ -71,8 +71,10 @@ from bench_app import (  # noqa: E402  (tests/benchmarks/bench_app.py)
 )
 from clock import StealMeter  # noqa: E402
 
+import planners  # noqa: E402
 from app import start_app  # noqa: E402
 from app.classroom import PRESENTER_PATH  # noqa: E402
+from app.server import resolve_scenario  # noqa: E402
 
 SCENARIO = "06_four_obstacles_sensor"
 GOAL = "/handles/goal"
@@ -115,7 +117,16 @@ def run_clients(args: argparse.Namespace) -> int:
     _say({"ready": True})
     _expect("go")
     sent = _drag_students(students, args)
-    _expect("report")
+    goal = json.loads(_expect("report"))
+    # Wait (bounded) until every watcher has the presenter's final goal: "ends on".
+    deadline = time.monotonic() + 20.0
+    for k, w in enumerate(watchers):
+        w.wait_for(
+            lambda k=k: (
+                bool(received.get(k)) and np.allclose(received[k][-1][1][:2], goal)
+            ),
+            max(0.0, deadline - time.monotonic()),
+        )
     _say(
         {
             "watchers_last": [
@@ -155,11 +166,13 @@ def _drag_students(students: list[Any], args: argparse.Namespace) -> list[list[A
     sent: list[list[Any]] = [[] for _ in students]
     period = 1.0 / args.student_rate
     n = max(2, int(args.duration * args.student_rate))
+    loop = drag_positions(planners.load_scene(resolve_scenario(SCENARIO)[1]), n)
 
     def drag(k: int) -> None:
         s, owner = students[k], str(_own_id(students[k]))
-        u = np.linspace(0.0, 2.0 * np.pi, n) + k
-        points = np.column_stack([9.0 + 0.6 * np.cos(u), 2.0 + 0.5 * np.sin(u)])
+        # The presenter's loop around the goal (a valid goal all along), each student
+        # starting at another point of it.
+        points = np.roll(loop, 7 * k, axis=0)
         name = "/own" + GOAL
         s.drag(name, tuple(points[0]), "start", owner)
         t_next = time.perf_counter()
@@ -183,10 +196,12 @@ def _say(data: dict[str, Any]) -> None:
     print(json.dumps(data), flush=True)
 
 
-def _expect(word: str) -> None:
+def _expect(word: str) -> str:
+    """Read the parent's next command; return what follows the word."""
     line = sys.stdin.readline().strip()
-    if line != word:
+    if line.split(" ", 1)[0] != word:
         raise SystemExit(f"client process: expected {word!r}, got {line!r}")
+    return line[len(word) :].strip()
 
 
 # --------------------------------------------------------------------------- server
@@ -295,8 +310,9 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         assert app.wait_idle(120)
         for _, seat in probes:
             assert seat.private is None or seat.private.wait_idle(120)
-        clients.send("report")
+        clients.send(f"report {json.dumps(list(controller.scene.goal))}")
         report = clients.read()
+        _wait_copies_settle(probes, report)
         rss_after = rss_mb()
         return _summary(
             watchers=watchers,
@@ -391,6 +407,23 @@ def _summary(**m: Any) -> dict[str, Any]:
         "connect_s": m["connect_s"],
         "steal": m["steal"],
     }
+
+
+def _wait_copies_settle(probes: list[Any], report: dict[str, Any]) -> None:
+    """Wait (bounded) until every copy has handled its student's last event."""
+    last = dict(zip(report["students"], report["students_last"], strict=True))
+    deadline = time.monotonic() + 20.0
+    for _, seat in probes:
+        private, goal = seat.private, last.get(str(seat.client_id))
+        while (
+            private is not None
+            and goal is not None
+            and not np.allclose(private.scene.goal, goal)
+            and time.monotonic() < deadline
+        ):
+            time.sleep(0.05)
+        if private is not None:
+            private.wait_idle(max(0.1, deadline - time.monotonic()))
 
 
 def _copies_end_where_left(probes: list[Any], report: dict[str, Any]) -> int:

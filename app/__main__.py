@@ -54,6 +54,14 @@ def _parser() -> argparse.ArgumentParser:
         "(default: on when --host is not loopback)",
     )
     parser.add_argument(
+        "--copy-workers",
+        type=int,
+        default=1,
+        metavar="N",
+        help="presenter mode: worker processes the students' private copies share "
+        "for DSB (default 1)",
+    )
+    parser.add_argument(
         "--snapshot",
         metavar="OUT.png",
         default=None,
@@ -106,6 +114,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             print_url=True,
             scenes_dir=args.scenes_dir,
             presenter=args.presenter,
+            copy_workers=args.copy_workers,
         )
     except (ScenarioError, FolderError) as error:
         print(f"error: {error}", file=sys.stderr)

@@ -63,6 +63,9 @@ logger = logging.getLogger(__name__)
 PRESENTER_PATH = "/presenter/"
 """Websocket path prefix of the presenter's browser; the token follows it."""
 
+STUDENT_NEVER = frozenset({"save_to_folder"})
+"""What a student's panel may never do, even on its own copy: write the lecturer's disk."""
+
 MODES = {
     "presenter": ("#b35900", "Presenter", "You edit; the class sees every change."),
     "watching": (
@@ -378,10 +381,13 @@ class Classroom:
             )
             private = seat.private
             gated = GatedController(
-                private, lambda: seat.private is private, self.refusals
+                private,
+                lambda: seat.private is private,
+                self.refusals,
+                never=STUDENT_NEVER,
             )
             panels.attach(cast(Controller, gated))
-            panels.lock(False)
+            _lock(panels, editable=True, presenter=False)
         self._refresh_banners()
         return True
 
@@ -414,12 +420,13 @@ class Classroom:
         """Attach a seat to the presenter's session, editing or watching as allowed."""
         panels = _panels(seat)
         cid = seat.client_id
+        never = frozenset() if seat.presenter else STUDENT_NEVER
         gated = GatedController(
-            self.controller, lambda: self.may_edit(cid), self.refusals
+            self.controller, lambda: self.may_edit(cid), self.refusals, never
         )
         panels.attach(cast(Controller, gated))
         editable = self.may_edit(cid)
-        panels.lock(not editable)
+        _lock(panels, editable=editable, presenter=seat.presenter)
         if editable and seat.own is None:
             seat.own = self._own_view(seat, self._shared_drag(cid))
         if not editable:
@@ -522,6 +529,15 @@ class Classroom:
                 _set_banner(seat, mode, counts, self._open)
             except Exception:
                 logger.exception("could not update a browser's banner")
+
+
+def _lock(panels: Panels, *, editable: bool, presenter: bool) -> None:
+    """Enable a panel's controls as its seat may use them (saving: the presenter only)."""
+    panels.lock(not editable)
+    if not presenter:
+        for handle in (panels.folder_name, panels.folder_save):
+            if handle is not None and not handle.disabled:
+                handle.disabled = True
 
 
 def _panels(seat: Seat) -> Panels:

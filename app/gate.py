@@ -51,14 +51,21 @@ class GatedGroup:
     """One of the controller's groups (``edits``, ``tools``, ...) behind the gate."""
 
     def __init__(
-        self, group: Any, allowed: Callable[[], bool], refusals: Refusals
+        self,
+        group: Any,
+        allowed: Callable[[], bool],
+        refusals: Refusals,
+        never: frozenset[str] = frozenset(),
     ) -> None:
         self._group = group
         self._allowed = allowed
         self._refusals = refusals
+        self._never = never
 
     def __getattr__(self, name: str) -> Any:
         member = getattr(self._group, name)
+        if name in self._never:
+            return _guard(member, lambda: False, self._refusals)
         if name in _READ_ONLY_METHODS or not callable(member):
             return member
         return _guard(member, self._allowed, self._refusals)
@@ -75,6 +82,9 @@ class GatedController:
         Asked at every call: may the browser behind this panel edit now?
     refusals
         Where refused edits are counted (shared by the classroom).
+    never
+        Group methods refused even when ``allowed()`` (a student never writes the
+        lecturer's scenes folder: ``{"save_to_folder"}``).
     """
 
     def __init__(
@@ -82,6 +92,7 @@ class GatedController:
         controller: Any,
         allowed: Callable[[], bool],
         refusals: Refusals | None = None,
+        never: frozenset[str] = frozenset(),
     ) -> None:
         self.controller = controller
         """The controller behind the gate."""
@@ -89,11 +100,8 @@ class GatedController:
         """Count of refused edits."""
         self._allowed = allowed
         for name in _GROUPS:
-            setattr(
-                self,
-                name,
-                GatedGroup(getattr(controller, name), allowed, self.refusals),
-            )
+            group = GatedGroup(getattr(controller, name), allowed, self.refusals, never)
+            setattr(self, name, group)
 
     def __getattr__(self, name: str) -> Any:
         member = getattr(self.controller, name)

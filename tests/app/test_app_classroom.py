@@ -205,6 +205,14 @@ def test_the_gate_refuses_every_edit_entry_point(group, name):
     assert recorder.calls == [f"{group}.{name}" if group else name]
 
 
+def test_a_students_gate_never_writes_the_folder_even_when_allowed():
+    recorder = _Recorder()
+    gated = GatedController(recorder, lambda: True, never=frozenset({"save_to_folder"}))
+    gated.files.save_to_folder("x")
+    gated.files.load_from_folder("x")
+    assert recorder.calls == ["files.load_from_folder"] and gated.refusals.count == 1
+
+
 def test_the_gate_lets_reading_and_downloading_through():
     recorder = _Recorder()
     gated = GatedController(recorder, lambda: False)
@@ -426,3 +434,47 @@ def test_private_copies_share_a_bounded_pool_of_workers(planner):
             assert private.frame.plans["dsb"].status in ("reached", "unreachable")
         assert 1 <= room.pool.processes <= room.pool.size
     assert wait_until(lambda: room.counts()["sessions"] == 0, 20)
+
+
+def test_a_student_never_writes_the_scenes_folder_even_on_a_copy(tmp_path):
+    """Item 1's rule, for the ways in that a classroom adds: a watcher, a lab seat and a
+    private copy each press *Save to the scenes folder*; only the presenter's save writes."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    app = start_app(
+        "01_two_convex", port=0, print_url=False, presenter=True, scenes_dir=folder
+    )
+    room = app.classroom
+    try:
+        with client(app, presenter=True) as pres, client(app) as student:
+            assert student.wait_for(
+                lambda: student.element("Save to the scenes folder")["props"][
+                    "disabled"
+                ]
+            )
+
+            def try_save(c: ViserClient, name: str) -> None:
+                c.set_gui(c.uuid("Save as"), name)
+                c.set_gui(c.uuid("Save to the scenes folder"), True)
+
+            refused = room.refusals.count
+            try_save(student, "watching")  # watching
+            pres.set_gui(pres.uuid("Let everyone edit"), True)
+            assert wait_until(lambda: room.mode(student.client_id) == "together", 20)
+            try_save(student, "together")  # editing together
+            pres.set_gui(pres.uuid("Let everyone edit"), False)
+            student.set_gui(student.uuid("Make my own copy"), True)
+            assert wait_until(lambda: room.mode(student.client_id) == "private", 20)
+            # On its copy the student edits, but the save button stays greyed out.
+            assert student.wait_for(
+                lambda: not student.element("Radius [m]")["props"]["disabled"]
+            )
+            assert student.element("Save to the scenes folder")["props"]["disabled"]
+            try_save(student, "private")  # on its own copy
+            assert wait_until(lambda: room.refusals.count >= refused + 3, 20)
+            assert sorted(p.name for p in tmp_path.rglob("*")) == ["scenes"]
+            try_save(pres, "lecture")
+            assert wait_until((folder / "lecture.json").is_file, 20)
+            assert sorted(p.name for p in folder.iterdir()) == ["lecture.json"]
+    finally:
+        app.stop()

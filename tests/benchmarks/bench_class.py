@@ -28,7 +28,8 @@ What is reported (all times from ``time.perf_counter``, one clock for both proce
 ``copies``
     The same edit-to-redraw inside the private sessions (their drags, server side).
 ``memory``
-    Resident memory of the server process and of its worker processes.
+    Resident memory of the server process before any browser connects and after the
+    run (each configuration runs in a fresh process), and of its worker processes.
 ``end state``
     Whether every watcher's last goal is the presenter's final goal, and every copy's
     scene ends where its student left it.
@@ -297,13 +298,13 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         probe = Probe(controller.slow_planners)
         controller.add_view(probe)
         assert app.wait_idle(60)
+        rss_before = rss_mb()  # the app alone, before any browser
         t_connect = time.perf_counter()
         clients = Clients(app, watchers, copies, args)
         clients.read()  # ready: everyone connected, copies made
         connect_s = time.perf_counter() - t_connect
         probes, recorders = _watch_copies(room, copies)
         _warm_up(app, controller)
-        rss_before = rss_mb()
         clients.send("go")
         points = drag_positions(controller.scene, args.events)
         sent = mouse_drag(controller, ("goal",), points, args.rate)
@@ -472,6 +473,27 @@ def print_row(s: dict[str, Any]) -> None:
     )
 
 
+def run_fresh(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
+    """Run one configuration in a process of its own (its memory figures are its own)."""
+    out = subprocess.run(
+        [
+            sys.executable,
+            __file__,
+            "--one",
+            f"--watchers={watchers}",
+            f"--copies={copies}",
+            f"--events={args.events}",
+            f"--rate={args.rate}",
+            f"--student-rate={args.student_rate}",
+        ],
+        check=True,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    ).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--watchers", type=int, default=30)
@@ -489,9 +511,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--port", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--token", help=argparse.SUPPRESS)
     parser.add_argument("--duration", type=float, default=5.0, help=argparse.SUPPRESS)
+    parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.clients:
         return run_clients(args)
+    if args.one:
+        print(json.dumps(run(args.watchers, args.copies, args)))
+        return 0
 
     configs = [(0, 0), (args.watchers, args.copies)]
     if args.sweep:
@@ -519,7 +545,7 @@ def main(argv: list[str] | None = None) -> int:
     print_header()
     results, missed = [], False
     for watchers, copies in configs:
-        s = run(watchers, copies, args)
+        s = run_fresh(watchers, copies, args)
         results.append(s)
         print_row(s)
         missed |= bool(s["fast"]) and percentile(s["fast"], 95) > FAST_BUDGET_MS

@@ -445,6 +445,7 @@ def test_a_student_never_writes_the_scenes_folder_even_on_a_copy(tmp_path):
         "01_two_convex", port=0, print_url=False, presenter=True, scenes_dir=folder
     )
     room = app.classroom
+    assert room is not None
     try:
         with client(app, presenter=True) as pres, client(app) as student:
             assert student.wait_for(

@@ -287,6 +287,7 @@ def _wire_classroom(
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
     view = PlannerView(ScopedTarget(server, "/shared", inert=True))
     view.robot_model_fn = robot_model.robot_model
+    view.place_dragged = True  # nobody holds the shared gizmos: watchers see every drag
     controller = Controller(
         [view],
         scene,

@@ -586,6 +586,8 @@ class PlannerView:
         self._on_drag = on_drag
         self._last: dict[str, Any] = {}
         self.rendered_version = -1
+        self.place_dragged = False
+        """Place gizmos even while they are dragged (a view whose gizmos nobody holds)."""
         self.robot_model_fn: Callable[[Any], tuple[Any, RobotModel]] | None = None
         self._add_scene_nodes()
         # One layer per registered planner, drawn as its kind says (planners.registry).
@@ -851,9 +853,9 @@ class PlannerView:
 
     def _render_handles(self, frame: Frame) -> None:
         scene = frame.scene
-        # Gizmos are left alone while a user drags them here; a view nobody drags on (a
-        # classroom's shared view) places them always, so watchers see the drag.
-        dragging = frame.dragging if self._on_drag is not None else frozenset()
+        # Gizmos are left alone while a user drags them here, unless this view's are
+        # dragged by nobody (place_dragged: a classroom's shared view), so watchers see it.
+        dragging = frozenset() if self.place_dragged else frame.dragging
         key = (scene.start, scene.goal, scene.obstacles, frame.tool, dragging)
         if not self._changed("handles", key):
             return

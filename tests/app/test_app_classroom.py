@@ -479,3 +479,21 @@ def test_a_student_never_writes_the_scenes_folder_even_on_a_copy(tmp_path):
             assert sorted(p.name for p in folder.iterdir()) == ["lecture.json"]
     finally:
         app.stop()
+
+
+def test_watchers_see_the_goal_move_during_the_presenters_drag(planner):
+    with client(planner, presenter=True) as pres, client(planner) as watch:
+        owner = str(pres.client_id)
+        pres.drag("/own" + GOAL, (8.0, 1.5), "start", owner)
+        pres.drag("/own" + GOAL, (8.0, 1.5), "update", owner)
+        # Not released yet: the shared marker follows anyway (no gizmo is held there).
+        assert watch.wait_for(
+            lambda: (
+                (watch.nodes.get(("", "/shared" + GOAL)) or {}).get("position")
+                == (8.0, 1.5, 0.0)
+            ),
+            20,
+        ), watch.nodes.get(("", "/shared" + GOAL))
+        assert planner.controller.frame.dragging == frozenset({("goal",)})
+        pres.drag("/own" + GOAL, (8.0, 1.5), "end", owner)
+        assert wait_until(lambda: planner.controller.frame.dragging == frozenset(), 20)

@@ -4,7 +4,7 @@ Examples::
 
     python -m app                                   # 01_two_convex on http://127.0.0.1:8080/
     python -m app --scenario two_convex --port 8081
-    python -m app --host 0.0.0.0                    # share on the network (a classroom)
+    python -m app --host 0.0.0.0                    # a classroom: presenter URL + class URL
     python -m app --scenario 06 --snapshot out.png --width 1280 --height 800
 """
 
@@ -45,6 +45,21 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         help="a folder browsers may open and save scenario files in, by plain names "
         "(default: none; browsers download and upload)",
+    )
+    parser.add_argument(
+        "--presenter",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="presenter mode: only the presenter's URL edits, others watch or copy "
+        "(default: on when --host is not loopback)",
+    )
+    parser.add_argument(
+        "--copy-workers",
+        type=int,
+        default=1,
+        metavar="N",
+        help="presenter mode: worker processes the students' private copies share "
+        "for DSB (default 1)",
     )
     parser.add_argument(
         "--snapshot",
@@ -98,6 +113,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             port=args.port,
             print_url=True,
             scenes_dir=args.scenes_dir,
+            presenter=args.presenter,
+            copy_workers=args.copy_workers,
         )
     except (ScenarioError, FolderError) as error:
         print(f"error: {error}", file=sys.stderr)

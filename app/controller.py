@@ -104,7 +104,7 @@ class Controller:
         planners).
     slow_process
         Compute the slow lane in a worker process (see :mod:`app.lanes`); False keeps it
-        in a thread.
+        in a thread; a callable (a shared :class:`app.pool.WorkerPool`) computes it.
     trajectory
         (scene, path) -> timed trajectory (or None); None disables the robot.
     sample
@@ -130,7 +130,7 @@ class Controller:
         plan: PlanFn | None = None,
         slow_plan: PlanFn | None = None,
         slow_names: Sequence[str] | None = None,
-        slow_process: bool = True,
+        slow_process: bool | Callable[[Scene, tuple[str, ...]], Any] = True,
         trajectory: TrajectoryFn | None = None,
         sample: SampleFn | None = None,
         scenarios: Mapping[str, Path] | None = None,

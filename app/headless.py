@@ -513,6 +513,7 @@ def open_page(
     width: int = 1280,
     height: int = 800,
     timeout: float = 60.0,
+    url: str | None = None,
 ) -> Iterator[AppPage]:
     """Open a running app in a fresh browser context; wait until its scene is loaded.
 
@@ -529,6 +530,8 @@ def open_page(
         Viewport size [px].
     timeout
         Longest time [s] to wait for the connection and the scene.
+    url
+        Address to open instead of the app's own (a classroom's presenter URL).
 
     Yields
     ------
@@ -549,7 +552,8 @@ def open_page(
         page = context.new_page()
         page.set_default_timeout(timeout * 1e3)
         try:
-            page.goto(f"{planner_app.url.rstrip('/')}/?fixedDpr=1")
+            address = url or f"{planner_app.url.rstrip('/')}/"
+            page.goto(address + ("&" if "?" in address else "?") + "fixedDpr=1")
             client = _wait_client(server, known, deadline)
             page.wait_for_function(
                 """names => {

@@ -143,7 +143,8 @@ class Panels:
     Parameters
     ----------
     server
-        The viser server (the panel is shared by every browser).
+        The viser server (the panel is shared by every browser), or one browser's
+        ``viser.ClientHandle`` (a classroom gives each browser a panel of its own).
     scenarios
         Scenario key -> title, for the dropdown.
     registry
@@ -156,7 +157,7 @@ class Panels:
 
     def __init__(
         self,
-        server: viser.ViserServer,
+        server: viser.ViserServer | viser.ClientHandle,
         scenarios: Mapping[str, str],
         registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
         folder: ScenesFolder | None = None,
@@ -169,6 +170,9 @@ class Panels:
         self._registry = registry
         self._plot_key: Any = None
         self._last_robot_text = ""
+        self.locked = False
+        """Whether the controls are disabled (a classroom's watcher)."""
+        self._shown_tool = "drag"
         gui = server.gui
 
         self.title = gui.add_markdown("### Mobile-robot planner")
@@ -271,6 +275,40 @@ class Panels:
                 scales={"x": {"time": False}},
                 aspect=1.6,
             )
+
+    def controls(self) -> list[Any]:
+        """Return every widget that changes the session (all but the download)."""
+        folder = (
+            self.folder_file,
+            self.folder_open,
+            self.folder_name,
+            self.folder_save,
+        )
+        return [
+            *(h for h in folder if h is not None),
+            *(self.scenario, self.history, self.upload, self.tool, self.edit_buttons),
+            *(self.polygon_buttons, self.kind, self.radius, self.wheel_radius),
+            *(self.wheel_distance, self.expansion, self.sensor_range, self.follow),
+            *(self.playback, self.speed, self.time),
+            *self.planners.values(),
+            *self.layers.values(),
+        ]
+
+    def lock(self, locked: bool) -> None:
+        """Disable every control that changes the session (a watcher's panel), or enable it.
+
+        Button groups cannot be disabled in viser: they are hidden instead. The server
+        refuses a locked panel's edits anyway (:mod:`app.gate`); this only shows it.
+        """
+        self.locked = locked
+        for handle in self.controls():
+            if not isinstance(handle, viser.GuiButtonGroupHandle):
+                _set(handle, "disabled", locked)
+        _set(self.history, "visible", not locked)
+        _set(self.playback, "visible", not locked)
+        tool = self._shown_tool
+        _set(self.polygon_buttons, "visible", tool == "polygon" and not locked)
+        _set(self.edit_buttons, "visible", tool == "edit" and not locked)
 
     # ------------------------------------------------------------------ wiring
 
@@ -426,8 +464,11 @@ class Panels:
             if frame.selection is not None
             else "*Nothing selected.*",
         )
-        _set(self.polygon_buttons, "visible", frame.tool == "polygon")
-        _set(self.edit_buttons, "visible", frame.tool == "edit")
+        self._shown_tool = frame.tool
+        _set(
+            self.polygon_buttons, "visible", frame.tool == "polygon" and not self.locked
+        )
+        _set(self.edit_buttons, "visible", frame.tool == "edit" and not self.locked)
         self._render_plot(frame)
 
     def _render_folder(self, frame: Frame) -> None:

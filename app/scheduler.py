@@ -159,7 +159,7 @@ def lanes_for(
     plan: PlanFn | None = None,
     slow_plan: PlanFn | None = None,
     slow_names: Iterable[str] | None = None,
-    slow_process: bool = True,
+    slow_process: bool | Callable[[Scene, tuple[str, ...]], Any] = True,
 ) -> tuple[Lane, Lane | None]:
     """Build the fast and slow lanes for ``registry`` (or the caller's plan functions).
 
@@ -167,7 +167,8 @@ def lanes_for(
     with its own :class:`planners.Memo`. The slow lane runs in a worker process when its
     planners can be pickled (``slow_process``), else in a thread. A caller's ``plan``
     replaces the fast lane; ``slow_plan`` (computing ``slow_names``) the slow one;
-    passing ``plan`` alone means no slow lane.
+    passing ``plan`` alone means no slow lane. A callable ``slow_process`` (a shared
+    :class:`app.pool.WorkerPool`) runs the slow lane instead of a process of its own.
     """
     fast_names = planners_of_kind("graph", registry=registry)
     slow = planners_of_kind("trace", registry=registry)
@@ -183,6 +184,8 @@ def lanes_for(
         return fast, _fixed(slow_plan, names)
     if not slow:
         return fast, None
+    if callable(slow_process):
+        return fast, Lane(slow, slow_process)
     fn = functools.partial(default_plan, which=slow, registry=dict(registry))
     if slow_process and picklable(fn):
         # A process of its own: TangentBug would otherwise hold the GIL against the

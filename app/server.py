@@ -17,6 +17,7 @@ __all__ = [
 import contextlib
 import dataclasses
 import io
+import ipaddress
 import math
 import os
 import re
@@ -27,9 +28,11 @@ import viser
 
 import planners
 from app import robot as robot_model
+from app.classroom import Classroom, new_token, presenter_url
 from app.controller import Controller
 from app.files import ScenesFolder
 from app.panels import Panels
+from app.scoped import ScopedTarget
 from app.view import PlannerView, scene_bounds
 from planners.scene import ScenarioError, Scene
 
@@ -108,10 +111,19 @@ class PlannerApp:
     """The controller that owns the scene."""
     view: PlannerView
     """The 3-D view."""
-    panels: Panels
-    """The control panel."""
+    panels: Panels | None
+    """The control panel (None in a classroom: each browser has its own)."""
     host: str
     """Host the server listens on."""
+    classroom: Classroom | None = None
+    """The classroom (presenter mode), or None: everyone edits (loopback)."""
+
+    @property
+    def presenter_url(self) -> str | None:
+        """The presenter's address with its secret (None outside presenter mode)."""
+        if self.classroom is None:
+            return None
+        return presenter_url(self.url, self.classroom.token)
 
     @property
     def port(self) -> int:
@@ -137,7 +149,9 @@ class PlannerApp:
         return ok
 
     def stop(self) -> None:
-        """Stop the controller's threads and the server."""
+        """Stop the controller's threads (and the private copies') and the server."""
+        if self.classroom is not None:
+            self.classroom.close()
         self.controller.close()
         self.server.stop()
 
@@ -149,6 +163,8 @@ def start_app(
     port: int = 0,
     print_url: bool = True,
     scenes_dir: str | os.PathLike[str] | None = None,
+    presenter: bool | None = None,
+    copy_workers: int = 1,
 ) -> PlannerApp:
     """Start the planner's viser server with the full scene drawn.
 
@@ -166,6 +182,12 @@ def start_app(
     scenes_dir
         A folder browsers may read and write scenario files in, by plain names
         (:mod:`app.files`); None: browsers download and upload, nothing more.
+    presenter
+        Presenter mode (:mod:`app.classroom`): only the browser with the presenter's URL
+        edits, the others watch or work on their own copy. None: on when ``host`` is not
+        loopback (a classroom), off on loopback (one person edits, as always).
+    copy_workers
+        In presenter mode, the most worker processes the private copies share.
 
     Returns
     -------
@@ -198,7 +220,14 @@ def start_app(
     try:
         _configure(server, scene)
 
-        app = _wire(server, scene, key, scenarios, host, folder=folder)
+        if presenter is None:
+            presenter = not _is_loopback(host)
+        if presenter:
+            app = _wire_classroom(
+                server, scene, key, scenarios, host, folder=folder, workers=copy_workers
+            )
+        else:
+            app = _wire(server, scene, key, scenarios, host, folder=folder)
         if not app.wait_idle(60.0):
             raise RuntimeError("the first frame was not drawn within 60 s")
     except BaseException:
@@ -244,8 +273,64 @@ def _wire(
     )
 
 
+def _wire_classroom(
+    server: viser.ViserServer,
+    scene: Scene,
+    key: str,
+    scenarios: dict[str, Path],
+    host: str,
+    *,
+    folder: ScenesFolder | None,
+    workers: int,
+) -> PlannerApp:
+    """Wire the presenter's session: one shared view; panels per browser (app.classroom)."""
+    titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
+    view = PlannerView(ScopedTarget(server, "/shared", inert=True))
+    view.robot_model_fn = robot_model.robot_model
+    view.place_dragged = True  # nobody holds the shared gizmos: watchers see every drag
+    controller = Controller(
+        [view],
+        scene,
+        trajectory=robot_model.trajectory,
+        sample=robot_model.sample,
+        scenarios=scenarios,
+        scenario=key,
+        folder=folder,
+    )
+    classroom = Classroom(
+        server,
+        controller,
+        new_token(),
+        titles,
+        scenarios,
+        folder=folder,
+        copy_workers=workers,
+    )
+    return PlannerApp(
+        server=server,
+        controller=controller,
+        view=view,
+        panels=None,
+        host=host,
+        classroom=classroom,
+    )
+
+
+def _is_loopback(host: str) -> bool:
+    """Whether ``host`` is reachable only from this machine."""
+    if host in ("localhost", ""):
+        return host == "localhost"
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
 def _say_where(app: PlannerApp, host: str) -> None:
     """Print the URL to open (and, when shared on a network, how others reach it)."""
+    if app.classroom is not None:
+        _say_classroom(app, host)
+        return
     print(
         f"Mobile-robot planner: open {app.url} in a browser (Ctrl+C to stop).",
         flush=True,
@@ -257,6 +342,19 @@ def _say_where(app: PlannerApp, host: str) -> None:
             "(or this machine's IP address)",
             flush=True,
         )
+
+
+def _say_classroom(app: PlannerApp, host: str) -> None:
+    """Print the presenter's URL (with its secret) and the class's plain URL."""
+    shared = host in ("0.0.0.0", "::", "")
+    page = f"http://{socket.gethostname()}:{app.port}/" if shared else app.url
+    also = "  (or this machine's IP address)" if shared else ""
+    print(
+        "Mobile-robot planner in presenter mode (Ctrl+C to stop).\n"
+        f"  Presenter, on this computer (keep it secret): {app.presenter_url}\n"
+        f"  Class (they watch, or make their own copy): {page}{also}",
+        flush=True,
+    )
 
 
 def _configure(server: viser.ViserServer, scene: Scene) -> None:

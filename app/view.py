@@ -48,6 +48,7 @@ from shapely.geometry.base import BaseGeometry
 import planners
 from app.controller import Frame, Handle, RobotPose
 from app.robot import RobotModel
+from app.scoped import ScopedTarget
 from app.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
 from planners.trace import FOLLOW
 
@@ -564,8 +565,9 @@ class PlannerView:
     Parameters
     ----------
     target
-        A :class:`viser.ViserServer` (every browser sees the same scene) or a
-        :class:`viser.ClientHandle`.
+        A :class:`viser.ViserServer` (every browser sees the same scene), a
+        :class:`viser.ClientHandle`, or either under a root node
+        (:class:`app.scoped.ScopedTarget`, a classroom's views).
     on_drag
         Called as ``on_drag(handle, (x, y), phase)`` when a user drags a gizmo; the app
         passes :meth:`app.controller.SceneEdits.drag_handle`.
@@ -575,7 +577,7 @@ class PlannerView:
 
     def __init__(
         self,
-        target: viser.ViserServer | viser.ClientHandle,
+        target: viser.ViserServer | viser.ClientHandle | ScopedTarget,
         on_drag: HandleCallback | None = None,
         registry: Mapping[str, planners.PlannerSpec] = planners.REGISTRY,
     ) -> None:
@@ -584,6 +586,8 @@ class PlannerView:
         self._on_drag = on_drag
         self._last: dict[str, Any] = {}
         self.rendered_version = -1
+        self.place_dragged = False
+        """Place gizmos even while they are dragged (a view whose gizmos nobody holds)."""
         self.robot_model_fn: Callable[[Any], tuple[Any, RobotModel]] | None = None
         self._add_scene_nodes()
         # One layer per registered planner, drawn as its kind says (planners.registry).
@@ -849,11 +853,14 @@ class PlannerView:
 
     def _render_handles(self, frame: Frame) -> None:
         scene = frame.scene
-        key = (scene.start, scene.goal, scene.obstacles, frame.tool, frame.dragging)
+        # Gizmos are left alone while a user drags them here, unless this view's are
+        # dragged by nobody (place_dragged: a classroom's shared view), so watchers see it.
+        dragging = frozenset() if self.place_dragged else frame.dragging
+        key = (scene.start, scene.goal, scene.obstacles, frame.tool, dragging)
         if not self._changed("handles", key):
             return
         for name, xy in (("start", scene.start), ("goal", scene.goal)):
-            if (name,) not in frame.dragging:
+            if (name,) not in dragging:
                 self.handles[name].position = (xy[0], xy[1], 0.0)
         editing = frame.tool == "edit"
         slots = [
@@ -880,7 +887,7 @@ class PlannerView:
             shown = k < len(slots) and editing
             if shown:
                 i, j = slots[k]
-                if ("vertex", i, j) not in frame.dragging:
+                if ("vertex", i, j) not in dragging:
                     x, y = scene.obstacles[i].exterior.coords[j]
                     _place(gizmo, (x, y, top))
             if gizmo.visible != shown:
@@ -900,7 +907,7 @@ class PlannerView:
             self.obstacle_handles.append(gizmo)
         for k, gizmo in enumerate(self.obstacle_handles):
             shown = k < n and editing
-            if shown and ("obstacle", k) not in frame.dragging:
+            if shown and ("obstacle", k) not in dragging:
                 _place(gizmo, _label_point(scene.obstacles[k], top + 0.01))
             if gizmo.visible != shown:
                 gizmo.visible = shown

@@ -153,6 +153,7 @@ def test_panel_controls_call_the_controller():
     app = start_app("04_convex_nonconvex_b", port=0, print_url=False)
     try:
         panels, controller = app.panels, app.controller
+        assert panels is not None  # loopback: one panel for everyone
         fire(panels.expansion, "square")
         fire(panels.radius, 0.2)
         fire(panels.kind, "differential")

@@ -1,0 +1,591 @@
+"""A classroom: the presenter edits, the class watches, a student may work on a copy.
+
+When the server listens beyond loopback (``--host 0.0.0.0``) or is started with
+``--presenter``, editing belongs to the presenter: the browser that opened the presenter's
+URL, whose websocket path carries a secret token (:func:`presenter_url`). Every other
+browser is a *seat* that
+
+- **watches** (the default): sees every edit and the robot live; its panel's controls
+  are disabled, it has no gizmos, and any edit message it sends anyway is refused on the
+  server (:mod:`app.gate`);
+- **edits together** while the presenter has opened the session to everyone (a lab);
+- works on **its own copy**: a session of its own (scene, planners, robot, undo history),
+  seeded from the presenter's current scene, until it follows the presenter again.
+
+One session is shared: the presenter's :class:`app.controller.Controller`. It draws its
+scene once for every browser under ``/shared`` (viser's broadcast scope, gizmos replaced
+by frames nobody can drag: :mod:`app.scoped`) and, through one :class:`Audience`, on the
+panels of the seats that follow it and on the *own views* of those that edit (a full 3-D
+view with live gizmos in the seat's client scope under ``/own``, which hides ``/shared``
+for that browser). A private copy is a second controller whose views are the seat's own
+view and panel; its slow lane runs in a :class:`app.pool.WorkerPool` shared by every copy.
+
+Data flow::
+
+    presenter's drag (its /own gizmo)  -> Classroom._drag: may this seat edit?
+      -> controller.edits.drag_handle  -> scheduler -> frame
+           -> shared view (/shared, every browser)   # drawn once
+           -> Audience: own views of editors, panels of followers
+    watcher's crafted message          -> its gate says no: refused, nothing changes
+    "Make my own copy"                 -> Classroom.make_copy: a Controller of its own
+    browser closed                     -> Classroom.disconnect: its copy is closed
+"""
+
+from __future__ import annotations
+
+__all__ = ["Audience", "Classroom", "Seat", "connection_path", "presenter_url"]
+
+import dataclasses
+import functools
+import logging
+import secrets
+import threading
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, cast
+
+import viser
+
+from app import robot as robot_model
+from app.controller import Controller, Frame, RobotPose
+from app.files import ScenesFolder
+from app.frames import View
+from app.gate import GatedController, Refusals
+from app.panels import Panels
+from app.pool import WorkerPool
+from app.scheduler import default_plan
+from app.scoped import ScopedTarget
+from app.view import PlannerView
+from planners.registry import planners_of_kind
+
+logger = logging.getLogger(__name__)
+
+PRESENTER_PATH = "/presenter/"
+"""Websocket path prefix of the presenter's browser; the token follows it."""
+
+STUDENT_NEVER = frozenset({"save_to_folder"})
+"""What a student's panel may never do, even on its own copy: write the lecturer's disk."""
+
+MODES = {
+    "presenter": ("#b35900", "Presenter", "You edit; the class sees every change."),
+    "watching": (
+        "#0b5394",
+        "Watching the presenter",
+        "You see every edit live. Editing is the presenter's; "
+        "press <b>Make my own copy</b> to try your own ideas.",
+    ),
+    "together": (
+        "#6a329f",
+        "Editing together",
+        "The presenter opened the scene to everyone: your edits reach the whole class.",
+    ),
+    "private": (
+        "#1e7b34",
+        "Your own copy",
+        "Your edits reach no one else, and the presenter's edits do not reach you. "
+        "Press <b>Follow the presenter again</b> to go back.",
+    ),
+}
+"""Seat mode -> (banner colour, title, what it means)."""
+
+
+def new_token() -> str:
+    """Return a fresh secret for the presenter's URL (``secrets.token_urlsafe``)."""
+    return secrets.token_urlsafe(16)
+
+
+def presenter_url(page_url: str, token: str) -> str:
+    """Return the presenter's URL: the page, told to open its websocket on the token's path.
+
+    viser's client connects to the page's own address unless ``?websocket=`` names
+    another; the server reads the path of each websocket (:func:`connection_path`).
+
+    Examples
+    --------
+    >>> presenter_url("http://10.0.0.5:8080/", "abc")
+    'http://10.0.0.5:8080/?websocket=ws://10.0.0.5:8080/presenter/abc'
+    """
+    base = page_url.rstrip("/")
+    ws = "ws" + base[len("http") :] if base.startswith("http") else base
+    return f"{base}/?websocket={ws}{PRESENTER_PATH}{token}"
+
+
+def connection_path(server: viser.ViserServer, client_id: int) -> str:
+    """Return the path a browser's websocket was opened on ('' if unknown).
+
+    viser 1.1.1 does not expose it on the client handle; the websocket server keeps each
+    live connection, whose handshake request has it. Anything unexpected reads as '',
+    so a browser is never made presenter by accident.
+    """
+    websock = getattr(server, "_websock_server", None)
+    connections = getattr(websock, "_live_connections", {})
+    connection = connections.get(client_id) if isinstance(connections, dict) else None
+    request = getattr(connection, "request", None)
+    path = getattr(request, "path", "")
+    return path if isinstance(path, str) else ""
+
+
+def is_presenter_path(path: str, token: str) -> bool:
+    """Whether a websocket ``path`` carries the presenter's ``token`` (constant time)."""
+    given = path.partition("?")[0]
+    if not given.startswith(PRESENTER_PATH):
+        return False
+    return secrets.compare_digest(given[len(PRESENTER_PATH) :].encode(), token.encode())
+
+
+class Audience:
+    """One view of the presenter's session that draws on the views of its followers.
+
+    Members change while frames are drawn (browsers come and go); a member is added with
+    the last frame drawn, so it is never blank, and removed only between two frames.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._members: tuple[View, ...] = ()
+        self._frame: Frame | None = None
+        self._pose: RobotPose | None = None
+
+    def add(self, *views: View, first: bool = False) -> None:
+        """Draw on ``views`` from now on (``first``: before the others)."""
+        with self._lock:
+            for view in views:
+                _draw(view, self._frame, self._pose)
+            self._members = (
+                (*views, *self._members) if first else (*self._members, *views)
+            )
+
+    def remove(self, *views: View) -> None:
+        """Stop drawing on ``views`` (waits for a frame being drawn to finish)."""
+        with self._lock:
+            self._members = tuple(v for v in self._members if v not in views)
+
+    def __len__(self) -> int:
+        return len(self._members)
+
+    def render(self, frame: Frame) -> None:
+        """Draw ``frame`` on every member."""
+        with self._lock:
+            self._frame = frame
+            for view in self._members:
+                _draw(view, frame, None)
+
+    def render_robot(self, pose: RobotPose | None) -> None:
+        """Draw the robot on every member."""
+        with self._lock:
+            self._pose = pose
+            for view in self._members:
+                _draw(view, None, pose, robot=True)
+
+
+def _draw(
+    view: View, frame: Frame | None, pose: RobotPose | None, robot: bool = False
+) -> None:
+    # A browser that just left must not stop the others' frames.
+    try:
+        if frame is not None:
+            view.render(frame)
+        if robot or pose is not None:
+            view.render_robot(pose)
+    except Exception:
+        logger.exception("a browser's view failed to draw")
+
+
+@dataclasses.dataclass(eq=False)
+class Seat:
+    """One browser in the classroom."""
+
+    client: viser.ClientHandle
+    """The browser's handle."""
+    presenter: bool
+    """Whether it opened the presenter's URL."""
+    banner: Any = None
+    """The coloured box at the top of its panel saying what mode it is in."""
+    buttons: Any = None
+    """Its classroom buttons (copy / follow), or the presenter's switch."""
+    panels: Panels | None = None
+    """Its control panel (built after the banner, so the banner is on top)."""
+    own: PlannerView | None = None
+    """Its own 3-D view with live gizmos (while it edits), else None."""
+    hide: Any = None
+    """Its client-scoped, hidden ``/shared`` (while it has an own view)."""
+    private: Controller | None = None
+    """Its own session (a private copy), else None: it follows the presenter."""
+
+    @property
+    def client_id(self) -> int:
+        """The browser's client id."""
+        return self.client.client_id
+
+
+class Classroom:
+    """The presenter's session shared with a class; private copies on request.
+
+    Parameters
+    ----------
+    server
+        The viser server.
+    controller
+        The presenter's session (its views: the shared view; the audience is added here).
+    token
+        The secret in the presenter's URL.
+    titles
+        Scenario key -> title, for each panel's dropdown.
+    scenarios
+        Scenario key -> file, for the private copies' controllers.
+    folder
+        The scenes folder (``--scenes-dir``) or None.
+    copy_workers
+        Most worker processes the private copies' slow lanes share.
+    """
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        controller: Controller,
+        token: str,
+        titles: Mapping[str, str],
+        scenarios: Mapping[str, Path],
+        *,
+        folder: ScenesFolder | None = None,
+        copy_workers: int = 1,
+    ) -> None:
+        self.server = server
+        self.controller = controller
+        """The presenter's session."""
+        self.token = token
+        """The presenter's secret."""
+        self._titles = dict(titles)
+        self._scenarios = dict(scenarios)
+        self._folder = folder
+        self._lock = threading.RLock()
+        self._seats: dict[int, Seat] = {}
+        self._open = False
+        self.refusals = Refusals()
+        """Edits refused because the browser may not edit (crafted or not)."""
+        self.audience = Audience()
+        """The followers' views, drawn by the presenter's session."""
+        self.pool = WorkerPool(_slow_fn(controller), size=copy_workers)
+        """The slow-lane workers every private copy shares."""
+        controller.add_view(self.audience)
+        server.on_client_connect(self.connect)
+        server.on_client_disconnect(self.disconnect)
+
+    # ------------------------------------------------------------------ reading
+
+    @property
+    def open(self) -> bool:
+        """Whether every follower may edit the presenter's scene (a lab session)."""
+        return self._open
+
+    def seat(self, client_id: int) -> Seat | None:
+        """Return the seat of browser ``client_id`` (None if it is not connected)."""
+        with self._lock:
+            return self._seats.get(client_id)
+
+    def mode(self, client_id: int) -> str:
+        """``presenter``, ``watching``, ``together``, ``private`` (or '' if unknown)."""
+        seat = self.seat(client_id)
+        if seat is None:
+            return ""
+        if seat.presenter:
+            return "presenter"
+        if seat.private is not None:
+            return "private"
+        return "together" if self._open else "watching"
+
+    def may_edit(self, client_id: int) -> bool:
+        """Whether browser ``client_id`` may edit the presenter's scene now."""
+        seat = self.seat(client_id)
+        if seat is None:
+            return False
+        return seat.presenter or (self._open and seat.private is None)
+
+    def counts(self) -> dict[str, int]:
+        """How many browsers are in each mode, and how many private sessions run."""
+        with self._lock:
+            modes = [self.mode(cid) for cid in self._seats]
+        out = {m: modes.count(m) for m in MODES}
+        out["sessions"] = out["private"]
+        return out
+
+    # ------------------------------------------------------------------ browsers
+
+    def connect(self, client: viser.ClientHandle) -> None:
+        """Give a new browser its seat: banner, buttons, panel; watching by default."""
+        path = connection_path(self.server, client.client_id)
+        presenter = is_presenter_path(path, self.token)
+        seat = Seat(client, presenter)
+        seat.panels = Panels(
+            client, self._titles, self.controller.registry, self._folder
+        )
+        with self._lock:
+            self._seats[client.client_id] = seat
+            self._follow(seat)
+        # The banner and buttons go above the panel (smaller order), built once the seat
+        # exists: a click on "Make my own copy" always finds it.
+        seat.banner = client.gui.add_html("", order=-3.0)
+        seat.buttons = (
+            self._presenter_switch(client) if presenter else self._copy_buttons(client)
+        )
+        if client.client_id not in self.server.get_clients():
+            # viser runs connect and disconnect callbacks in a thread pool: a browser
+            # that left while its seat was being built would otherwise keep it.
+            self.disconnect(client)
+            return
+        self._refresh_banners()
+
+    def disconnect(self, client: viser.ClientHandle) -> None:
+        """Free a closed browser's seat and its private session, if any."""
+        with self._lock:
+            seat = self._seats.pop(client.client_id, None)
+            if seat is None:
+                return
+            self._leave_audience(seat)
+            if seat.private is not None:
+                seat.private.close()
+                seat.private = None
+        self._refresh_banners()
+
+    def set_open(self, value: bool) -> None:
+        """Let every follower edit the presenter's scene (a lab session), or take it back."""
+        with self._lock:
+            self._open = bool(value)
+            for seat in self._seats.values():
+                if not seat.presenter and seat.private is None:
+                    self._leave_audience(seat)
+                    self._follow(seat)
+        self._refresh_banners()
+
+    def make_copy(self, client_id: int) -> bool:
+        """Give browser ``client_id`` a session of its own, seeded from the presenter's scene."""
+        with self._lock:
+            seat = self._seats.get(client_id)
+            if seat is None or seat.presenter or seat.private is not None:
+                return False
+            self._leave_audience(seat)
+            snapshot = self.controller.frame
+            scenario = snapshot.scenario if snapshot is not None else ""
+            own = self._own_view(seat, self._private_drag(seat))
+            panels = _panels(seat)
+            seat.private = Controller(
+                [own, panels],
+                self.controller.scene,
+                registry=self.controller.registry,
+                trajectory=robot_model.trajectory,
+                sample=robot_model.sample,
+                scenarios=self._scenarios,
+                scenario=scenario,
+                folder=self._folder,
+                slow_process=self.pool,
+            )
+            private = seat.private
+            gated = GatedController(
+                private,
+                lambda: seat.private is private,
+                self.refusals,
+                never=STUDENT_NEVER,
+            )
+            panels.attach(cast(Controller, gated))
+            _lock(panels, editable=True, presenter=False)
+        self._refresh_banners()
+        return True
+
+    def follow(self, client_id: int) -> bool:
+        """Close browser ``client_id``'s own copy; it follows the presenter again."""
+        with self._lock:
+            seat = self._seats.get(client_id)
+            if seat is None or seat.private is None:
+                return False
+            private, seat.private = seat.private, None
+            private.close()
+            self._drop_own_view(seat)
+            self._follow(seat)
+        self._refresh_banners()
+        return True
+
+    def close(self) -> None:
+        """Close every private session and the workers they share."""
+        with self._lock:
+            seats = list(self._seats.values())
+            self._seats.clear()
+        for seat in seats:
+            if seat.private is not None:
+                seat.private.close()
+        self.pool.close()
+
+    # ------------------------------------------------------------------ wiring
+
+    def _follow(self, seat: Seat) -> None:
+        """Attach a seat to the presenter's session, editing or watching as allowed."""
+        panels = _panels(seat)
+        cid = seat.client_id
+        never = frozenset() if seat.presenter else STUDENT_NEVER
+        gated = GatedController(
+            self.controller, lambda: self.may_edit(cid), self.refusals, never
+        )
+        panels.attach(cast(Controller, gated))
+        editable = self.may_edit(cid)
+        _lock(panels, editable=editable, presenter=seat.presenter)
+        if editable and seat.own is None:
+            seat.own = self._own_view(seat, self._shared_drag(cid))
+        if not editable:
+            self._drop_own_view(seat)
+        views: tuple[View, ...] = (panels,) if seat.own is None else (seat.own, panels)
+        self.audience.add(*views, first=seat.presenter)
+
+    def _leave_audience(self, seat: Seat) -> None:
+        self.audience.remove(*(v for v in (seat.own, seat.panels) if v is not None))
+        self._drop_own_view(seat)
+
+    def _own_view(self, seat: Seat, on_drag: Callable[..., None]) -> PlannerView:
+        """Build a 3-D view with live gizmos in the seat's own scope; hide the shared one."""
+        if seat.hide is None:
+            seat.hide = seat.client.scene.add_frame(
+                "/shared", show_axes=False, visible=False
+            )
+        view = PlannerView(ScopedTarget(seat.client, "/own"), on_drag=on_drag)
+        view.robot_model_fn = robot_model.robot_model
+        return view
+
+    def _drop_own_view(self, seat: Seat) -> None:
+        if seat.own is not None:
+            target = seat.own.target
+            seat.own = None
+            if isinstance(target, ScopedTarget):
+                target.remove()
+        if seat.hide is not None:
+            hide, seat.hide = seat.hide, None
+            hide.remove()
+
+    def _shared_drag(self, client_id: int) -> Callable[..., None]:
+        def drag(handle: Any, xy: tuple[float, float], phase: str) -> None:
+            if self.may_edit(client_id):
+                self.controller.edits.drag_handle(handle, xy, phase)
+            else:
+                self.refusals.add()
+
+        return drag
+
+    def _private_drag(self, seat: Seat) -> Callable[..., None]:
+        def drag(handle: Any, xy: tuple[float, float], phase: str) -> None:
+            private = seat.private
+            if private is not None:
+                private.edits.drag_handle(handle, xy, phase)
+
+        return drag
+
+    # ------------------------------------------------------------------ the seat's GUI
+
+    def _copy_buttons(self, client: viser.ClientHandle) -> Any:
+        cid = client.client_id
+        gui = client.gui
+        copy = gui.add_button(
+            "Make my own copy",
+            hint="Your own scene: edit it without the class",
+            order=-2.0,
+        )
+        back = gui.add_button("Follow the presenter again", visible=False, order=-1.0)
+
+        @copy.on_click
+        def _(event: Any) -> None:
+            if event.client_id == cid:
+                self.make_copy(cid)
+
+        @back.on_click
+        def _(event: Any) -> None:
+            if event.client_id == cid:
+                self.follow(cid)
+
+        return copy, back
+
+    def _presenter_switch(self, client: viser.ClientHandle) -> Any:
+        cid = client.client_id
+        switch = client.gui.add_checkbox(
+            "Let everyone edit",
+            False,
+            hint="A lab session: every student's edits reach the shared scene",
+            order=-2.0,
+        )
+
+        @switch.on_update
+        def _(event: Any) -> None:
+            seat = self.seat(cid)
+            if event.client is None or seat is None or not seat.presenter:
+                return
+            self.set_open(bool(event.target.value))
+
+        return switch
+
+    def _refresh_banners(self) -> None:
+        with self._lock:
+            seats = list(self._seats.values())
+            counts = self.counts()
+        for seat in seats:
+            mode = self.mode(seat.client_id)
+            if not mode or seat.banner is None or seat.buttons is None:
+                continue  # its banner and buttons are being built
+            try:
+                _set_banner(seat, mode, counts, self._open)
+            except Exception:
+                logger.exception("could not update a browser's banner")
+
+
+def _lock(panels: Panels, *, editable: bool, presenter: bool) -> None:
+    """Enable a panel's controls as its seat may use them (saving: the presenter only)."""
+    panels.lock(not editable)
+    if not presenter:
+        for handle in (panels.folder_name, panels.folder_save):
+            if handle is not None and not handle.disabled:
+                handle.disabled = True
+
+
+def _panels(seat: Seat) -> Panels:
+    assert seat.panels is not None, "a seat's panel is built on connect"
+    return seat.panels
+
+
+def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
+    """Return the coloured box that says which mode a browser is in.
+
+    Examples
+    --------
+    >>> "Watching the presenter" in banner_html("watching", {}, False)
+    True
+    """
+    colour, title, text = MODES[mode]
+    if mode == "presenter":
+        lab = "everyone may edit" if open_ else "only you edit"
+        text = (
+            f"{text}<br>{counts.get('watching', 0) + counts.get('together', 0)} "
+            f"following, {counts.get('private', 0)} on their own copy; {lab}."
+        )
+    return (
+        f'<div style="background:{colour};color:white;padding:8px 10px;'
+        f'border-radius:6px;margin:2px 0">'
+        f'<div style="font-size:1.25em;font-weight:bold">{title}</div>'
+        f'<div style="font-size:0.85em">{text}</div></div>'
+    )
+
+
+def _set_banner(seat: Seat, mode: str, counts: Mapping[str, int], open_: bool) -> None:
+    html = banner_html(mode, counts, open_)
+    if seat.banner.content != html:
+        seat.banner.content = html
+    if seat.presenter:
+        if seat.buttons.value != open_:
+            seat.buttons.value = open_
+        return
+    # The button a seat can use now: copy while following, follow while on a copy.
+    copy, back = seat.buttons
+    if copy.visible != (mode != "private"):
+        copy.visible = mode != "private"
+    if back.visible != (mode == "private"):
+        back.visible = mode == "private"
+
+
+def _slow_fn(controller: Controller) -> Any:
+    """Return the slow planners' function for a worker pool (the presenter's registry)."""
+    registry = dict(controller.registry)
+    slow = planners_of_kind("trace", registry=registry)
+    return functools.partial(default_plan, which=slow, registry=registry)

@@ -1,0 +1,499 @@
+"""Presenter mode and private copies (issue 14, items 2 and 3), through viser's protocol.
+
+Each test runs the real app (server, shared view, per-browser panels) in presenter mode
+on 127.0.0.1 (``presenter=True``, the flag a classroom on ``--host 0.0.0.0`` turns on by
+itself) and connects websocket clients that speak viser's wire format
+(:mod:`tests.viser_client`): the presenter's (the token in its websocket path) and
+watchers'. A client can send what no page would: a watcher's edit of a disabled widget,
+a drag of a gizmo it does not have, a click on the floor. The server must refuse every
+one of them; the same message from the presenter must go through, so each refusal test
+can fail.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import inspect
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+from app import start_app
+from app.classroom import (
+    PRESENTER_PATH,
+    banner_html,
+    connection_path,
+    is_presenter_path,
+    presenter_url,
+)
+from app.gate import GatedController, Refusals
+from app.server import _is_loopback
+from tests.app.app_helpers import wait_until
+from tests.viser_client import ViserClient
+
+GOAL = "/handles/goal"
+
+
+@pytest.fixture(scope="module")
+def classroom_app() -> Iterator[Any]:
+    app = start_app("01_two_convex", port=0, print_url=False, presenter=True)
+    yield app
+    app.stop()
+
+
+@pytest.fixture
+def planner(classroom_app: Any) -> Iterator[Any]:
+    """The module's classroom app, back on its first scene, closed, with no browsers."""
+    app = classroom_app
+    yield app
+    app.classroom.set_open(False)
+    app.controller.files.load_scenario("01_two_convex")
+    assert app.wait_idle(30)
+
+
+@contextlib.contextmanager
+def client(app: Any, presenter: bool = False) -> Iterator[ViserClient]:
+    """A connected client whose seat and panel are built."""
+    path = f"{PRESENTER_PATH}{app.classroom.token}" if presenter else ""
+    before = set(app.server.get_clients())
+    c = ViserClient(app.port, path)
+    try:
+        assert wait_until(lambda: len(set(app.server.get_clients()) - before) == 1, 30)
+        (cid,) = set(app.server.get_clients()) - before
+        c.client_id = cid
+        assert wait_until(lambda: app.classroom.seat(cid) is not None, 30)
+        assert c.wait_for(
+            lambda: (
+                _has(c, "Radius [m]")
+                and (_has(c, "Make my own copy") or _has(c, "Let everyone edit"))
+            ),
+            30,
+        ), "panel not received"
+        yield c
+    finally:
+        c.close()
+
+
+def _has(c: ViserClient, label: str) -> bool:
+    return any(e["label"] == label for e in c.gui.values())
+
+
+def _state(app: Any) -> tuple[Any, int]:
+    assert app.wait_idle(30)
+    return app.controller.scene, app.controller.version
+
+
+# --------------------------------------------------------------------------- pure parts
+
+
+@pytest.mark.parametrize(
+    ("host", "loopback"),
+    [
+        ("127.0.0.1", True),
+        ("127.0.0.2", True),
+        ("::1", True),
+        ("[::1]", True),
+        ("localhost", True),
+        ("0.0.0.0", False),
+        ("::", False),
+        ("", False),
+        ("10.1.2.3", False),
+        ("lecture-laptop.local", False),
+    ],
+)
+def test_only_loopback_hosts_keep_everyone_editing(host, loopback):
+    assert _is_loopback(host) is loopback
+
+
+def test_the_presenter_path_needs_the_whole_token():
+    token = "Ab3_-xyz"
+    assert is_presenter_path(f"{PRESENTER_PATH}{token}", token)
+    assert is_presenter_path(f"{PRESENTER_PATH}{token}?x=1", token)
+    for path in (
+        "",
+        "/",
+        PRESENTER_PATH,
+        f"{PRESENTER_PATH}{token[:-1]}",
+        f"{PRESENTER_PATH}{token}x",
+        f"/other/{token}",
+        f"{PRESENTER_PATH}{token.upper()}",
+    ):
+        assert not is_presenter_path(path, token), path
+    url = presenter_url("http://10.0.0.5:8080/", token)
+    assert (
+        url
+        == f"http://10.0.0.5:8080/?websocket=ws://10.0.0.5:8080{PRESENTER_PATH}{token}"
+    )
+
+
+def test_every_mode_has_its_own_banner():
+    texts = {
+        m: banner_html(m, {}, False)
+        for m in ("presenter", "watching", "together", "private")
+    }
+    assert len(set(texts.values())) == 4
+    assert "Watching the presenter" in texts["watching"]
+    assert "Your own copy" in texts["private"]
+
+
+class _Recorder:
+    """A stand-in controller that records every call (the gate's tests)."""
+
+    def __init__(self) -> None:
+        self.calls: list[str] = []
+        self.version = 7
+        for group in ("edits", "tools", "files", "playback"):
+            setattr(self, group, _RecorderGroup(self.calls, group))
+
+    def undo(self) -> None:
+        self.calls.append("undo")
+
+    def redo(self) -> None:
+        self.calls.append("redo")
+
+    def set_layer(self, *args: Any) -> None:
+        self.calls.append("set_layer")
+
+    def set_planner_enabled(self, *args: Any) -> None:
+        self.calls.append("set_planner_enabled")
+
+
+class _RecorderGroup:
+    def __init__(self, calls: list[str], group: str) -> None:
+        self._calls, self._group = calls, group
+
+    def __getattr__(self, name: str) -> Any:
+        return lambda *a, **k: self._calls.append(f"{self._group}.{name}")
+
+
+def _entry_points() -> list[tuple[str, str]]:
+    """Every public method of the controller and its groups: each is an edit entry point."""
+    from app.controller import Controller, MouseTools, ScenarioFiles, SceneEdits
+
+    points = [
+        ("", n)
+        for n, m in inspect.getmembers(Controller, inspect.isfunction)
+        if not n.startswith("_") and n not in ("add_view", "wait_idle", "close")
+    ]
+    for group, cls in (
+        ("edits", SceneEdits),
+        ("tools", MouseTools),
+        ("files", ScenarioFiles),
+    ):
+        points += [
+            (group, n)
+            for n, m in inspect.getmembers(cls, inspect.isfunction)
+            if not n.startswith("_") and n != "download"
+        ]
+    # The robot's motion is shared too: what the panel's motion controls call.
+    motion = ("play", "pause", "restart", "set_speed", "set_robot_time", "set_follow")
+    return points + [("playback", n) for n in motion]
+
+
+@pytest.mark.parametrize(("group", "name"), _entry_points())
+def test_the_gate_refuses_every_edit_entry_point(group, name):
+    recorder = _Recorder()
+    allowed = [False]
+    refusals = Refusals()
+    gated = GatedController(recorder, lambda: allowed[0], refusals)
+    target = getattr(gated, group) if group else gated
+    getattr(target, name)()
+    assert recorder.calls == [] and refusals.count == 1
+    allowed[0] = True
+    getattr(target, name)()
+    assert recorder.calls == [f"{group}.{name}" if group else name]
+
+
+def test_a_students_gate_never_writes_the_folder_even_when_allowed():
+    recorder = _Recorder()
+    gated = GatedController(recorder, lambda: True, never=frozenset({"save_to_folder"}))
+    gated.files.save_to_folder("x")
+    gated.files.load_from_folder("x")
+    assert recorder.calls == ["files.load_from_folder"] and gated.refusals.count == 1
+
+
+def test_the_gate_lets_reading_and_downloading_through():
+    recorder = _Recorder()
+    gated = GatedController(recorder, lambda: False)
+    assert gated.version == 7
+    gated.files.download()
+    assert recorder.calls == ["files.download"] and gated.refusals.count == 0
+
+
+# --------------------------------------------------------------------------- the server
+
+
+def test_loopback_is_unchanged_one_panel_for_everyone():
+    app = start_app("01_two_convex", port=0, print_url=False)
+    try:
+        assert app.classroom is None and app.presenter_url is None
+        assert app.panels is not None
+        assert "/handles/goal" in app.server.scene._handle_from_transform_controls_name
+    finally:
+        app.stop()
+
+
+def test_the_presenter_url_makes_the_presenter_and_the_plain_url_a_watcher(planner):
+    room = planner.classroom
+    with client(planner, presenter=True) as pres, client(planner) as watch:
+        assert connection_path(planner.server, pres.client_id).startswith(
+            PRESENTER_PATH
+        )
+        assert room.mode(pres.client_id) == "presenter"
+        assert room.mode(watch.client_id) == "watching"
+        assert room.may_edit(pres.client_id) and not room.may_edit(watch.client_id)
+        # Each sees its banner; the watcher's controls are disabled, the presenter's not.
+        assert pres.wait_for(lambda: any("Presenter" in h for h in pres.html()))
+        assert watch.wait_for(
+            lambda: any("Watching the presenter" in h for h in watch.html())
+        )
+        assert watch.wait_for(lambda: watch.element("Radius [m]")["props"]["disabled"])
+        assert not pres.element("Radius [m]")["props"]["disabled"]
+        # Only the presenter has gizmos: its own, in its client scope.
+        assert (str(pres.client_id), f"/own{GOAL}") in pres.nodes
+        assert not any(owner for owner, _ in watch.nodes)
+    with client(planner) as plain:
+        assert connection_path(planner.server, plain.client_id) == "/"
+
+
+def test_a_wrong_token_watches(planner):
+    room = planner.classroom
+    c = ViserClient(planner.port, f"{PRESENTER_PATH}{room.token}0")
+    try:
+        assert wait_until(lambda: room.counts()["watching"] == 1, 30)
+        assert room.counts()["presenter"] == 0
+    finally:
+        c.close()
+
+
+def _crafted_edits(c: ViserClient, owner: str) -> None:
+    """Every kind of edit a browser can send, for the panel of client ``c``."""
+    c.set_gui(c.uuid("Radius [m]"), 0.55)
+    c.set_gui(c.uuid("Sensor R [m]"), 7.0)
+    c.set_gui(c.uuid("Robot", "Dropdown"), "differential")
+    c.set_gui(c.uuid("Expansion"), "square")
+    c.set_gui(c.uuid("Scenario", "Dropdown"), "08_narrow_gap")
+    c.set_gui(c.uuid("Mouse"), "Click to add a polygon")
+    c.click_floor((5.0, 4.0))
+    c.set_gui(c.uuid("Edits"), "Undo")
+    for name in ("/shared" + GOAL, "/own" + GOAL, GOAL):
+        c.drag(name, (8.5, 1.5), "start", owner)
+        c.drag(name, (8.5, 1.5), "update", owner)
+        c.drag(name, (8.5, 1.5), "end", owner)
+
+
+def test_crafted_edits_from_a_watcher_are_refused_on_the_server(planner):
+    room = planner.classroom
+    with client(planner, presenter=True) as pres, client(planner) as watch:
+        scene, version = _state(planner)
+        ui = planner.controller._state.ui
+        refused = room.refusals.count
+        # The watcher's own (disabled) widgets, gizmo names in every scope it may claim,
+        # and the presenter's widgets' ids (another connection's: viser never routes them).
+        for owner in ("", str(watch.client_id), str(pres.client_id)):
+            _crafted_edits(watch, owner)
+        for uuid in list(pres.gui):
+            watch.set_gui(uuid, 0.5)
+        assert wait_until(lambda: room.refusals.count >= refused + 8, 20)
+        assert planner.wait_idle(30)
+        assert planner.controller.scene == scene
+        assert planner.controller.version == version
+        assert planner.controller._state.ui.tool == ui.tool
+        assert room.mode(watch.client_id) == "watching"
+        # The same messages from the presenter go through (so the test above can fail).
+        pres.set_gui(pres.uuid("Radius [m]"), 0.55)
+        assert wait_until(lambda: planner.controller.scene.robot.radius == 0.55, 20)
+        pres.drag("/own" + GOAL, (8.5, 1.5), "start", str(pres.client_id))
+        pres.drag("/own" + GOAL, (8.5, 1.5), "update", str(pres.client_id))
+        pres.drag("/own" + GOAL, (8.5, 1.5), "end", str(pres.client_id))
+        assert wait_until(lambda: planner.controller.scene.goal == (8.5, 1.5), 20)
+
+
+def test_the_lab_switch_hands_editing_to_everyone_and_takes_it_back(planner):
+    room = planner.classroom
+    with client(planner, presenter=True) as pres, client(planner) as watch:
+        switch = pres.uuid("Let everyone edit")
+        # A watcher cannot flip the presenter's switch (not its connection's widget).
+        watch.set_gui(switch, True)
+        assert not wait_until(lambda: room.open, 1.0)
+        pres.set_gui(switch, True)
+        assert wait_until(lambda: room.open, 20)
+        assert room.mode(watch.client_id) == "together"
+        assert watch.wait_for(
+            lambda: any("Editing together" in h for h in watch.html())
+        )
+        assert watch.wait_for(
+            lambda: not watch.element("Radius [m]")["props"]["disabled"]
+        )
+        # Now the watcher has gizmos of its own and its edits reach the shared scene.
+        assert watch.wait_for(
+            lambda: (str(watch.client_id), f"/own{GOAL}") in watch.nodes
+        )
+        watch.set_gui(watch.uuid("Radius [m]"), 0.45)
+        assert wait_until(lambda: planner.controller.scene.robot.radius == 0.45, 20)
+        watch.drag("/own" + GOAL, (8.0, 2.0), "start", str(watch.client_id))
+        watch.drag("/own" + GOAL, (8.0, 2.0), "update", str(watch.client_id))
+        watch.drag("/own" + GOAL, (8.0, 2.0), "end", str(watch.client_id))
+        assert wait_until(lambda: planner.controller.scene.goal == (8.0, 2.0), 20)
+        # Taken back: the watcher watches again, and its edits are refused again.
+        pres.set_gui(switch, False)
+        assert wait_until(lambda: not room.open, 20)
+        assert room.mode(watch.client_id) == "watching"
+        assert watch.wait_for(lambda: watch.element("Radius [m]")["props"]["disabled"])
+        scene, version = _state(planner)
+        watch.set_gui(watch.uuid("Radius [m]"), 0.2)
+        watch.drag("/own" + GOAL, (2.0, 2.0), "update", str(watch.client_id))
+        assert not wait_until(lambda: planner.controller.version != version, 1.0)
+        assert planner.controller.scene == scene
+
+
+def test_a_private_copy_is_a_session_of_its_own_freed_when_the_browser_leaves(planner):
+    room = planner.classroom
+    with client(planner, presenter=True) as pres:
+        with client(planner) as student:
+            sid = student.client_id
+            shared_before, _ = _state(planner)
+            student.set_gui(student.uuid("Make my own copy"), True)
+            assert wait_until(lambda: room.mode(sid) == "private", 20)
+            assert room.counts()["sessions"] == 1
+            seat = room.seat(sid)
+            private = seat.private
+            assert private is not None and private.scene == shared_before
+            assert private.wait_idle(60)
+            assert student.wait_for(
+                lambda: any("Your own copy" in h for h in student.html())
+            )
+            assert not student.element("Radius [m]")["props"]["disabled"]
+            # Its edits stay in its session...
+            student.set_gui(student.uuid("Radius [m]"), 0.6)
+            assert wait_until(lambda: private.scene.robot.radius == 0.6, 20)
+            student.drag("/own" + GOAL, (7.5, 2.5), "start", str(sid))
+            student.drag("/own" + GOAL, (7.5, 2.5), "update", str(sid))
+            student.drag("/own" + GOAL, (7.5, 2.5), "end", str(sid))
+            assert wait_until(lambda: private.scene.goal == (7.5, 2.5), 20)
+            assert planner.controller.scene == shared_before
+            # ... with its own undo history...
+            student.set_gui(student.uuid("Edits"), "Undo")
+            assert wait_until(lambda: private.scene.goal == shared_before.goal, 20)
+            assert private.scene.robot.radius == 0.6
+            assert planner.controller.scene == shared_before
+            # ... and the presenter's edits do not reach it.
+            pres.drag("/own" + GOAL, (1.5, 6.5), "start", str(pres.client_id))
+            pres.drag("/own" + GOAL, (1.5, 6.5), "update", str(pres.client_id))
+            pres.drag("/own" + GOAL, (1.5, 6.5), "end", str(pres.client_id))
+            assert wait_until(lambda: planner.controller.scene.goal == (1.5, 6.5), 20)
+            assert private.wait_idle(60)
+            assert private.scene.goal == shared_before.goal
+            # Its DSB ran in the shared pool, not a process of its own.
+            assert private.frame is not None and "dsb" in private.frame.plans
+            assert (
+                private.scheduler.slow_planners
+                and room.pool.processes <= room.pool.size
+            )
+            # Follow the presenter again: the copy is closed, the panel follows.
+            student.set_gui(student.uuid("Follow the presenter again"), True)
+            assert wait_until(lambda: room.mode(sid) == "watching", 20)
+            assert room.counts()["sessions"] == 0
+            assert student.wait_for(
+                lambda: student.element("Radius [m]")["props"]["disabled"]
+            )
+            # A second copy is seeded from the presenter's scene as it is now.
+            student.set_gui(student.uuid("Make my own copy"), True)
+            assert wait_until(lambda: room.mode(sid) == "private", 20)
+            second = room.seat(sid).private
+            assert second is not None and second is not private
+            assert second.scene.goal == (1.5, 6.5)
+        # The browser closed: its seat and its session are gone.
+        assert wait_until(lambda: room.seat(sid) is None, 20)
+        assert room.counts()["sessions"] == 0
+        assert (
+            wait_until(lambda: not second._scheduler._threads_alive(), 20)
+            if hasattr(second._scheduler, "_threads_alive")
+            else True
+        )
+
+
+def test_private_copies_share_a_bounded_pool_of_workers(planner):
+    room = planner.classroom
+    with contextlib.ExitStack() as stack:
+        students = [stack.enter_context(client(planner)) for _ in range(3)]
+        for s in students:
+            s.set_gui(s.uuid("Make my own copy"), True)
+        assert wait_until(lambda: room.counts()["sessions"] == 3, 30)
+        for k, s in enumerate(students):
+            s.drag("/own" + GOAL, (7.0 + 0.3 * k, 2.0), "start", str(s.client_id))
+            s.drag("/own" + GOAL, (7.0 + 0.3 * k, 2.0), "update", str(s.client_id))
+            s.drag("/own" + GOAL, (7.0 + 0.3 * k, 2.0), "end", str(s.client_id))
+        for k, s in enumerate(students):
+            private = room.seat(s.client_id).private
+            assert wait_until(
+                lambda p=private, k=k: p.scene.goal == (7.0 + 0.3 * k, 2.0), 20
+            )
+            assert private.wait_idle(90)
+            assert private.frame.plans["dsb"].status in ("reached", "unreachable")
+        assert 1 <= room.pool.processes <= room.pool.size
+    assert wait_until(lambda: room.counts()["sessions"] == 0, 20)
+
+
+def test_a_student_never_writes_the_scenes_folder_even_on_a_copy(tmp_path):
+    """Item 1's rule, for the ways in that a classroom adds: a watcher, a lab seat and a
+    private copy each press *Save to the scenes folder*; only the presenter's save writes."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    app = start_app(
+        "01_two_convex", port=0, print_url=False, presenter=True, scenes_dir=folder
+    )
+    room = app.classroom
+    assert room is not None
+    try:
+        with client(app, presenter=True) as pres, client(app) as student:
+            assert student.wait_for(
+                lambda: student.element("Save to the scenes folder")["props"][
+                    "disabled"
+                ]
+            )
+
+            def try_save(c: ViserClient, name: str) -> None:
+                c.set_gui(c.uuid("Save as"), name)
+                c.set_gui(c.uuid("Save to the scenes folder"), True)
+
+            refused = room.refusals.count
+            try_save(student, "watching")  # watching
+            pres.set_gui(pres.uuid("Let everyone edit"), True)
+            assert wait_until(lambda: room.mode(student.client_id) == "together", 20)
+            try_save(student, "together")  # editing together
+            pres.set_gui(pres.uuid("Let everyone edit"), False)
+            student.set_gui(student.uuid("Make my own copy"), True)
+            assert wait_until(lambda: room.mode(student.client_id) == "private", 20)
+            # On its copy the student edits, but the save button stays greyed out.
+            assert student.wait_for(
+                lambda: not student.element("Radius [m]")["props"]["disabled"]
+            )
+            assert student.element("Save to the scenes folder")["props"]["disabled"]
+            try_save(student, "private")  # on its own copy
+            assert wait_until(lambda: room.refusals.count >= refused + 3, 20)
+            assert sorted(p.name for p in tmp_path.rglob("*")) == ["scenes"]
+            try_save(pres, "lecture")
+            assert wait_until((folder / "lecture.json").is_file, 20)
+            assert sorted(p.name for p in folder.iterdir()) == ["lecture.json"]
+    finally:
+        app.stop()
+
+
+def test_watchers_see_the_goal_move_during_the_presenters_drag(planner):
+    with client(planner, presenter=True) as pres, client(planner) as watch:
+        owner = str(pres.client_id)
+        pres.drag("/own" + GOAL, (8.0, 1.5), "start", owner)
+        pres.drag("/own" + GOAL, (8.0, 1.5), "update", owner)
+        # Not released yet: the shared marker follows anyway (no gizmo is held there).
+        assert watch.wait_for(
+            lambda: (
+                (watch.nodes.get(("", "/shared" + GOAL)) or {}).get("position")
+                == (8.0, 1.5, 0.0)
+            ),
+            20,
+        ), watch.nodes.get(("", "/shared" + GOAL))
+        assert planner.controller.frame.dragging == frozenset({("goal",)})
+        pres.drag("/own" + GOAL, (8.0, 1.5), "end", owner)
+        assert wait_until(lambda: planner.controller.frame.dragging == frozenset(), 20)

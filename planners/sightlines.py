@@ -417,7 +417,7 @@ def inner_disks(polygons: Sequence[Polygon], margin: float) -> Disks:
     return Disks(shapely.get_coordinates(center[keep]), radius[keep])
 
 
-_SECTORS = 256
+_SECTORS = 512
 """Angular sectors around each start in :func:`occluded`."""
 _OCCLUDER_PAIRS = 1 << 20
 """(start, disk) pairs handled at once in :func:`occluded`."""

@@ -426,8 +426,8 @@ def _segments_free(
 
 
 def _inner_disks(cspace: ConfigurationSpace) -> Disks:
-    """One disk inside each merged obstacle, shrunk by a few ``eps`` (for occluded)."""
-    return inner_disks(list(cspace.merged.geoms), 8.0 * cspace.eps)
+    """Return a disk inside each expanded and each merged obstacle, shrunk a few eps."""
+    return inner_disks([*cspace.expanded, *cspace.merged.geoms], 8.0 * cspace.eps)
 
 
 def _runs_of_equal_starts(a: FloatArray) -> IntArray:
@@ -559,6 +559,26 @@ def _leaves_blocked(
     ) | _into_wedge(wedges.nxt[j], wedges.prv[j], wedges.narrow[j], -dx, -dy, tol)
 
 
+def _not_tangent(
+    wedges: _Wedges, i: IntArray, j: IntArray, dx: FloatArray, dy: FloatArray
+) -> BoolArray:
+    """Tell if the line through i and j enters the narrow wedge at i or at j.
+
+    Both directions at once: d enters a wedge narrower than pi when it lies strictly
+    between the sides, -d when it lies strictly outside both; such a segment is either
+    blocked at that end or not tangent there (section 9.5). Only for narrow wedges (the
+    SVG's candidates are convex vertices, start, goal and pinches).
+    """
+    tol = _ANGLE_TOL * np.hypot(dx, dy)
+    enters = np.zeros(np.broadcast_shapes(np.shape(dx), np.shape(i), np.shape(j)), bool)
+    for k in (i, j):
+        nxt, prv = wedges.nxt[k], wedges.prv[k]
+        a = nxt[..., 0] * dy - nxt[..., 1] * dx  # cross(nxt, d)
+        b = dx * prv[..., 1] - dy * prv[..., 0]  # cross(d, prv)
+        enters |= ((a > tol) & (b > tol)) | ((a < -tol) & (b < -tol))
+    return enters
+
+
 def _visible(
     cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray, j: IntArray
 ) -> BoolArray:
@@ -594,9 +614,8 @@ def _candidate_pairs(
         rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, k)[None, :]
         dx, dy = x[cols] - x[rows], y[cols] - y[rows]
         out = cols <= rows
-        out |= _leaves_blocked(wedges, nodes[rows], nodes[cols], dx, dy)
-        if tangent:
-            out |= _leaves_blocked(wedges, nodes[rows], nodes[cols], -dx, -dy)
+        screen = _not_tangent if tangent else _leaves_blocked
+        out |= screen(wedges, nodes[rows], nodes[cols], dx, dy)
         r, c = np.nonzero(~out)
         yield nodes[r0 + r], nodes[r0 + 1 + c]
         r0 = r1
@@ -759,15 +778,49 @@ def _svg_arrays(
     # may bend around one obstacle while the extension points into the other, so no
     # per-segment condition holds there (no wedge) and every visible segment is kept.
     wedges = _query_wedges(border, q)
+    known = cspace.known(_vertex_visibility)
+    if known is None:
+        blocks = _candidate_pairs(q.points, wedges, candidate, tangent=True)
+    else:
+        blocks = _tangents_of_known(known, q, wedges, candidate)
     found_i, found_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
-    for i, j in _candidate_pairs(q.points, wedges, candidate, tangent=True):
+    for i, j in blocks:
         ok = _pairs_visible(cspace, border, q, i, j)
         found_i.append(i[ok])
         found_j.append(j[ok])
+    i, j = np.concatenate(found_i), np.concatenate(found_j)
+    order = np.lexsort((j, i))
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
-    return _graph_arrays(
-        q, np.concatenate(found_i), np.concatenate(found_j), drop_isolated=True
-    )
+    return _graph_arrays(q, i[order], j[order], drop_isolated=True)
+
+
+def _tangents_of_known(
+    known: _Sight, q: _Query, wedges: _Wedges, candidate: IntArray
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield the SVG's candidate pairs when the vertex visibility is already known.
+
+    Pairs of border vertices: the visible ones between candidates, kept when tangent
+    (work in proportion to the VG's edges, not n^2); then the new nodes' rows (start
+    and goal) against every candidate before them.
+    """
+    is_candidate = np.zeros(len(q.points), dtype=bool)
+    is_candidate[candidate] = True
+    i, j = known.i, known.j
+    both = np.flatnonzero(is_candidate[i] & is_candidate[j])
+    i, j = i[both], j[both]
+    d = q.points[j] - q.points[i]
+    yield _tangent_only(wedges, i, j, d)
+    for new in range(known.n, len(q.points)):
+        before = candidate[candidate < new]
+        rows = np.full(len(before), new, dtype=np.intp)
+        yield _tangent_only(wedges, before, rows, q.points[rows] - q.points[before])
+
+
+def _tangent_only(
+    wedges: _Wedges, i: IntArray, j: IntArray, d: FloatArray
+) -> tuple[IntArray, IntArray]:
+    keep = ~_not_tangent(wedges, i, j, d[:, 0], d[:, 1])
+    return i[keep], j[keep]
 
 
 def shortest_path(

@@ -121,19 +121,20 @@ def crossings(
     # (N, 2) rows, and this runs over millions of pairs on large scenes.
     px, py = segs.ax[seg], segs.ay[seg]
     ux, uy, len_pq = segs.dx[seg], segs.dy[seg], segs.length[seg]
-    cx, cy = edges.ex[edge], edges.ey[edge]
-    vx, vy, len_cd = edges.edx[edge], edges.edy[edge], edges.length[edge]
-    cpx, cpy = cx - px, cy - py
+    vx, vy = edges.edx[edge], edges.edy[edge]
+    cpx, cpy = edges.ex[edge] - px, edges.ey[edge] - py
     oc = ux * cpy - uy * cpx  # side of c from the line p -> q, times |pq|
     w = ux * vy - uy * vx
     od = oc + w  # side of d
-    op = cpx * vy - cpy * vx  # side of p from the line c -> d, times |cd|
-    oq = op - w  # side of q
     tol_pq = eps * len_pq
-    tol_cd = eps * len_cd
     split_cd = ((oc > tol_pq) & (od < -tol_pq)) | ((oc < -tol_pq) & (od > tol_pq))
+    # Only where c and d lie on either side: p and q on either side of the edge's line.
+    cand = np.flatnonzero(split_cd)
+    op = cpx[cand] * vy[cand] - cpy[cand] * vx[cand]  # side of p, times |cd|
+    oq = op - w[cand]  # side of q
+    tol_cd = eps * edges.length[edge[cand]]
     split_pq = ((op > tol_cd) & (oq < -tol_cd)) | ((op < -tol_cd) & (oq > tol_cd))
-    blocked = np.flatnonzero(split_cd & split_pq)
+    blocked = cand[split_pq]
     # Border vertex c on the open segment p -> q.
     near = np.flatnonzero(np.abs(oc) <= tol_pq)
     t = (cpx[near] * ux[near] + cpy[near] * uy[near]) / np.where(

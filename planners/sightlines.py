@@ -308,8 +308,15 @@ def march(
             walk = _step(grid, walk, crossed)
     seg_all = np.concatenate(touch_seg) if touch_seg else np.zeros(0, dtype=np.intp)
     t_all = np.concatenate(touch_t) if touch_t else np.zeros(0)
-    keep = ~crossed[seg_all]
-    return Marched(crossed, seg_all[keep], t_all[keep])
+    keep = np.flatnonzero(~crossed[seg_all])
+    seg_all, t_all = seg_all[keep], t_all[keep]
+    # An edge listed in several cells along a segment was met once per cell: the same
+    # vertex at the very same t (computed from the same pair), kept once.
+    order = np.lexsort((t_all, seg_all))
+    seg_all, t_all = seg_all[order], t_all[order]
+    new = np.ones(len(seg_all), dtype=bool)
+    new[1:] = (seg_all[1:] != seg_all[:-1]) | (t_all[1:] != t_all[:-1])
+    return Marched(crossed, seg_all[new], t_all[new])
 
 
 def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:

@@ -169,9 +169,9 @@ def test_lattice_with_a_disk_robot_plans_the_same_length_in_vg_and_svg():
 def test_disks_flag_a_segment_through_an_obstacle_and_not_one_past_it():
     space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
     disks = inner_disks([*space.expanded, *space.merged.geoms], 8 * space.eps)
-    a = np.array([[-1.0, 1.0], [-1.0, 1.0], [-1.0, 1.0], [-1.0, 1.0]])
-    b = np.array([[3.0, 1.0], [3.0, 2.0], [3.0, 3.0], [0.5, 1.0]])
-    # Through the middle; along the top edge (free); past the corner; stopping short
-    # of the centre (blocked, but the filter leaves it to the exact test).
-    flagged = occluded(disks, a, b, np.array([0, 4], dtype=np.intp))
+    a = np.array([[-1.0, 1.0], [-1.0, 2.0], [-1.0, 2.5], [-1.0, 1.0]])
+    b = np.array([[3.0, 1.0], [3.0, 2.0], [3.0, 2.1], [0.5, 1.0]])
+    # Through the middle; along the top edge (free); above it; stopping short of the
+    # centre (blocked, but the filter leaves that to the exact test).
+    flagged = occluded(disks, a, b, np.array([0, 1, 2, 3, 4], dtype=np.intp))
     assert flagged.tolist() == [True, False, False, False]

@@ -80,6 +80,12 @@ class Memo:
                 entries.popitem(last=False)
         return value
 
+    def latest(self, table: str) -> Any | None:
+        """Return the entry of ``table`` used last (got or added), or None if it is empty."""
+        with self._lock:
+            entries = self._tables.get(table)
+            return next(reversed(entries.values())) if entries else None
+
     def clear(self) -> None:
         """Forget everything (the next plan is cold)."""
         with self._lock:

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 __all__ = ["carry_visibility"]
 
+from collections.abc import Iterator
+
 import numpy as np
 import numpy.typing as npt
 import shapely
@@ -33,7 +35,7 @@ from planners.expansion import ConfigurationSpace
 from planners.visibility import (
     _Border,
     _build_border,
-    _candidate_pairs,
+    _leaves_blocked,
     _segments_free,
     _Sight,
     _vertex_visibility,
@@ -44,7 +46,7 @@ IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
 _BLOCK = 1 << 20
-"""Old pairs checked against the changed box at once."""
+"""Vertex pairs checked against the changed box at once."""
 
 
 def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
@@ -169,10 +171,38 @@ def _meets_box(a: FloatArray, b: FloatArray, box: FloatArray | None) -> BoolArra
     return t0 <= t1
 
 
-def _pairs_to_test(new_b: _Border, stable: BoolArray, box: FloatArray | None):
-    """Yield, block by block, the screened pairs whose visibility must be tested again."""
-    nodes = np.arange(len(new_b.points), dtype=np.intp)
-    for i, j in _candidate_pairs(new_b.points, new_b.wedges, nodes, tangent=False):
-        again = ~(stable[i] & stable[j])
-        again |= _meets_box(new_b.points[i], new_b.points[j], box)
-        yield i[again], j[again]
+def _pairs_to_test(
+    new_b: _Border, stable: BoolArray, box: FloatArray | None
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield, block by block, the pairs whose visibility must be tested again.
+
+    Those at a vertex that is not stable and those whose segment meets the box, less
+    the ones that leave an end into its wedge (the screening of a full build).
+    """
+    points = new_b.points
+    n = len(points)
+    r0 = 0
+    while r0 < n - 1:
+        r1 = min(n - 1, r0 + max(1, _BLOCK // (n - r0)))
+        rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, n)[None, :]
+        again = ~(stable[rows] & stable[cols])
+        if box is not None:
+            again |= _may_meet_box(points[rows], points[cols], box)
+        r, c = np.nonzero(again & (cols > rows))
+        i, j = r0 + r, r0 + 1 + c
+        near = ~(stable[i] & stable[j])
+        near |= _meets_box(points[i], points[j], box)
+        i, j = i[near], j[near]
+        d = points[j] - points[i]
+        keep = ~_leaves_blocked(new_b.wedges, i, j, d[:, 0], d[:, 1])
+        yield i[keep], j[keep]
+        r0 = r1
+
+
+def _may_meet_box(a: FloatArray, b: FloatArray, box: FloatArray) -> BoolArray:
+    """Rule out the segments with both ends on one outer side of the box (broadcast)."""
+    away = (a[..., 0] < box[0]) & (b[..., 0] < box[0])
+    away |= (a[..., 0] > box[2]) & (b[..., 0] > box[2])
+    away |= (a[..., 1] < box[1]) & (b[..., 1] < box[1])
+    away |= (a[..., 1] > box[3]) & (b[..., 1] > box[3])
+    return ~away

@@ -425,8 +425,9 @@ def inner_disks(polygons: Sequence[Polygon], margin: float) -> Disks:
     return Disks(shapely.get_coordinates(center[keep]), radius[keep])
 
 
-_SECTORS = 512
-"""Angular sectors around each start in :func:`occluded`."""
+_SECTORS = (64, 512)
+"""Fewest and most angular sectors around each start in :func:`occluded`: about as many
+as segments per start (the table costs starts x sectors, finer sectors flag more)."""
 _OCCLUDER_PAIRS = 1 << 20
 """(start, disk) pairs handled at once in :func:`occluded`."""
 
@@ -446,20 +447,23 @@ def occluded(disks: Disks, a: FloatArray, b: FloatArray, starts: IntArray) -> Bo
         return blocked
     sources = a[starts[:-1]]
     rows = max(1, _OCCLUDER_PAIRS // len(disks.radius))
-    width = 2.0 * np.pi / _SECTORS
+    per_start = len(a) / max(len(sources), 1)
+    sectors = int(np.clip(2 ** round(math.log2(max(per_start, 1.0))), *_SECTORS))
+    width = 2.0 * np.pi / sectors
     for r0 in range(0, len(sources), rows):
-        near = _nearest_cover(disks, sources[r0 : r0 + rows], width)
+        near = _nearest_cover(disks, sources[r0 : r0 + rows], sectors)
         s0, s1 = starts[r0], starts[min(r0 + rows, len(sources))]
         src = np.repeat(np.arange(len(near)), np.diff(starts[r0 : r0 + rows + 1]))
         d = b[s0:s1] - a[s0:s1]
         sector = ((np.arctan2(d[:, 1], d[:, 0]) + np.pi) // width).astype(np.intp)
-        sector = np.minimum(sector, _SECTORS - 1)
+        sector = np.minimum(sector, sectors - 1)
         blocked[s0:s1] = np.hypot(d[:, 0], d[:, 1]) > near[src, sector]
     return blocked
 
 
-def _nearest_cover(disks: Disks, sources: FloatArray, width: float) -> FloatArray:
+def _nearest_cover(disks: Disks, sources: FloatArray, sectors: int) -> FloatArray:
     """Per source and sector, the nearest distance to a disk whose cone holds the sector."""
+    width = 2.0 * np.pi / sectors
     cx = disks.center[None, :, 0] - sources[:, 0:1]
     cy = disks.center[None, :, 1] - sources[:, 1:2]
     dist = np.hypot(cx, cy)
@@ -474,8 +478,8 @@ def _nearest_cover(disks: Disks, sources: FloatArray, width: float) -> FloatArra
     count = count[row, disk]
     sector = (
         np.repeat(first[row, disk].astype(np.intp), count) + _ramp(count)
-    ) % _SECTORS
-    near = np.full((len(sources), _SECTORS), np.inf)
+    ) % sectors
+    near = np.full((len(sources), sectors), np.inf)
     np.minimum.at(
         near, (np.repeat(row, count), sector), np.repeat(dist[row, disk], count)
     )

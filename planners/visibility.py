@@ -148,6 +148,20 @@ class GraphArrays:
         )
         return graph
 
+    def _adjacency(self) -> tuple[list[int], list[int], list[float]]:
+        """Neighbours of each node in ascending order, as compressed rows.
+
+        Node u's neighbours are ``other[first[u]:first[u + 1]]`` with the edges'
+        lengths in ``weight``: the order of networkx's adjacency, whose edges are added
+        in row-major order.
+        """
+        u = np.concatenate([self.i, self.j])
+        v = np.concatenate([self.j, self.i])
+        order = np.lexsort((v, u))
+        first = np.searchsorted(u[order], np.arange(len(self.points) + 1))
+        weight = np.concatenate([self.weight, self.weight])[order]
+        return first.tolist(), v[order].tolist(), weight.tolist()
+
     def shortest_path(self) -> tuple[FloatArray, float] | None:
         """Return the shortest (path, length) from start to goal, or None.
 
@@ -161,14 +175,7 @@ class GraphArrays:
         if s == g:
             return self.points[[s]].copy(), 0.0
         keys = list(map(tuple, self.points.tolist()))
-        # Neighbours in ascending order, as the graph's adjacency has them (its edges
-        # are added in row-major order).
-        neighbours: list[list[tuple[int, float]]] = [[] for _ in keys]
-        for u, v, w in zip(
-            self.i.tolist(), self.j.tolist(), self.weight.tolist(), strict=True
-        ):
-            neighbours[u].append((v, w))
-            neighbours[v].append((u, w))
+        first, other_of, weight_of = self._adjacency()
         target = keys[g]
         count = itertools.count()
         queue = [(0.0, next(count), s, 0.0, -1)]
@@ -188,8 +195,8 @@ class GraphArrays:
                 if enqueued[node][0] < cost:  # a shorter way here is already known
                     continue
             explored[node] = parent
-            for other, w in neighbours[node]:
-                new = cost + w
+            for k in range(first[node], first[node + 1]):
+                other, new = other_of[k], cost + weight_of[k]
                 if other in enqueued:
                     known, h = enqueued[other]
                     if known <= new:
@@ -416,7 +423,7 @@ def _segments_free(
         # No obstacles and no walls: only the (unbounded) plane.
         return np.ones(s, dtype=bool)
     starts = _runs_of_equal_starts(a)
-    if len(starts) - 1 > s // 4:  # few segments per start: the filter would not pay
+    if len(starts) - 1 > s // 16:  # few segments per start: the filter would not pay
         return _exact_free(cspace, border, a, b)
     # Cheap first: segments that certainly pass through a disk inside an obstacle.
     free = ~occluded(cspace.derive(_inner_disks), a, b, starts)

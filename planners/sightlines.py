@@ -336,8 +336,9 @@ def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
             d != 0, np.maximum(ta, tb), np.where(p <= high, np.inf, -np.inf)
         )
         t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
-    inside = t0 <= t1
-    seg, px, py, dx, dy, t0, t1 = (v[inside] for v in (seg, px, py, dx, dy, t0, t1))
+    inside = np.flatnonzero(t0 <= t1)
+    seg, t1 = seg[inside], t1[inside]
+    px, py, dx, dy, t0 = (v[inside] for v in (px, py, dx, dy, t0))
     axes = []
     for p, d, low, count in (
         (px, dx, grid.lo[0], grid.nx),

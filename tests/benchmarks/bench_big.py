@@ -158,7 +158,7 @@ def _lines(name: str, planners: str, r: dict[str, Any]) -> list[str]:
 
 def main() -> int:
     """Run the chosen scenes, print each planner's figures, then the targets."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--scene", choices=(*SCENES, "all"), default="all")
     parser.add_argument("--planners", default="vg,svg,dsb")
     parser.add_argument(

@@ -141,6 +141,7 @@ def test_a_drag_that_merges_then_splits_is_carried_exactly():
             (moved, b), 0.5, extra_points=[start, goal], memo=Memo()
         )
         mine, fresh = after.known(_vertex_visibility), cold.derive(_vertex_visibility)
+        assert mine is not None
         np.testing.assert_array_equal(mine.i, fresh.i)
         np.testing.assert_array_equal(mine.j, fresh.j)
         assert (

@@ -18,6 +18,10 @@ Marching segments (:func:`march`)
     free segment is tested against every edge near it, which is all the exact test
     needs.
 
+Disks that certainly block (:func:`occluded`)
+    Before marching, a segment that passes through a disk inside an obstacle is blocked
+    for certain; only the others are marched. A filter: it never decides a free one.
+
 Segments are marched in blocks of bounded size and only the touching points of the
 survivors are kept, so memory is the block plus the answer.
 

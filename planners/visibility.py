@@ -23,7 +23,11 @@ How a segment is tested. It is blocked when it properly crosses an edge of the b
 Otherwise the border's vertices that lie on it (within a tolerance ``eps``) cut it into
 pieces, each of which is entirely free, entirely blocked or runs along an edge; the
 middle of each piece decides. This is exact for collinear vertices, paths grazing a
-vertex, start or goal on an edge, and obstacles touching at a point.
+vertex, start or goal on an edge, and obstacles touching at a point. Which edges a
+segment may meet is found in bounded memory by :mod:`planners.sightlines` (an edge grid
+the segments march through, disks inside obstacles that certainly block); node pairs
+are screened block by block, and the vertex visibility is kept as the list of pairs
+that see each other, so memory grows with the graph, not with n^2.
 
 References
 ----------

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from planners.expansion import ConfigurationSpace, configuration_space
+from planners.incremental import carry_visibility
 from planners.memo import Memo
 from planners.registry import (
     REGISTRY,
@@ -108,6 +109,7 @@ def plan_all(
         reason = "; ".join(problems)
         return {n: InvalidResult(n, reason) for n in names}
     t0 = time.perf_counter()
+    previous = memo.latest("cspace") if memo is not None else None
     cspace = configuration_space(
         scene.obstacles,
         scene.robot.radius,
@@ -117,6 +119,9 @@ def plan_all(
         extra_points=[scene.start, scene.goal],
         memo=memo,
     )
+    if previous is not None and previous is not cspace:
+        # An edit: the vertex visibility follows from the one before it (issue 15).
+        carry_visibility(cspace, previous)
     shared_ms = (time.perf_counter() - t0) * 1e3
     reason = _endpoint_problem(scene, cspace)
     results: dict[str, Any] = {}

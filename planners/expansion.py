@@ -380,6 +380,15 @@ class ConfigurationSpace:
         """Return ``fn(self, *args)`` if :meth:`derive` already computed it, else None."""
         return self.__dict__.get("_derived", {}).get((fn, args))
 
+    def adopt(self, fn: Callable[..., T], value: T, *args: Hashable) -> None:
+        """Keep ``value`` as what :meth:`derive` would compute for ``fn(self, *args)``.
+
+        For a value found another way that is proven equal (the vertex visibility
+        carried over from the space before an edit: :mod:`planners.incremental`). What
+        was derived already stays.
+        """
+        self.__dict__.setdefault("_derived", {}).setdefault((fn, args), value)
+
     def __getstate__(self) -> dict[str, Any]:
         """Pickle the configuration space without what was derived from it."""
         state = dict(self.__dict__)

@@ -28,8 +28,9 @@ TABLE_SIZES: Mapping[str, int] = MappingProxyType(
     {"expanded": 4096, "shrunk": 16, "cspace": 4}
 )
 """Entries kept per table: expansions are small and many (one per obstacle and setting);
-a configuration space carries what the planners derived from it (up to an n x n
-visibility matrix), so only the last few are kept."""
+a configuration space carries what the planners derived from it (the border, the
+vertex pairs that see each other: as many as the visibility graph's edges), so only the
+last few are kept."""
 
 
 class Memo:
@@ -78,6 +79,12 @@ class Memo:
             while len(entries) > self._sizes.get(table, self._size):
                 entries.popitem(last=False)
         return value
+
+    def latest(self, table: str) -> Any | None:
+        """Return the entry of ``table`` used last (got or added), or None if it is empty."""
+        with self._lock:
+            entries = self._tables.get(table)
+            return next(reversed(entries.values())) if entries else None
 
     def clear(self) -> None:
         """Forget everything (the next plan is cold)."""

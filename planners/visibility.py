@@ -23,7 +23,11 @@ How a segment is tested. It is blocked when it properly crosses an edge of the b
 Otherwise the border's vertices that lie on it (within a tolerance ``eps``) cut it into
 pieces, each of which is entirely free, entirely blocked or runs along an edge; the
 middle of each piece decides. This is exact for collinear vertices, paths grazing a
-vertex, start or goal on an edge, and obstacles touching at a point.
+vertex, start or goal on an edge, and obstacles touching at a point. Which edges a
+segment may meet is found in bounded memory by :mod:`planners.sightlines` (an edge grid
+the segments march through, disks inside obstacles that certainly block); node pairs
+are screened block by block, and the vertex visibility is kept as the list of pairs
+that see each other, so memory grows with the graph, not with n^2.
 
 References
 ----------
@@ -49,6 +53,7 @@ import functools
 import heapq
 import itertools
 import math
+from collections.abc import Iterator
 
 import networkx as nx
 import numpy as np
@@ -58,15 +63,26 @@ import shapely
 from planners.border import ring_geometry
 from planners.expansion import ConfigurationSpace
 from planners.geometry import cross, unit_rows
+from planners.sightlines import (
+    Disks,
+    EdgeGrid,
+    Edges,
+    Segments,
+    crossings,
+    edge_grid,
+    inner_disks,
+    march,
+    occluded,
+)
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.intp]
 
-# Segment/edge pairs tested at once; bounds memory to a few hundred MB in the worst case.
-_CHUNK_PAIRS = 2_000_000
-# Below this many segment x edge pairs, a bounding-box matrix beats a spatial index.
-_DENSE_LIMIT = 3_000_000
+# Node pairs screened at once (a block of rows against the columns after them).
+_BLOCK_PAIRS = 1 << 20
+# Below this many segment x edge pairs, a bounding-box matrix beats the edge grid.
+_DENSE_LIMIT = 100_000
 # Directions closer than this (as a sine) to an edge count as running along it.
 _ANGLE_TOL = 1e-12
 
@@ -136,6 +152,20 @@ class GraphArrays:
         )
         return graph
 
+    def _adjacency(self) -> tuple[list[int], list[int], list[float]]:
+        """Neighbours of each node in ascending order, as compressed rows.
+
+        Node u's neighbours are ``other[first[u]:first[u + 1]]`` with the edges'
+        lengths in ``weight``: the order of networkx's adjacency, whose edges are added
+        in row-major order.
+        """
+        u = np.concatenate([self.i, self.j])
+        v = np.concatenate([self.j, self.i])
+        order = np.lexsort((v, u))
+        first = np.searchsorted(u[order], np.arange(len(self.points) + 1))
+        weight = np.concatenate([self.weight, self.weight])[order]
+        return first.tolist(), v[order].tolist(), weight.tolist()
+
     def shortest_path(self) -> tuple[FloatArray, float] | None:
         """Return the shortest (path, length) from start to goal, or None.
 
@@ -149,14 +179,7 @@ class GraphArrays:
         if s == g:
             return self.points[[s]].copy(), 0.0
         keys = list(map(tuple, self.points.tolist()))
-        # Neighbours in ascending order, as the graph's adjacency has them (its edges
-        # are added in row-major order).
-        neighbours: list[list[tuple[int, float]]] = [[] for _ in keys]
-        for u, v, w in zip(
-            self.i.tolist(), self.j.tolist(), self.weight.tolist(), strict=True
-        ):
-            neighbours[u].append((v, w))
-            neighbours[v].append((u, w))
+        first, other_of, weight_of = self._adjacency()
         target = keys[g]
         count = itertools.count()
         queue = [(0.0, next(count), s, 0.0, -1)]
@@ -176,8 +199,8 @@ class GraphArrays:
                 if enqueued[node][0] < cost:  # a shorter way here is already known
                     continue
             explored[node] = parent
-            for other, w in neighbours[node]:
-                new = cost + w
+            for k in range(first[node], first[node + 1]):
+                other, new = other_of[k], cost + weight_of[k]
                 if other in enqueued:
                     known, h = enqueued[other]
                     if known <= new:
@@ -245,33 +268,16 @@ class _Border:
     occ_next: FloatArray  # (o, 2) unit direction to the next ring vertex
     occ_prev: FloatArray  # (o, 2) unit direction to the previous ring vertex
     occ_convex: BoolArray  # (o,) blocked wedge narrower than pi: a path can wrap here
+    eps: float  # the configuration space's tolerance [m]
 
     @functools.cached_property
-    def edge_tree(self) -> shapely.STRtree:
-        lines = np.asarray(
-            shapely.linestrings(np.stack([self.edge_a, self.edge_b], axis=1))
-        )
-        return shapely.STRtree(lines)
+    def edges(self) -> Edges:
+        return Edges.of(self.edge_a, self.edge_b)
 
     @functools.cached_property
-    def ex(self) -> FloatArray:
-        return np.ascontiguousarray(self.edge_a[:, 0])
-
-    @functools.cached_property
-    def ey(self) -> FloatArray:
-        return np.ascontiguousarray(self.edge_a[:, 1])
-
-    @functools.cached_property
-    def edx(self) -> FloatArray:
-        return np.ascontiguousarray(self.edge_b[:, 0] - self.edge_a[:, 0])
-
-    @functools.cached_property
-    def edy(self) -> FloatArray:
-        return np.ascontiguousarray(self.edge_b[:, 1] - self.edge_a[:, 1])
-
-    @functools.cached_property
-    def elength(self) -> FloatArray:
-        return np.hypot(self.edx, self.edy)
+    def grid(self) -> EdgeGrid:
+        # Margin: the exact test's tolerance, with room for rounding in the traversal.
+        return edge_grid(self.edge_a, self.edge_b, 4.0 * self.eps)
 
     @functools.cached_property
     def edge_boxes(self) -> tuple[FloatArray, FloatArray]:
@@ -286,48 +292,14 @@ class _Border:
         return first
 
     @functools.cached_property
-    def extra_occurrences(self) -> IntArray:
-        """Occurrences of vertices that appear more than once (obstacles touching there)."""
-        seen = np.zeros(len(self.points), dtype=bool)
-        extra = []
-        for o, node in enumerate(self.occ_node):
-            if seen[node]:
-                extra.append(o)
-            seen[node] = True
-        return np.asarray(extra, dtype=np.intp)
+    def pinch_nodes(self) -> BoolArray:
+        """Vertices where obstacles touch (or a hole touches the outer ring).
 
-    @functools.cached_property
-    def touching_sectors(self) -> dict[int, tuple[FloatArray, BoolArray]]:
-        """Sorted edge directions at each vertex that appears in several rings.
-
-        Where obstacles touch at a vertex, or a hole touches the outer ring, no single
-        wedge describes the blocked directions; the sectors between all the edges do.
+        No single wedge tells the blocked directions there, and a path through one may
+        bend either way.
         """
-        sectors = {}
-        for vertex in np.unique(self.occ_node[self.extra_occurrences]):
-            occ = np.flatnonzero(self.occ_node == vertex)
-            dirs = np.vstack([self.occ_next[occ], self.occ_prev[occ]])
-            opens = np.concatenate(
-                [np.ones(len(occ), dtype=bool), np.zeros(len(occ), dtype=bool)]
-            )
-            angles = np.arctan2(dirs[:, 1], dirs[:, 0]) % (2 * np.pi)
-            order = np.argsort(angles)
-            sectors[int(vertex)] = (angles[order], opens[order])
-        return sectors
-
-    @functools.cached_property
-    def wedge_angles(self) -> tuple[FloatArray, FloatArray, BoolArray]:
-        """Per vertex: where its blocked wedge starts [rad], its width, one ring only.
-
-        The wedge turns counter-clockwise from the direction of the next ring vertex;
-        the last array is False where rings touch (the wedge alone does not tell).
-        """
-        occ = self.first_occurrence
-        start = np.arctan2(self.occ_next[occ, 1], self.occ_next[occ, 0])
-        end = np.arctan2(self.occ_prev[occ, 1], self.occ_prev[occ, 0])
-        single = np.ones(len(self.points), dtype=bool)
-        single[self.occ_node[self.extra_occurrences]] = False
-        return start, (end - start) % (2.0 * np.pi), single
+        count = np.bincount(self.occ_node, minlength=len(self.points))
+        return count > 1
 
     @functools.cached_property
     def convex_nodes(self) -> BoolArray:
@@ -336,11 +308,57 @@ class _Border:
         return convex
 
     @functools.cached_property
-    def pinch_nodes(self) -> BoolArray:
-        """Vertices where obstacles touch: a path through them may bend either way."""
-        pinch = np.zeros(len(self.points), dtype=bool)
-        pinch[self.occ_node[self.extra_occurrences]] = True
-        return pinch
+    def wedges(self) -> _Wedges:
+        """The blocked wedge at each vertex; none at pinches (no single wedge there)."""
+        occ = self.first_occurrence
+        alone = ~self.pinch_nodes[:, None]
+        return _Wedges(
+            np.where(alone, self.occ_next[occ], 0.0),
+            np.where(alone, self.occ_prev[occ], 0.0),
+            cross(self.occ_next[occ], self.occ_prev[occ]) > _ANGLE_TOL,
+        )
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Wedges:
+    """Per node, the blocked wedge: it turns counter-clockwise from ``nxt`` to ``prv``.
+
+    Zero vectors where no wedge applies (start, goal, pinches): nothing is inside.
+    """
+
+    nxt: FloatArray  # (n, 2) unit direction of the next ring vertex, or 0
+    prv: FloatArray  # (n, 2) unit direction of the previous ring vertex, or 0
+    narrow: BoolArray  # (n,) the wedge is narrower than pi (a convex vertex)
+
+    def extended(self, count: int) -> _Wedges:
+        """Return the same with ``count`` wedge-less nodes appended (start and goal)."""
+        zeros = np.zeros((count, 2))
+        return _Wedges(
+            np.vstack([self.nxt, zeros]),
+            np.vstack([self.prv, zeros]),
+            np.append(self.narrow, np.ones(count, dtype=bool)),
+        )
+
+
+def _into_wedge(  # noqa: PLR0917 - a numeric kernel on broadcast arrays
+    nxt: FloatArray,
+    prv: FloatArray,
+    narrow: BoolArray,
+    dx: FloatArray,
+    dy: FloatArray,
+    tol: FloatArray,
+) -> BoolArray:
+    """Tell if direction (dx, dy) leaves a vertex strictly into its blocked wedge.
+
+    ``nxt`` and ``prv`` are (..., 2) unit vectors, broadcast against ``dx`` and ``dy``;
+    strictly means by more than ``tol`` (``_ANGLE_TOL`` times the direction's length,
+    an angle). A wedge narrower than pi is
+    entered between its two sides; a wider one everywhere but the closed free wedge
+    from ``prv`` to ``nxt``.
+    """
+    after_next = nxt[..., 0] * dy - nxt[..., 1] * dx > tol  # cross(nxt, d)
+    before_prev = dx * prv[..., 1] - dy * prv[..., 0] > tol  # cross(d, prv)
+    return np.where(narrow, after_next & before_prev, after_next | before_prev)
 
 
 def _build_border(cspace: ConfigurationSpace) -> _Border:
@@ -351,7 +369,8 @@ def _build_border(cspace: ConfigurationSpace) -> _Border:
     if not geo.rings:
         empty = np.zeros((0, 2))
         none = np.zeros(0, dtype=np.intp)
-        return _Border(empty, empty, empty, none, empty, empty, np.zeros(0, dtype=bool))
+        no = np.zeros(0, dtype=bool)
+        return _Border(empty, empty, empty, none, empty, empty, no, cspace.eps)
     # Vertices shared by several rings (obstacles touching at a point) become one node.
     points, occ_node = np.unique(geo.start, axis=0, return_inverse=True)
     occ_node = occ_node.reshape(-1)
@@ -360,55 +379,9 @@ def _build_border(cspace: ConfigurationSpace) -> _Border:
     # Blocked space is on the left of each ring: the blocked wedge at a vertex turns
     # counter-clockwise from the next edge to the previous one.
     convex = cross(to_next, to_prev) > _ANGLE_TOL
-    return _Border(points, geo.start, geo.end, occ_node, to_next, to_prev, convex)
-
-
-def _strictly_inside_wedge(
-    nxt: FloatArray, prv: FloatArray, d: FloatArray
-) -> BoolArray:
-    """Tell if unit direction ``d`` points strictly into the blocked wedge at a vertex."""
-    narrow = cross(nxt, prv) > _ANGLE_TOL
-    inside_narrow = (cross(nxt, d) > _ANGLE_TOL) & (cross(d, prv) > _ANGLE_TOL)
-    # A wedge of pi or more: inside unless in the closed free wedge from prv to nxt.
-    in_free = (cross(prv, d) >= -_ANGLE_TOL) & (cross(d, nxt) >= -_ANGLE_TOL)
-    return np.where(narrow, inside_narrow, ~in_free)
-
-
-def _into_blocked(border: _Border, node: IntArray, d: FloatArray) -> BoolArray:
-    """Tell, for each (node, unit direction), if stepping from the vertex along d enters blocked space."""
-    result = np.zeros(len(node), dtype=bool)
-    is_vertex = node >= 0
-    if not is_vertex.any():
-        return result
-    occ = border.first_occurrence[node[is_vertex]]
-    result[is_vertex] = _strictly_inside_wedge(
-        border.occ_next[occ], border.occ_prev[occ], d[is_vertex]
+    return _Border(
+        points, geo.start, geo.end, occ_node, to_next, to_prev, convex, cspace.eps
     )
-    for vertex, (angles, opens_blocked) in border.touching_sectors.items():
-        hit = np.flatnonzero(node == vertex)
-        if len(hit):
-            result[hit] = _in_blocked_sector(angles, opens_blocked, d[hit])
-    return result
-
-
-def _in_blocked_sector(
-    angles: FloatArray, opens_blocked: BoolArray, d: FloatArray
-) -> BoolArray:
-    """Classify directions at a vertex where the border touches itself.
-
-    ``angles`` are the sorted directions of every border edge at the vertex; the sector
-    from ``angles[k]`` counter-clockwise to the next one is blocked iff the edge at
-    ``angles[k]`` has blocked space on its counter-clockwise side (an outgoing edge).
-    A direction along an edge runs on the border, which is free.
-    """
-    a = np.arctan2(d[:, 1], d[:, 0]) % (2 * np.pi)
-    k = np.searchsorted(angles, a, side="right") - 1  # -1 wraps to the last sector
-    gap = np.minimum(
-        np.abs(a[:, None] - angles[None, :]),
-        2 * np.pi - np.abs(a[:, None] - angles[None, :]),
-    )
-    on_edge = gap.min(axis=1) <= _ANGLE_TOL
-    return opens_blocked[k] & ~on_edge
 
 
 # --------------------------------------------------------------------------- segment test
@@ -453,32 +426,50 @@ def _segments_free(
     if m == 0:
         # No obstacles and no walls: only the (unbounded) plane.
         return np.ones(s, dtype=bool)
-    free = np.ones(s, dtype=bool)
-    touch_seg: list[IntArray] = []
-    touch_t: list[FloatArray] = []
     starts = _runs_of_equal_starts(a)
+    if len(starts) - 1 > s // 16:  # few segments per start: the filter would not pay
+        return _exact_free(cspace, border, a, b)
+    # Cheap first: segments that certainly pass through a disk inside an obstacle.
+    free = ~occluded(cspace.derive(_inner_disks), a, b, starts)
+    test = np.flatnonzero(free)
+    free[test] = _exact_free(cspace, border, a[test], b[test])
+    return free
+
+
+def _inner_disks(cspace: ConfigurationSpace) -> Disks:
+    """Return a disk inside each expanded and each merged obstacle, shrunk a few eps."""
+    return inner_disks([*cspace.expanded, *cspace.merged.geoms], 8.0 * cspace.eps)
+
+
+def _runs_of_equal_starts(a: FloatArray) -> IntArray:
+    """Boundaries of the runs of consecutive segments that start at the same point."""
+    change = np.flatnonzero(np.any(a[1:] != a[:-1], axis=1)) + 1
+    return np.concatenate([[0], change, [len(a)]]).astype(np.intp)
+
+
+def _exact_free(
+    cspace: ConfigurationSpace, border: _Border, a: FloatArray, b: FloatArray
+) -> BoolArray:
+    """Tell which segments a[k] -> b[k] are free, by the exact test (module docstring)."""
+    s, m = len(a), len(border.edge_a)
+    if s == 0:
+        return np.zeros(0, dtype=bool)
+    segs = Segments.of(a, b)
     if s * m <= _DENSE_LIMIT:
-        chunks = [_overlapping_boxes(a, b, border, cspace.eps)]
-    elif len(starts) - 1 <= s // 4:
-        # Many segments share each start (a visibility graph): sweep angles per start.
-        chunks = _angular_chunks(border, a, b, starts, cspace.eps)
+        seg, edge = _overlapping_boxes(a, b, border, cspace.eps)
+        crossed_seg, t_seg, t_val = crossings(segs, border.edges, seg, edge, cspace.eps)
+        free = np.ones(s, dtype=bool)
+        free[crossed_seg] = False
+        keep = free[t_seg]
+        t_seg, t_val = t_seg[keep], t_val[keep]
     else:
-        chunks = _index_chunks(border, a, b)
-    segs = _Segments.of(a, b)
-    for seg, edge in chunks:
-        blocked, t_seg, t_val = _crossings(segs, border, seg, edge, cspace.eps)
-        free[blocked] = False
-        touch_seg.append(t_seg)
-        touch_t.append(t_val)
+        marched = march(border.grid, border.edges, segs, cspace.eps)
+        free, t_seg, t_val = ~marched.crossed, marched.touch_seg, marched.touch_t
     survivors = np.flatnonzero(free)
     if len(survivors) == 0:
         return free
     # Each survivor is cut at the border vertices lying on it; every piece is free,
     # blocked or along an edge, and its middle tells which.
-    t_seg = np.concatenate(touch_seg) if touch_seg else np.zeros(0, dtype=np.intp)
-    t_val = np.concatenate(touch_t) if touch_t else np.zeros(0)
-    keep = free[t_seg]
-    t_seg, t_val = t_seg[keep], t_val[keep]
     seg_ids = np.concatenate([survivors, survivors, t_seg])
     ts = np.concatenate([np.zeros(len(survivors)), np.ones(len(survivors)), t_val])
     order = np.lexsort((ts, seg_ids))
@@ -502,169 +493,6 @@ def _overlapping_boxes(
     overlap &= (lo[:, None, 1] <= ehi[None, :, 1]) & (hi[:, None, 1] >= elo[None, :, 1])
     seg, edge = np.nonzero(overlap)
     return seg.astype(np.intp), edge.astype(np.intp)
-
-
-def _runs_of_equal_starts(a: FloatArray) -> IntArray:
-    """Boundaries of the runs of consecutive segments that start at the same point."""
-    change = np.flatnonzero(np.any(a[1:] != a[:-1], axis=1)) + 1
-    return np.concatenate([[0], change, [len(a)]]).astype(np.intp)
-
-
-def _angular_chunks(  # noqa: PLR0915 - one vectorised pass over (starts x edges) arrays
-    border: _Border, a: FloatArray, b: FloatArray, starts: IntArray, eps: float
-):
-    """Yield (segment, edge) pairs where the edge spans the segment's direction.
-
-    Seen from a start point p, a border edge covers an arc of directions. Only a
-    segment from p whose direction lies in that arc can cross the edge or pass
-    through its first vertex, so with the segments' directions sorted, each edge meets
-    a contiguous range of them (found by binary search). The arcs are widened by the
-    angle that ``eps`` subtends, so every pair the exact test could flag is produced.
-    Pairs whose segment has both ends strictly on one side of the edge's line are
-    dropped: such a segment can neither cross the edge nor pass through its vertex.
-
-    All starts are handled at once: the segments are sorted by the key
-    ``start_index * 8 + angle`` (angles shifted into [0, 2 pi]), so one binary search
-    serves a whole batch of starts.
-    """
-    m = len(border.ex)
-    two_pi = 2.0 * np.pi
-    n_src = len(starts) - 1
-    src_of_seg = np.repeat(np.arange(n_src), np.diff(starts))
-    tvx, tvy = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
-    key = src_of_seg * 8.0 + (np.arctan2(tvy, tvx) + np.pi)
-    order = np.argsort(key, kind="stable")
-    sorted_key = key[order]
-    sources = a[starts[:-1]]
-    # Line of each edge: side(x) = normal . x - offset, |side| / length = distance.
-    nx_, ny_ = -border.edy, border.edx
-    offset = nx_ * border.ex + ny_ * border.ey
-    on_line = eps * border.elength
-    ex, ey, fx, fy = (
-        border.ex,
-        border.ey,
-        border.ex + border.edx,
-        border.ey + border.edy,
-    )
-    batch = max(1, 200_000 // max(m, 1))
-    for b0 in range(0, n_src, batch):
-        b1 = min(n_src, b0 + batch)
-        px, py = sources[b0:b1, 0:1], sources[b0:b1, 1:2]
-        cvx, cvy, dvx, dvy = ex - px, ey - py, fx - px, fy - py  # (B, m)
-        rc, rd = np.hypot(cvx, cvy), np.hypot(dvx, dvy)
-        ac, ad = np.arctan2(cvy, cvx), np.arctan2(dvy, dvx)
-        diff = (ad - ac + np.pi) % two_pi - np.pi
-        lo = np.where(diff >= 0, ac, ad)
-        span = np.abs(diff)
-        # An edge with an end at p, or passing through p, cannot be crossed properly by
-        # a segment from p; only its first vertex can lie on one: a single direction.
-        through = (rc <= eps) | (rd <= eps)
-        through |= (np.abs(cvx * dvy - cvy * dvx) <= eps * (rc + rd)) & (
-            cvx * dvx + cvy * dvy < 0
-        )
-        lo = np.where(through, np.where(rc <= eps, ad, ac), lo)
-        span = np.where(through, 0.0, span)
-        near = np.minimum(np.where(rc <= eps, rd, rc), np.where(rd <= eps, rc, rd))
-        slack = np.minimum(eps / np.maximum(near, eps) + 1e-9, np.pi)
-        lo = (lo - slack + np.pi) % two_pi  # shifted into [0, 2 pi)
-        hi = lo + span + 2.0 * slack
-        base = (np.arange(b0, b1) * 8.0)[:, None]
-        first = np.searchsorted(sorted_key, (base + lo).ravel(), side="left")
-        last = np.searchsorted(
-            sorted_key, (base + np.minimum(hi, two_pi)).ravel(), side="right"
-        )
-        # Arcs that run past 2 pi continue from 0, that is from the start's first segment
-        # (segments are sorted by start, so start k's block begins at starts[k]).
-        wraps = np.flatnonzero((hi > two_pi).ravel())
-        first2 = np.repeat(starts[b0:b1], m)
-        last2 = first2.copy()
-        if len(wraps):
-            tail = (base + hi - two_pi).ravel()[wraps]
-            last2[wraps] = np.searchsorted(sorted_key, tail, side="right")
-        side_p = (nx_ * px + ny_ * py - offset).ravel()  # (B * m,)
-        for begin, end in ((first, last), (first2, last2)):
-            count = np.maximum(end - begin, 0)
-            total = int(count.sum())
-            if total == 0:
-                continue
-            offsets = np.repeat(np.cumsum(count) - count, count)
-            pair = np.repeat(np.arange(len(count)), count)  # index into the (B, m) grid
-            seg = order[np.repeat(begin, count) + (np.arange(total) - offsets)]
-            edge = pair % m
-            sp, tol = side_p[pair], on_line[edge]
-            side_q = nx_[edge] * tvx[seg] + ny_[edge] * tvy[seg] + sp
-            keep = ~(((sp > tol) & (side_q > tol)) | ((sp < -tol) & (side_q < -tol)))
-            yield seg[keep], edge[keep]
-
-
-def _index_chunks(border: _Border, a: FloatArray, b: FloatArray):
-    """Yield (segment, edge) index pairs whose bounding boxes overlap, in bounded chunks."""
-    tree = border.edge_tree
-    lines = np.asarray(shapely.linestrings(np.stack([a, b], axis=1)))
-    step = max(1, _CHUNK_PAIRS // max(1, min(len(border.edge_a), 400)))
-    for lo in range(0, len(a), step):
-        seg, edge = tree.query(lines[lo : lo + step])
-        yield seg.astype(np.intp) + lo, edge.astype(np.intp)
-
-
-def _crossings(
-    segs: _Segments, border: _Border, seg: IntArray, edge: IntArray, eps: float
-) -> tuple[IntArray, IntArray, FloatArray]:
-    """Proper crossings and touching vertices for (segment, edge) index pairs.
-
-    Returns the pair indices whose segment is blocked by a proper crossing, and for each
-    border vertex (the edge's start) lying inside a segment: the segment and the
-    parameter t in (0, 1) where it lies.
-    """
-    # Plain 1-D arrays: gathers and arithmetic on them are several times faster than on
-    # (N, 2) rows, and this loop runs over millions of pairs on large scenes.
-    px, py = segs.ax[seg], segs.ay[seg]
-    ux, uy, len_pq = segs.dx[seg], segs.dy[seg], segs.length[seg]
-    cx, cy = border.ex[edge], border.ey[edge]
-    vx, vy, len_cd = border.edx[edge], border.edy[edge], border.elength[edge]
-    cpx, cpy = cx - px, cy - py
-    oc = ux * cpy - uy * cpx  # side of c from the line p -> q, times |pq|
-    w = ux * vy - uy * vx
-    od = oc + w  # side of d
-    op = cpx * vy - cpy * vx  # side of p from the line c -> d, times |cd|
-    oq = op - w  # side of q
-    # |cross| / length is the distance to the line; within eps counts as on it.
-    tol_pq = eps * len_pq
-    tol_cd = eps * len_cd
-    split_cd = ((oc > tol_pq) & (od < -tol_pq)) | ((oc < -tol_pq) & (od > tol_pq))
-    split_pq = ((op > tol_cd) & (oq < -tol_cd)) | ((op < -tol_cd) & (oq > tol_cd))
-    blocked = np.flatnonzero(split_cd & split_pq)
-    # Border vertex c on the open segment p -> q.
-    near = np.flatnonzero(np.abs(oc) <= tol_pq)
-    t = (cpx[near] * ux[near] + cpy[near] * uy[near]) / np.where(
-        len_pq[near] > 0, len_pq[near] ** 2, 1.0
-    )
-    along = t * len_pq[near]
-    on = (along > eps) & (along < len_pq[near] - eps)
-    return seg[blocked], seg[near[on]], t[on]
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class _Segments:
-    """Segments as 1-D coordinate arrays (start, direction, length)."""
-
-    ax: FloatArray
-    ay: FloatArray
-    dx: FloatArray
-    dy: FloatArray
-    length: FloatArray
-
-    @classmethod
-    def of(cls, a: FloatArray, b: FloatArray) -> _Segments:
-        d = b - a
-        dx, dy = np.ascontiguousarray(d[:, 0]), np.ascontiguousarray(d[:, 1])
-        return cls(
-            np.ascontiguousarray(a[:, 0]),
-            np.ascontiguousarray(a[:, 1]),
-            dx,
-            dy,
-            np.hypot(dx, dy),
-        )
 
 
 # --------------------------------------------------------------------------- graphs
@@ -716,26 +544,92 @@ def _graph_arrays(
     return GraphArrays(q.points, q.start, q.goal, i, j, kept)
 
 
+def _query_wedges(border: _Border, q: _Query) -> _Wedges:
+    """Return the blocked wedge at each of the query's nodes (none at start and goal)."""
+    wedges = border.wedges.extended(len(q.points) - len(border.points))
+    free = np.flatnonzero(q.node < 0)
+    if len(free):
+        nxt, prv = wedges.nxt.copy(), wedges.prv.copy()
+        # Start and goal are free to leave in any direction, even from a vertex.
+        nxt[free] = prv[free] = 0.0
+        wedges = _Wedges(nxt, prv, wedges.narrow)
+    return wedges
+
+
+def _leaves_blocked(
+    wedges: _Wedges, i: IntArray, j: IntArray, dx: FloatArray, dy: FloatArray
+) -> BoolArray:
+    """Tell if segment i -> j (direction (dx, dy)) leaves i or j into their wedges.
+
+    ``i`` and ``j`` index the wedges and broadcast like ``dx`` and ``dy`` (rows against
+    columns for a block of pairs).
+    """
+    tol = _ANGLE_TOL * np.hypot(dx, dy)
+    return _into_wedge(
+        wedges.nxt[i], wedges.prv[i], wedges.narrow[i], dx, dy, tol
+    ) | _into_wedge(wedges.nxt[j], wedges.prv[j], wedges.narrow[j], -dx, -dy, tol)
+
+
+def _not_tangent(
+    wedges: _Wedges, i: IntArray, j: IntArray, dx: FloatArray, dy: FloatArray
+) -> BoolArray:
+    """Tell if the line through i and j enters the narrow wedge at i or at j.
+
+    Both directions at once: d enters a wedge narrower than pi when it lies strictly
+    between the sides, -d when it lies strictly outside both; such a segment is either
+    blocked at that end or not tangent there (section 9.5). Only for narrow wedges (the
+    SVG's candidates are convex vertices, start, goal and pinches).
+    """
+    tol = _ANGLE_TOL * np.hypot(dx, dy)
+    enters = np.zeros(np.broadcast_shapes(np.shape(dx), np.shape(i), np.shape(j)), bool)
+    for k in (i, j):
+        nxt, prv = wedges.nxt[k], wedges.prv[k]
+        a = nxt[..., 0] * dy - nxt[..., 1] * dx  # cross(nxt, d)
+        b = dx * prv[..., 1] - dy * prv[..., 0]  # cross(d, prv)
+        enters |= ((a > tol) & (b > tol)) | ((a < -tol) & (b < -tol))
+    return enters
+
+
 def _visible(
     cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray, j: IntArray
 ) -> BoolArray:
-    # Cheap first: a segment that leaves a vertex straight into its obstacle is blocked.
-    # This only saves work (the exact test below decides), so it is done on angles and
-    # skips vertices where rings touch.
+    """Tell which node pairs (i, j) of the query see each other.
+
+    Cheap first: a segment that leaves a vertex strictly into its obstacle is blocked.
+    This only saves work (the exact test decides the rest) and skips the vertices
+    where rings touch.
+    """
     d = q.points[j] - q.points[i]
-    theta = np.arctan2(d[:, 1], d[:, 0])
-    ok = np.ones(len(i), dtype=bool)
-    start_angle, width, single = border.wedge_angles
-    for nodes, direction in ((q.node[i], theta), (q.node[j], theta + np.pi)):
-        if not len(single):  # no border at all
-            break
-        at = np.flatnonzero((nodes >= 0) & single[np.maximum(nodes, 0)])
-        k = nodes[at]
-        rel = (direction[at] - start_angle[k]) % (2.0 * np.pi)
-        ok[at[(rel > _ANGLE_TOL) & (rel < width[k] - _ANGLE_TOL)]] = False
+    ok = ~_leaves_blocked(_query_wedges(border, q), i, j, d[:, 0], d[:, 1])
     idx = np.flatnonzero(ok)
     ok[idx] = _segments_free(cspace, border, q.points[i[idx]], q.points[j[idx]])
     return ok
+
+
+def _candidate_pairs(
+    points: FloatArray, wedges: _Wedges, nodes: IntArray, *, tangent: bool
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield, block by block, the pairs of ``nodes`` that may see each other.
+
+    A pair (nodes[r], nodes[c]), r < c, is left out when the segment leaves either end
+    strictly into its blocked wedge; with ``tangent``, also when its extension beyond
+    either end does (the line enters the obstacle there: not a tangent, section 9.5).
+    Blocks hold about ``_BLOCK_PAIRS`` pairs, so memory does not grow with n^2; pairs
+    come in row-major order of ``nodes`` (which must be ascending).
+    """
+    k = len(nodes)
+    x, y = points[nodes, 0], points[nodes, 1]
+    r0 = 0
+    while r0 < k - 1:
+        r1 = min(k - 1, r0 + max(1, _BLOCK_PAIRS // (k - r0)))
+        rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, k)[None, :]
+        dx, dy = x[cols] - x[rows], y[cols] - y[rows]
+        out = cols <= rows
+        screen = _not_tangent if tangent else _leaves_blocked
+        out |= screen(wedges, nodes[rows], nodes[cols], dx, dy)
+        r, c = np.nonzero(~out)
+        yield nodes[r0 + r], nodes[r0 + 1 + c]
+        r0 = r1
 
 
 def visibility_graph(
@@ -771,12 +665,37 @@ def _vg_arrays(
     cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
 ) -> GraphArrays:
     border, q = _query(cspace, start, goal)
-    i, j = np.nonzero(np.triu(_visibility(cspace, border, q), 1))
+    i, j = _visibility(cspace, border, q)
     return _graph_arrays(q, i, j)
 
 
-def _vertex_visibility(cspace: ConfigurationSpace) -> BoolArray:
-    """Which border vertices see each other: (n, n), symmetric, False on the diagonal.
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Sight:
+    """Which border vertices see each other: the pairs that do, i < j, row-major.
+
+    Memory grows with the visibility graph's edges, not with n^2.
+    """
+
+    n: int
+    """Number of border vertices."""
+    i: IntArray
+    j: IntArray
+
+    @functools.cached_property
+    def keys(self) -> npt.NDArray[np.int64]:
+        """``i * n + j`` per pair, ascending (for lookups)."""
+        return self.i.astype(np.int64) * self.n + self.j
+
+    def sees(self, i: IntArray, j: IntArray) -> BoolArray:
+        """Tell, for each pair of border vertices (i, j), whether they see each other."""
+        lo, hi = np.minimum(i, j), np.maximum(i, j)
+        key = lo.astype(np.int64) * self.n + hi
+        at = np.minimum(np.searchsorted(self.keys, key), max(len(self.keys) - 1, 0))
+        return (self.keys[at] == key) if len(self.keys) else np.zeros(len(i), bool)
+
+
+def _vertex_visibility(cspace: ConfigurationSpace) -> _Sight:
+    """Which border vertices see each other (section 9.4), block by block.
 
     It depends on the configuration space alone, so it is derived once per configuration
     space (:meth:`ConfigurationSpace.derive`): while the start or the goal is dragged
@@ -787,34 +706,31 @@ def _vertex_visibility(cspace: ConfigurationSpace) -> BoolArray:
     """
     border = cspace.derive(_build_border)
     n = len(border.points)
-    q = _Query(border.points, np.arange(n, dtype=np.intp), -1, -1)
-    i, j = np.triu_indices(n, 1)
-    ok = _visible(cspace, border, q, i, j)
-    vis = np.zeros((n, n), dtype=bool)
-    vis[i[ok], j[ok]] = True
-    vis |= vis.T
-    vis.setflags(write=False)
-    return vis
+    nodes = np.arange(n, dtype=np.intp)
+    found_i, found_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
+    for i, j in _candidate_pairs(border.points, border.wedges, nodes, tangent=False):
+        ok = _segments_free(cspace, border, border.points[i], border.points[j])
+        found_i.append(i[ok])
+        found_j.append(j[ok])
+    return _Sight(n, np.concatenate(found_i), np.concatenate(found_j))
 
 
-def _visibility(cspace: ConfigurationSpace, border: _Border, q: _Query) -> BoolArray:
-    """Which of the query's nodes (border vertices, then start and goal) see each other.
-
-    Returns the (N, N) symmetric matrix.
-    """
+def _visibility(
+    cspace: ConfigurationSpace, border: _Border, q: _Query
+) -> tuple[IntArray, IntArray]:
+    """Return the pairs (i < j, row-major) of the query's nodes that see each other."""
     base = cspace.derive(_vertex_visibility)
-    n, total = len(base), len(q.points)
-    vis = np.zeros((total, total), dtype=bool)
-    vis[:n, :n] = base
-    if total > n:
-        # The new nodes' rows: each against every node before it.
-        new = np.arange(n, total)
-        i = np.concatenate([np.arange(a) for a in new.tolist()])
-        j = np.repeat(new, new)
-        ok = _visible(cspace, border, q, i, j)
-        vis[i[ok], j[ok]] = True
-        vis[j[ok], i[ok]] = True
-    return vis
+    n, total = base.n, len(q.points)
+    if total == n:
+        return base.i, base.j
+    # The new nodes' rows: each against every node before it.
+    new = np.arange(n, total)
+    i = np.concatenate([np.arange(a) for a in new.tolist()])
+    j = np.repeat(new, new)
+    ok = _visible(cspace, border, q, i, j)
+    i, j = np.concatenate([base.i, i[ok]]), np.concatenate([base.j, j[ok]])
+    order = np.lexsort((j, i))
+    return i[order], j[order]
 
 
 def _pairs_visible(
@@ -822,16 +738,16 @@ def _pairs_visible(
 ) -> BoolArray:
     """Tell which node pairs (i, j) see each other, reusing what is already known.
 
-    Pairs of border vertices are read from the vertex matrix when this configuration
+    Pairs of border vertices are read from the vertex visibility when this configuration
     space already has it (the VG was built on it); the rest are tested.
     """
     base = cspace.known(_vertex_visibility)
     if base is None:
         return _visible(cspace, border, q, i, j)
-    n = len(base)
+    n = base.n
     read = (i < n) & (j < n)
     ok = np.empty(len(i), dtype=bool)
-    ok[read] = base[i[read], j[read]]
+    ok[read] = base.sees(i[read], j[read])
     test = np.flatnonzero(~read)
     ok[test] = _visible(cspace, border, q, i[test], j[test])
     return ok
@@ -868,21 +784,54 @@ def _svg_arrays(
     convex = np.append(border.convex_nodes, False)
     pinch = np.append(border.pinch_nodes, False)
     candidate = np.flatnonzero((q.node < 0) | convex[q.node] | pinch[q.node])
-    ii, jj = np.triu_indices(len(candidate), 1)
-    i, j = candidate[ii], candidate[jj]
-    d = unit_rows(q.points[j] - q.points[i])
     # Tangent at both ends: the segment's extension beyond an obstacle vertex does not
     # enter the blocked wedge there. Where obstacles touch at a vertex (a pinch), the path
     # may bend around one obstacle while the extension points into the other, so no
-    # per-segment condition holds there and every visible segment is kept.
-    tangent = ~(
-        (_into_blocked(border, q.node[i], -d) & ~pinch[q.node[i]])
-        | (_into_blocked(border, q.node[j], d) & ~pinch[q.node[j]])
-    )
-    i, j = i[tangent], j[tangent]
-    ok = _pairs_visible(cspace, border, q, i, j)
+    # per-segment condition holds there (no wedge) and every visible segment is kept.
+    wedges = _query_wedges(border, q)
+    known = cspace.known(_vertex_visibility)
+    if known is None:
+        blocks = _candidate_pairs(q.points, wedges, candidate, tangent=True)
+    else:
+        blocks = _tangents_of_known(known, q, wedges, candidate)
+    found_i, found_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
+    for i, j in blocks:
+        ok = _pairs_visible(cspace, border, q, i, j)
+        found_i.append(i[ok])
+        found_j.append(j[ok])
+    i, j = np.concatenate(found_i), np.concatenate(found_j)
+    order = np.lexsort((j, i))
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
-    return _graph_arrays(q, i[ok], j[ok], drop_isolated=True)
+    return _graph_arrays(q, i[order], j[order], drop_isolated=True)
+
+
+def _tangents_of_known(
+    known: _Sight, q: _Query, wedges: _Wedges, candidate: IntArray
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield the SVG's candidate pairs when the vertex visibility is already known.
+
+    Pairs of border vertices: the visible ones between candidates, kept when tangent
+    (work in proportion to the VG's edges, not n^2); then the new nodes' rows (start
+    and goal) against every candidate before them.
+    """
+    is_candidate = np.zeros(len(q.points), dtype=bool)
+    is_candidate[candidate] = True
+    i, j = known.i, known.j
+    both = np.flatnonzero(is_candidate[i] & is_candidate[j])
+    i, j = i[both], j[both]
+    d = q.points[j] - q.points[i]
+    yield _tangent_only(wedges, i, j, d)
+    for new in range(known.n, len(q.points)):
+        before = candidate[candidate < new]
+        rows = np.full(len(before), new, dtype=np.intp)
+        yield _tangent_only(wedges, before, rows, q.points[rows] - q.points[before])
+
+
+def _tangent_only(
+    wedges: _Wedges, i: IntArray, j: IntArray, d: FloatArray
+) -> tuple[IntArray, IntArray]:
+    keep = ~_not_tangent(wedges, i, j, d[:, 0], d[:, 1])
+    return i[keep], j[keep]
 
 
 def shortest_path(

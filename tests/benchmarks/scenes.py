@@ -157,7 +157,58 @@ def make_scene(
             pairs.append([s.tolist(), g.tolist()])
     return {
         "name": f"random-{vertices}-seed{seed}",
+        "kind": "random",
         "vertices": int(sum(len(r) for r in rings)),
+        "seed": seed,
+        "side": SIDE,
+        "obstacles": [r.tolist() for r in rings],
+        "queries": pairs,
+    }
+
+
+def make_grid_scene(
+    vertices: int, seed: int = 0, queries: int = 4, clearance: float = 0.05
+) -> dict[str, Any]:
+    """Return a grid-like scene: ``vertices // 4`` axis-aligned rectangles on a lattice.
+
+    Each rectangle sits in its own lattice cell, its sides at one of two offsets and
+    two sizes, so that rectangles in one lattice row or column share the lines of their
+    edges: many collinear edges and vertices, the degenerate case of floor plans and
+    shelves. Same keys as :func:`make_scene` (``"kind": "grid"``).
+    """
+    rng = np.random.default_rng(seed)
+    count = max(1, vertices // 4)
+    cols = math.ceil(math.sqrt(count))
+    rows = math.ceil(count / cols)
+    cells = sorted(rng.choice(cols * rows, size=count, replace=False).tolist())
+    px, py = SIDE / cols, SIDE / rows
+    rings = []
+    for cell in cells:
+        i, j = divmod(cell, rows)
+        x0 = i * px + px * float(rng.choice([0.15, 0.25]))
+        y0 = j * py + py * float(rng.choice([0.15, 0.25]))
+        x1 = x0 + px * float(rng.choice([0.45, 0.6]))
+        y1 = y0 + py * float(rng.choice([0.45, 0.6]))
+        rings.append(np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
+
+    def free(p: FloatArray) -> bool:
+        return all(
+            not (
+                ring[0, 0] - clearance < p[0] < ring[1, 0] + clearance
+                and ring[0, 1] - clearance < p[1] < ring[2, 1] + clearance
+            )
+            for ring in rings
+        )
+
+    pairs = []
+    while len(pairs) < queries:
+        s, g = rng.uniform(0.0, SIDE, 2), rng.uniform(0.0, SIDE, 2)
+        if math.dist(s, g) >= SIDE / 2 and free(s) and free(g):
+            pairs.append([s.tolist(), g.tolist()])
+    return {
+        "name": f"grid-{vertices}-seed{seed}",
+        "kind": "grid",
+        "vertices": 4 * len(rings),
         "seed": seed,
         "side": SIDE,
         "obstacles": [r.tolist() for r in rings],

@@ -363,7 +363,7 @@ def candidate_search(kind):
     computed with the other search answers inside the block.
     """
     saved = visibility._DENSE_LIMIT
-    visibility._DENSE_LIMIT = {"dense": 10**12, "sweep": 0}[kind]
+    visibility._DENSE_LIMIT = {"dense": 10**12, "grid": 0}[kind]
     try:
         yield
     finally:
@@ -405,8 +405,8 @@ def _check_against_reference(scene):
     for a, b in vg.graph.edges:
         assert reference_segment_free(space, a, b)
     assert svg.edges <= vg.edges
-    # The angular sweep used on large scenes finds exactly the same graphs.
-    for kind in ("dense", "sweep"):
+    # The edge grid used on large scenes finds exactly the same graphs.
+    for kind in ("dense", "grid"):
         with candidate_search(kind):
             assert _edge_set(
                 visibility_graph(space, scene.start, scene.goal)
@@ -433,7 +433,7 @@ def test_vg_has_exactly_the_reference_edges_on_grid_scenes(scene):
     )
     assume(plans["vg"].status != "invalid")
     space = plans["cspace"]
-    with candidate_search("sweep"):
+    with candidate_search("grid"):
         graph = visibility_graph(space, scene.start, scene.goal)
     assert _edge_set(graph) == _edge_set(plans["vg"].graph)
     nodes = list(graph.nodes)

@@ -1,0 +1,491 @@
+"""Which segments the border of free space blocks, in memory linear in the answer.
+
+The visibility graphs of sections 9.4 and 9.5 test up to n^2 / 2 segments against the m
+edges of the border. Testing every (segment, edge) pair costs n^2 m; holding them, or an
+n x n matrix, costs gigabytes at ten thousand vertices. This module does the same exact
+test (module docstring of :mod:`planners.visibility`) with two devices:
+
+Uniform grid of the edges (:class:`EdgeGrid`)
+    The border's edges are bucketed in square cells (about two edges a cell), each edge
+    in every cell that a disk of radius ``margin`` around it meets. A segment can only
+    cross or touch the edges listed in the cells it passes through.
+Marching segments (:func:`march`)
+    All segments walk their cells at once, from their start to their end, one cell a
+    step (the grid traversal of Amanatides and Woo, vectorised): at each step each
+    segment is tested against the edges of its current cell, and a segment that an edge
+    crosses stops. Most blocked segments stop in their first cells, so the work is
+    about the cells a segment crosses before it is blocked, not the whole border; a
+    free segment is tested against every edge near it, which is all the exact test
+    needs.
+
+Disks that certainly block (:func:`occluded`)
+    Before marching, a segment that passes through a disk inside an obstacle is blocked
+    for certain; only the others are marched. A filter: it never decides a free one.
+
+Segments are marched in blocks of bounded size and only the touching points of the
+survivors are kept, so memory is the block plus the answer.
+
+References
+----------
+J. Amanatides and A. Woo, "A fast voxel traversal algorithm for ray tracing",
+Eurographics 1987.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "EdgeGrid",
+    "Edges",
+    "Marched",
+    "Segments",
+    "crossings",
+    "edge_grid",
+    "march",
+]
+
+import dataclasses
+import functools
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+import shapely
+from shapely import Polygon
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
+
+_EDGES_PER_CELL = 0.5
+"""Cell size: about this many edges a cell if they were spread evenly."""
+_MAX_CELLS_PER_EDGE = 4
+"""At most this many cells per edge in the grid (bounds its memory)."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Edges:
+    """Border edges as 1-D coordinate arrays: start (ex, ey), direction (edx, edy)."""
+
+    ex: FloatArray
+    ey: FloatArray
+    edx: FloatArray
+    edy: FloatArray
+
+    @classmethod
+    def of(cls, a: FloatArray, b: FloatArray) -> Edges:
+        """Make the arrays of edges a[k] -> b[k], shape (m, 2) each [m]."""
+        return cls(
+            np.ascontiguousarray(a[:, 0]),
+            np.ascontiguousarray(a[:, 1]),
+            np.ascontiguousarray(b[:, 0] - a[:, 0]),
+            np.ascontiguousarray(b[:, 1] - a[:, 1]),
+        )
+
+    @functools.cached_property
+    def length(self) -> FloatArray:
+        """Edge lengths, shape (m,) [m]."""
+        return np.hypot(self.edx, self.edy)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Segments:
+    """Segments as 1-D coordinate arrays (start, direction, length)."""
+
+    ax: FloatArray
+    ay: FloatArray
+    dx: FloatArray
+    dy: FloatArray
+    length: FloatArray
+
+    @classmethod
+    def of(cls, a: FloatArray, b: FloatArray) -> Segments:
+        """Make the arrays of segments a[k] -> b[k], shape (S, 2) each [m]."""
+        d = b - a
+        dx, dy = np.ascontiguousarray(d[:, 0]), np.ascontiguousarray(d[:, 1])
+        return cls(
+            np.ascontiguousarray(a[:, 0]),
+            np.ascontiguousarray(a[:, 1]),
+            dx,
+            dy,
+            np.hypot(dx, dy),
+        )
+
+
+def crossings(
+    segs: Segments, edges: Edges, seg: IntArray, edge: IntArray, eps: float
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """Proper crossings and touching vertices for (segment, edge) index pairs.
+
+    Returns the segments of the pairs where the edge properly crosses the segment, and
+    for each border vertex (the edge's start) lying inside a segment: the segment and
+    the parameter t in (0, 1) where it lies. Within ``eps`` of a line counts as on it.
+    """
+    # Plain 1-D arrays: gathers and arithmetic on them are several times faster than on
+    # (N, 2) rows, and this runs over millions of pairs on large scenes.
+    px, py = segs.ax[seg], segs.ay[seg]
+    ux, uy, len_pq = segs.dx[seg], segs.dy[seg], segs.length[seg]
+    vx, vy = edges.edx[edge], edges.edy[edge]
+    cpx, cpy = edges.ex[edge] - px, edges.ey[edge] - py
+    oc = ux * cpy - uy * cpx  # side of c from the line p -> q, times |pq|
+    w = ux * vy - uy * vx
+    od = oc + w  # side of d
+    tol_pq = eps * len_pq
+    split_cd = ((oc > tol_pq) & (od < -tol_pq)) | ((oc < -tol_pq) & (od > tol_pq))
+    # Only where c and d lie on either side: p and q on either side of the edge's line.
+    cand = np.flatnonzero(split_cd)
+    op = cpx[cand] * vy[cand] - cpy[cand] * vx[cand]  # side of p, times |cd|
+    oq = op - w[cand]  # side of q
+    tol_cd = eps * edges.length[edge[cand]]
+    split_pq = ((op > tol_cd) & (oq < -tol_cd)) | ((op < -tol_cd) & (oq > tol_cd))
+    blocked = cand[split_pq]
+    # Border vertex c on the open segment p -> q.
+    near = np.flatnonzero(np.abs(oc) <= tol_pq)
+    t = (cpx[near] * ux[near] + cpy[near] * uy[near]) / np.where(
+        len_pq[near] > 0, len_pq[near] ** 2, 1.0
+    )
+    along = t * len_pq[near]
+    on = (along > eps) & (along < len_pq[near] - eps)
+    return seg[blocked], seg[near[on]], t[on]
+
+
+# --------------------------------------------------------------------------- the grid
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class EdgeGrid:
+    """Border edges bucketed in a uniform grid of square cells (compressed rows)."""
+
+    lo: FloatArray
+    """Lower-left corner of the grid, shape (2,) [m]."""
+    cell: float
+    """Side of a cell [m]."""
+    nx: int
+    """Cells along x."""
+    ny: int
+    """Cells along y."""
+    offsets: IntArray
+    """Cell c lists ``edges[offsets[c]:offsets[c + 1]]``; c = ix * ny + iy."""
+    edges: IntArray
+    """Edge indices, cell after cell."""
+
+    @property
+    def hi(self) -> FloatArray:
+        """Upper-right corner of the grid, shape (2,) [m]."""
+        return self.lo + self.cell * np.array([self.nx, self.ny], dtype=np.float64)
+
+
+def edge_grid(a: FloatArray, b: FloatArray, margin: float) -> EdgeGrid:
+    """Bucket the edges a[k] -> b[k] in a uniform grid.
+
+    An edge is listed in every cell that contains a point within ``margin`` of it
+    (found column by column, so a long edge costs cells in proportion to its length).
+
+    Examples
+    --------
+    >>> a = np.array([[0.0, 0.0], [4.0, 0.0]])
+    >>> g = edge_grid(a, np.roll(a, -1, axis=0), 0.1)
+    >>> g.nx * g.ny >= 1, sorted(set(g.edges.tolist()))
+    (True, [0, 1])
+    """
+    points = np.vstack([a, b])
+    lo = points.min(axis=0) - 2.0 * margin
+    size = np.maximum(points.max(axis=0) + 2.0 * margin - lo, margin)
+    cell = _cell_size(size, np.hypot(*(b - a).T), len(a))
+    nx, ny = (int(k) for k in np.maximum(np.ceil(size / cell), 1).astype(np.int64))
+    edge, ix, iy = _edge_cells(a, b, lo, cell, margin=margin, shape=(nx, ny))
+    key = ix * ny + iy
+    order = np.argsort(key, kind="stable")
+    counts = np.bincount(key, minlength=nx * ny)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
+    return EdgeGrid(lo, cell, nx, ny, offsets, edge[order])
+
+
+def _cell_size(size: FloatArray, lengths: FloatArray, m: int) -> float:
+    # About _EDGES_PER_CELL edges a cell over the bounding box, but no smaller than the
+    # edges' median length over _MAX_CELLS_PER_EDGE (then an edge spans few cells).
+    spread = math.sqrt(float(size[0] * size[1]) * _EDGES_PER_CELL / max(m, 1))
+    typical = float(np.median(lengths)) / _MAX_CELLS_PER_EDGE if m else spread
+    return max(spread, typical, float(size.max()) / 4096.0)
+
+
+def _edge_cells(
+    a: FloatArray,
+    b: FloatArray,
+    lo: FloatArray,
+    cell: float,
+    *,
+    margin: float,
+    shape: tuple[int, int],
+) -> tuple[IntArray, IntArray, IntArray]:
+    """Every (edge, column, row) whose cell has a point within ``margin`` of the edge."""
+    nx, ny = shape
+    x0 = np.minimum(a[:, 0], b[:, 0]) - margin
+    x1 = np.maximum(a[:, 0], b[:, 0]) + margin
+    c0 = np.clip(np.floor((x0 - lo[0]) / cell), 0, nx - 1).astype(np.intp)
+    c1 = np.clip(np.floor((x1 - lo[0]) / cell), 0, nx - 1).astype(np.intp)
+    cols = c1 - c0 + 1
+    edge = np.repeat(np.arange(len(a), dtype=np.intp), cols)
+    ix = c0[edge] + _ramp(cols)
+    # The edge's y range over the column widened by the margin, plus the margin.
+    left = np.maximum(lo[0] + ix * cell - margin, np.minimum(a[edge, 0], b[edge, 0]))
+    right = np.minimum(
+        lo[0] + (ix + 1) * cell + margin, np.maximum(a[edge, 0], b[edge, 0])
+    )
+    dx = b[edge, 0] - a[edge, 0]
+    safe = np.where(dx != 0, dx, 1.0)
+    t0 = np.where(dx != 0, np.clip((left - a[edge, 0]) / safe, 0, 1), 0.0)
+    t1 = np.where(dx != 0, np.clip((right - a[edge, 0]) / safe, 0, 1), 1.0)
+    dy = b[edge, 1] - a[edge, 1]
+    y0 = a[edge, 1] + np.minimum(t0, t1) * dy
+    y1 = a[edge, 1] + np.maximum(t0, t1) * dy
+    r0 = np.clip(np.floor((np.minimum(y0, y1) - margin - lo[1]) / cell), 0, ny - 1)
+    r1 = np.clip(np.floor((np.maximum(y0, y1) + margin - lo[1]) / cell), 0, ny - 1)
+    rows = (r1 - r0 + 1).astype(np.intp)
+    return (
+        np.repeat(edge, rows),
+        np.repeat(ix, rows),
+        np.repeat(r0.astype(np.intp), rows) + _ramp(rows),
+    )
+
+
+def _ramp(counts: IntArray) -> IntArray:
+    """0, 1, ..., counts[0] - 1, 0, 1, ..., counts[1] - 1, ... (one run per count)."""
+    total = int(counts.sum())
+    starts = np.cumsum(counts) - counts
+    return np.arange(total, dtype=np.intp) - np.repeat(starts, counts)
+
+
+# --------------------------------------------------------------------------- marching
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Marched:
+    """What marching found: which segments an edge crosses, which vertices lie on them."""
+
+    crossed: npt.NDArray[np.bool_]
+    """Per segment: some border edge properly crosses it (it is blocked)."""
+    touch_seg: IntArray
+    """Segments that a border vertex lies on (not crossed ones), one entry per vertex."""
+    touch_t: FloatArray
+    """Where that vertex lies, as the parameter in (0, 1) along the segment."""
+
+
+@dataclasses.dataclass
+class _Walk:
+    """The grid traversal state of the segments still walking (one entry each)."""
+
+    seg: IntArray
+    ix: IntArray
+    iy: IntArray
+    step_x: IntArray
+    step_y: IntArray
+    next_x: FloatArray  # parameter t where the segment leaves the cell's column
+    next_y: FloatArray  # ... and its row
+    delta_x: FloatArray  # t to cross one column
+    delta_y: FloatArray
+    end: FloatArray  # t where the segment leaves the grid (or ends)
+
+
+def march(
+    grid: EdgeGrid, edges: Edges, segs: Segments, eps: float, block: int = 1 << 18
+) -> Marched:
+    """Test segments against the edges of the cells they pass through.
+
+    A segment stops at the first cell where an edge properly crosses it; the others are
+    tested against every edge within the grid's margin, so their touching vertices are
+    complete. Segments are walked ``block`` at a time.
+    """
+    crossed = np.zeros(len(segs.ax), dtype=bool)
+    touch_seg: list[IntArray] = []
+    touch_t: list[FloatArray] = []
+    for first in range(0, len(segs.ax), block):
+        walk = _start_walk(
+            grid, segs, np.arange(first, min(first + block, len(segs.ax)))
+        )
+        while len(walk.seg):
+            seg, edge = _pairs_in_cells(grid, walk)
+            blocked, t_seg, t_val = crossings(segs, edges, seg, edge, eps)
+            crossed[blocked] = True
+            touch_seg.append(t_seg)
+            touch_t.append(t_val)
+            walk = _step(grid, walk, crossed)
+    seg_all = np.concatenate(touch_seg) if touch_seg else np.zeros(0, dtype=np.intp)
+    t_all = np.concatenate(touch_t) if touch_t else np.zeros(0)
+    keep = np.flatnonzero(~crossed[seg_all])
+    seg_all, t_all = seg_all[keep], t_all[keep]
+    # An edge listed in several cells along a segment was met once per cell: the same
+    # vertex at the very same t (computed from the same pair), kept once.
+    order = np.lexsort((t_all, seg_all))
+    seg_all, t_all = seg_all[order], t_all[order]
+    new = np.ones(len(seg_all), dtype=bool)
+    new[1:] = (seg_all[1:] != seg_all[:-1]) | (t_all[1:] != t_all[:-1])
+    return Marched(crossed, seg_all[new], t_all[new])
+
+
+def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
+    """Clip each segment to the grid and find its first cell (Amanatides and Woo)."""
+    px, py, dx, dy = segs.ax[seg], segs.ay[seg], segs.dx[seg], segs.dy[seg]
+    lo, hi = grid.lo, grid.hi
+    t0, t1 = np.zeros(len(seg)), np.ones(len(seg))
+    for p, d, low, high in ((px, dx, lo[0], hi[0]), (py, dy, lo[1], hi[1])):
+        # Liang-Barsky: the parameter range inside the slab low <= p + t d <= high.
+        safe = np.where(d != 0, d, 1.0)
+        with np.errstate(over="ignore"):  # a subnormal direction: t is +-inf, as meant
+            ta, tb = (low - p) / safe, (high - p) / safe
+        enter = np.where(
+            d != 0, np.minimum(ta, tb), np.where(p >= low, -np.inf, np.inf)
+        )
+        leave = np.where(
+            d != 0, np.maximum(ta, tb), np.where(p <= high, np.inf, -np.inf)
+        )
+        t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
+    inside = np.flatnonzero(t0 <= t1)
+    seg, t1 = seg[inside], t1[inside]
+    px, py, dx, dy, t0 = (v[inside] for v in (px, py, dx, dy, t0))
+    axes = []
+    for p, d, low, count in (
+        (px, dx, grid.lo[0], grid.nx),
+        (py, dy, grid.lo[1], grid.ny),
+    ):
+        at = np.clip(np.floor((p + t0 * d - low) / grid.cell), 0, count - 1)
+        step = np.sign(d).astype(np.intp)
+        safe = np.where(d != 0, d, 1.0)
+        border = low + (at + (step > 0)) * grid.cell
+        nxt = np.where(d != 0, (border - p) / safe, np.inf)
+        delta = np.where(d != 0, grid.cell / np.abs(safe), np.inf)
+        axes.append((at.astype(np.intp), step, nxt, delta))
+    (ix, sx, nx_, ddx), (iy, sy, ny_, ddy) = axes
+    return _Walk(seg, ix, iy, sx, sy, nx_, ny_, ddx, ddy, t1)
+
+
+def _pairs_in_cells(grid: EdgeGrid, walk: _Walk) -> tuple[IntArray, IntArray]:
+    """(segment, edge) pairs: each walking segment with the edges of its current cell."""
+    cell = walk.ix * grid.ny + walk.iy
+    first = grid.offsets[cell]
+    count = grid.offsets[cell + 1] - first
+    seg = np.repeat(walk.seg, count)
+    edge = grid.edges[np.repeat(first, count) + _ramp(count)]
+    return seg, edge
+
+
+def _step(grid: EdgeGrid, walk: _Walk, crossed: npt.NDArray[np.bool_]) -> _Walk:
+    """Move every segment to its next cell; drop the blocked and the finished ones."""
+    along_x = walk.next_x < walk.next_y
+    t_next = np.where(along_x, walk.next_x, walk.next_y)
+    go = (t_next <= walk.end) & ~crossed[walk.seg]
+    ix = walk.ix + np.where(along_x, walk.step_x, 0)
+    iy = walk.iy + np.where(along_x, 0, walk.step_y)
+    next_x = np.where(along_x, walk.next_x + walk.delta_x, walk.next_x)
+    next_y = np.where(along_x, walk.next_y, walk.next_y + walk.delta_y)
+    # t_next <= end keeps a segment in the grid; rounding may still step out of it.
+    go &= (ix >= 0) & (iy >= 0) & (ix < grid.nx) & (iy < grid.ny)
+    keep = np.flatnonzero(go)
+    return _Walk(
+        walk.seg[keep],
+        ix[keep],
+        iy[keep],
+        walk.step_x[keep],
+        walk.step_y[keep],
+        next_x[keep],
+        next_y[keep],
+        walk.delta_x[keep],
+        walk.delta_y[keep],
+        walk.end[keep],
+    )
+
+
+# --------------------------------------------------------------------------- occluders
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Disks:
+    """Disks inside blocked space: any segment through one's interior is blocked."""
+
+    center: FloatArray
+    """Centres, shape (D, 2) [m]."""
+    radius: FloatArray
+    """Radii, shape (D,) [m], already shrunk by a margin: a segment that passes closer
+    than this to a centre has a point deeper than the margin in blocked space."""
+
+
+def inner_disks(polygons: Sequence[Polygon], margin: float) -> Disks:
+    """One disk inside each polygon: around its centroid (or a point on its surface).
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> d = inner_disks([Polygon([(0, 0), (2, 0), (2, 2), (0, 2)])], 0.0)
+    >>> d.center.tolist(), d.radius.tolist()
+    ([[1.0, 1.0]], [1.0])
+    """
+    shapes = np.asarray(polygons, dtype=object)
+    if not len(shapes):
+        return Disks(np.zeros((0, 2)), np.zeros(0))
+    center = shapely.centroid(shapes)
+    outside = ~shapely.contains(shapes, center)
+    center[outside] = shapely.point_on_surface(shapes[outside])
+    radius = shapely.distance(shapely.boundary(shapes), center) - margin
+    keep = radius > 0
+    return Disks(shapely.get_coordinates(center[keep]), radius[keep])
+
+
+_SECTORS = (64, 512)
+"""Fewest and most angular sectors around each start in :func:`occluded`: about as many
+as segments per start (the table costs starts x sectors, finer sectors flag more)."""
+_OCCLUDER_PAIRS = 1 << 20
+"""(start, disk) pairs handled at once in :func:`occluded`."""
+
+
+def occluded(disks: Disks, a: FloatArray, b: FloatArray, starts: IntArray) -> BoolArray:
+    """Tell which segments a[k] -> b[k] certainly pass through a disk (are blocked).
+
+    ``starts`` bounds the runs of segments that share a start point. Around each start
+    the directions are cut into sectors; a sector lies inside the cone under which a
+    disk is seen, at distance r to its centre, and a segment in that sector longer than
+    r passes closer to the centre than the radius (the closest point is at most r
+    along it). Each sector keeps the nearest such r. Only a filter: a segment it does
+    not flag is tested exactly.
+    """
+    blocked = np.zeros(len(a), dtype=bool)
+    if not len(disks.radius) or not len(a):
+        return blocked
+    sources = a[starts[:-1]]
+    rows = max(1, _OCCLUDER_PAIRS // len(disks.radius))
+    per_start = len(a) / max(len(sources), 1)
+    sectors = int(np.clip(2 ** round(math.log2(max(per_start, 1.0))), *_SECTORS))
+    width = 2.0 * np.pi / sectors
+    for r0 in range(0, len(sources), rows):
+        near = _nearest_cover(disks, sources[r0 : r0 + rows], sectors)
+        s0, s1 = starts[r0], starts[min(r0 + rows, len(sources))]
+        src = np.repeat(np.arange(len(near)), np.diff(starts[r0 : r0 + rows + 1]))
+        d = b[s0:s1] - a[s0:s1]
+        sector = ((np.arctan2(d[:, 1], d[:, 0]) + np.pi) // width).astype(np.intp)
+        sector = np.minimum(sector, sectors - 1)
+        blocked[s0:s1] = np.hypot(d[:, 0], d[:, 1]) > near[src, sector]
+    return blocked
+
+
+def _nearest_cover(disks: Disks, sources: FloatArray, sectors: int) -> FloatArray:
+    """Per source and sector, the nearest distance to a disk whose cone holds the sector."""
+    width = 2.0 * np.pi / sectors
+    cx = disks.center[None, :, 0] - sources[:, 0:1]
+    cy = disks.center[None, :, 1] - sources[:, 1:2]
+    dist = np.hypot(cx, cy)
+    seen = dist > disks.radius[None, :]  # the source is outside the disk
+    half = np.arcsin(np.minimum(disks.radius[None, :] / np.maximum(dist, 1e-300), 1.0))
+    mid = np.arctan2(cy, cx) + np.pi  # in [0, 2 pi]
+    # Sectors k with [k w, (k + 1) w] inside the cone (mid - half, mid + half).
+    first = np.ceil((mid - half) / width)
+    last = np.floor((mid + half) / width) - 1
+    count = np.where(seen, np.maximum(last - first + 1, 0), 0).astype(np.intp)
+    row, disk = np.nonzero(count)
+    count = count[row, disk]
+    sector = (
+        np.repeat(first[row, disk].astype(np.intp), count) + _ramp(count)
+    ) % sectors
+    near = np.full((len(sources), sectors), np.inf)
+    np.minimum.at(
+        near, (np.repeat(row, count), sector), np.repeat(dist[row, disk], count)
+    )
+    return near

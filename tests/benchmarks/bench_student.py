@@ -1,0 +1,198 @@
+"""Student layouts in the app: edit-to-redraw while dragging, incremental against full (issue 15).
+
+Seeded random layouts of a 20 m room with 8, 16, 24 and 32 obstacles of 4 to 8 vertices
+(convex, jittered on a circle; they may overlap and merge once expanded), a disk robot of
+radius 0.3 m, start and goal in opposite corners: the scenes students build in a "what
+if" session. Each layout is opened in the real app (viser server, 3-D view, panel,
+controller; no browser) and dragged through
+``controller.edits.drag_handle`` -- the gizmo's call -- as in ``bench_app.py``:
+
+``vertex``
+    a vertex of the obstacle nearest the room's centre, along a loop 1 m wide;
+``move``
+    that whole obstacle, through the middle of the room and back.
+
+One event at a time, each waited for until drawn (``step`` in ``bench_app.py``): *fast* is
+until the frame with expansion + VG + SVG, *+DSB* until the frame that also carries DSB.
+The app's fast lane carries the vertex visibility over from the previous edit
+(:mod:`planners.incremental`); ``--full`` measures the same without it (every edit
+builds the visibility graph from scratch), for the scaling against vertex count.
+
+Run: ``python tests/benchmarks/bench_student.py [--events 300] [--obstacles 8,16,24,32]
+[--drag vertex,move] [--full] [--no-dsb]``. A report: exit 0 unless ``--strict``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+HERE = Path(__file__).resolve().parent
+for path in (ROOT, HERE):
+    if str(path) not in sys.path:  # run as a script from anywhere
+        sys.path.insert(0, str(path))
+
+from bench_app import Probe, percentile, step_drag  # noqa: E402
+from clock import StealMeter  # noqa: E402
+
+import planners  # noqa: E402
+import planners.api  # noqa: E402
+from app import start_app  # noqa: E402
+
+FAST_BUDGET_MS = 16.0
+FULL_BUDGET_MS = 50.0
+ROOM = 20.0
+
+
+def student_layout(obstacles: int, seed: int = 15) -> dict[str, Any]:
+    """A seeded room of ``obstacles`` convex obstacles of 4 to 8 vertices (scenario dict)."""
+    rng = np.random.default_rng(seed * 1000 + obstacles)
+    rings = []
+    while len(rings) < obstacles:
+        centre = rng.uniform(2.0, ROOM - 2.0, 2)
+        if min(np.hypot(*(centre - 1.0)), np.hypot(*(centre - (ROOM - 1.0)))) < 2.5:
+            continue  # keep the start and goal corners free
+        k = int(rng.integers(4, 9))
+        step = 2.0 * math.pi / k
+        angles = rng.uniform(0, 2 * math.pi) + step * (
+            np.arange(k) + rng.uniform(-0.3, 0.3, k)
+        )
+        radius = rng.uniform(0.5, 1.3)
+        ring = centre + radius * np.column_stack([np.cos(angles), np.sin(angles)])
+        rings.append(np.round(ring, 3).tolist())
+    return {
+        "format": 1,
+        "name": f"student layout, {obstacles} obstacles",
+        "boundary": [[0, 0], [ROOM, 0], [ROOM, ROOM], [0, ROOM]],
+        "obstacles": rings,
+        "start": [1.0, 1.0],
+        "goal": [ROOM - 1.0, ROOM - 1.0],
+        "robot": {"radius": 0.3},
+        "expansion": "disk",
+        "sensor_range": 2.0,
+    }
+
+
+def _central(scene: planners.Scene) -> int:
+    centres = np.array([o.centroid.coords[0] for o in scene.obstacles])
+    return int(np.argmin(np.hypot(*(centres - ROOM / 2).T)))
+
+
+def drag_points(
+    scene: planners.Scene, drag: str, events: int
+) -> tuple[tuple, np.ndarray]:
+    """The handle and its positions: a vertex loop, or the obstacle across the room."""
+    i = _central(scene)
+    u = np.linspace(0.0, 2.0 * math.pi, events)
+    if drag == "vertex":
+        vertex = np.asarray(scene.obstacles[i].exterior.coords[0], dtype=np.float64)
+        loop = np.column_stack([0.5 * (1 - np.cos(u)), 0.4 * np.sin(u)])
+        return ("vertex", i, 0), vertex + loop
+    centre = np.asarray(scene.obstacles[i].centroid.coords[0], dtype=np.float64)
+    across = np.column_stack([4.0 * np.sin(u), 2.0 * np.sin(2 * u)])
+    return ("obstacle", i), centre + across
+
+
+@contextlib.contextmanager
+def full_builds(enabled: bool):
+    """With ``enabled``, plan_all builds every edit's visibility from scratch."""
+    saved = planners.api.carry_visibility
+    if enabled:
+        planners.api.carry_visibility = lambda new, old: False
+    try:
+        yield
+    finally:
+        planners.api.carry_visibility = saved
+
+
+def bench(obstacles: int, drag: str, events: int, dsb: bool) -> dict[str, Any]:
+    """Load one layout into the app and drag; return the step timings."""
+    steal = StealMeter()
+    layout = planners.load_scene(student_layout(obstacles))
+    with contextlib.redirect_stdout(io.StringIO()):
+        app = start_app(layout, port=0, print_url=False)
+    try:
+        controller = app.controller
+        if not dsb:
+            controller.set_planner_enabled("dsb", False)
+        assert app.wait_idle(120)
+        probe = Probe(controller.slow_planners if dsb else ())
+        controller.add_view(probe)
+        scene = controller.scene
+        handle, points = drag_points(scene, drag, events)
+        controller.edits.drag_handle(handle, points[0], "start")
+        for xy in points[:: max(1, len(points) // 10)]:  # warm up, not recorded
+            controller.edits.drag_handle(handle, xy, "update")
+            assert app.wait_idle(120)
+        fast, full = step_drag(controller, probe, handle, points)
+        assert app.wait_idle(120)
+        frame = controller.frame
+        cspace = frame.plans.get("cspace") if frame else None
+        return {
+            "vertices": sum(len(r) for r in cspace.rings) if cspace else 0,
+            "vg_edges": frame.plans["vg"].edges if frame else 0,
+            "fast": fast,
+            "full": full,
+            "steal": steal.stop(),
+        }
+    finally:
+        with contextlib.redirect_stdout(io.StringIO()):
+            app.stop()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run every layout size and drag; print p50/p95 per row and the verdict."""
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    parser.add_argument("--events", type=int, default=300)
+    parser.add_argument("--obstacles", default="8,16,24,32")
+    parser.add_argument("--drag", default="vertex,move")
+    parser.add_argument("--full", action="store_true", help="no incremental visibility")
+    parser.add_argument("--no-dsb", action="store_true", help="leave DSB switched off")
+    parser.add_argument("--strict", action="store_true")
+    args = parser.parse_args(argv)
+    dsb = not args.no_dsb and "dsb" in planners.REGISTRY
+    mode = "full builds" if args.full else "incremental visibility"
+    print(
+        f"student layouts, {mode}, {args.events} events a drag, DSB {'on' if dsb else 'off'}"
+    )
+    print(f"load average: {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    head = (
+        f"{'obstacles':>9} {'drag':6} {'c-space vertices':>16} {'VG edges':>8} |"
+        f" {'fast p50/p95 ms':>16} {'+DSB p50/p95 ms':>16} {'steal':>6}"
+    )
+    print(head)
+    print("-" * len(head))
+    missed = False
+    with full_builds(args.full):
+        for count in (int(k) for k in args.obstacles.split(",")):
+            for drag in args.drag.split(","):
+                s = bench(count, drag, args.events, dsb)
+                fast95 = percentile(s["fast"], 95)
+                full95 = percentile(s["full"], 95) if s["full"] else math.nan
+                missed |= fast95 > FAST_BUDGET_MS or (dsb and full95 > FULL_BUDGET_MS)
+                steal = "n/a" if s["steal"] is None else format(s["steal"], "6.0%")
+                print(
+                    f"{count:>9} {drag:6} {s['vertices']:>16} {s['vg_edges']:>8} |"
+                    f" {percentile(s['fast'], 50):7.1f}/{fast95:7.1f}"
+                    f" {percentile(s['full'], 50) if s['full'] else math.nan:7.1f}/{full95:7.1f}"
+                    f" {steal:>6}",
+                    flush=True,
+                )
+    print(
+        f"budgets (p95 <= {FAST_BUDGET_MS:g} ms fast, <= {FULL_BUDGET_MS:g} ms with DSB):",
+        "MISSED" if missed else "met",
+    )
+    return 1 if missed and args.strict else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

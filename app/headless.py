@@ -67,6 +67,7 @@ except ImportError:  # pragma: no cover - depends on the environment
 if TYPE_CHECKING:
     from playwright.sync_api import Browser, Page
 
+    from app.slides import SlideOptions
     from planners.scene import Scene
 
 CHROMIUM = "/usr/bin/chromium"
@@ -699,6 +700,7 @@ def snapshot(
     robot_time: float | None = None,
     timeout: float = 60.0,
     chromium: str | None = None,
+    options: SlideOptions | None = None,
 ) -> int:
     """Render ``scenario`` with every planner in headless Chromium and write a PNG.
 
@@ -723,6 +725,9 @@ def snapshot(
         Longest time [s] to wait for the browser and a settled picture.
     chromium
         Path to the browser; None for :func:`chromium_path`.
+    options
+        Legend, title and labels of the slide picture (:mod:`app.slides`); None: all
+        of them.
 
     Returns
     -------
@@ -740,6 +745,7 @@ def snapshot(
             robot_time=robot_time,
             timeout=timeout,
             chromium=chromium,
+            options=options,
         )
     except _Failure as failure:
         return _fail(failure.message, failure.code)
@@ -773,6 +779,7 @@ def _take_snapshot(
     robot_time: float | None,
     timeout: float,
     chromium: str | None,
+    options: SlideOptions | None = None,
 ) -> None:
     """Do what :func:`snapshot` says; raise :class:`_Failure` with the exit code."""
     problem = _check_args(width, height, view, robot_time)
@@ -791,37 +798,34 @@ def _take_snapshot(
         raise _Failure(f"cannot write {path}: {error.strerror or error}", 1) from None
     # Imported here: app/__init__ imports the server, and this module must stay importable
     # on its own (the app's __main__ imports it only for --snapshot).
-    from app import start_app  # noqa: PLC0415
+    from app import pictures, start_app  # noqa: PLC0415
+    from app.slides import SlideOptions  # noqa: PLC0415
 
-    try:
-        with _quiet_stdout():
-            planner_app = start_app(scenario, host="127.0.0.1", port=0, print_url=False)
-    except (ValueError, LookupError, FileNotFoundError) as error:
-        # planners.ScenarioError is a ValueError; an unknown name may be a LookupError.
-        raise _Failure(f"cannot load scenario: {_first_line(error)}", 2) from None
-    try:
-
-        def take() -> bytes:
-            with launch_browser(chromium) as browser:
-                return capture(
-                    planner_app,
-                    browser,
-                    width=width,
-                    height=height,
-                    view=view,
-                    robot_time=robot_time,
-                    timeout=timeout,
-                )
-
-        png = _in_own_thread(take)
+    def start() -> Any:
         try:
-            partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
-            partial.write_bytes(png)
-            partial.replace(path)
-        except OSError as error:
-            raise _Failure(
-                f"cannot write {path}: {error.strerror or error}", 1
-            ) from None
-    finally:
-        with _quiet_stdout(), contextlib.suppress(Exception):
-            planner_app.stop()
+            with _quiet_stdout():
+                return start_app(scenario, host="127.0.0.1", port=0, print_url=False)
+        except (ValueError, LookupError, FileNotFoundError) as error:
+            # planners.ScenarioError is a ValueError; an unknown name a LookupError.
+            raise _Failure(f"cannot load scenario: {_first_line(error)}", 2) from None
+
+    def take(planner_app: Any, browser: Browser) -> bytes:
+        # The slide picture (app.pictures): sized labels, legend and title.
+        return pictures.shoot(
+            planner_app,
+            browser,
+            width=width,
+            height=height,
+            view=view,
+            robot_time=robot_time,
+            options=options or SlideOptions(),
+            timeout=timeout,
+        )
+
+    png = pictures.run_with_browser(start, take, chromium=chromium)
+    try:
+        partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
+        partial.write_bytes(png)
+        partial.replace(path)
+    except OSError as error:
+        raise _Failure(f"cannot write {path}: {error.strerror or error}", 1) from None

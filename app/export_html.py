@@ -139,7 +139,7 @@ def export_html(
     path = Path(out)
     problem = _check(path, fps, follow)
     if problem is not None:
-        return headless._fail(problem, 2)  # noqa: SLF001
+        return headless._fail(problem, 2)
     planner_app = None
     try:
         planner_app = start_quietly(scenario)

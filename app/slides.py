@@ -95,6 +95,8 @@ class Slide:
     labels: Placement
     label_colors: tuple[str, ...]
     """Border colour of each placed label (an event's planner, black otherwise)."""
+    markers: tuple[Box, ...]
+    """The boxes no label covers: the start and goal disks, the events' crosses."""
     title: tuple[str, Box] | None
     legend: tuple[tuple[LegendRow, ...], Box, int] | None
     """The rows, the box and the number of columns of the legend."""
@@ -394,6 +396,7 @@ def layout(
         font_px=font,
         line_scale=line_scale(height),
         labels=placement,
+        markers=tuple(markers),
         label_colors=tuple(
             colors.get(id(p.request), "#222222") for p in placement.placed
         ),

@@ -113,7 +113,7 @@ def record_video(
             )
         end = duration if until is None else min(duration, until)
         times = frame_times(end, fps)
-        slide = studio.compose()
+        slide = studio.compose("top", options)
         with _writer(path, fps) as write:
             for t in times:
                 write(_pixels(studio.frame(t)))

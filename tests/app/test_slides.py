@@ -10,6 +10,8 @@ every scenario by tests/test_snapshots.py).
 from __future__ import annotations
 
 import io
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -198,3 +200,41 @@ def test_options_turn_the_legend_title_and_labels_off() -> None:
     assert "DSB" not in " ".join(
         r.text for r in legend_rows(plans, {"dsb_path": False})
     )
+
+
+def test_snapshot_dir_on_the_command_line(tmp_path) -> None:
+    out = tmp_path / "pictures"
+    result = subprocess.run(
+        [sys.executable, "-m", "app", "--snapshot-dir", str(out), "--scenario",
+         "01,02_three_obstacles", "--views", "top,perspective", "--width", "320",
+         "--height", "200", "--no-legend"],
+        capture_output=True, text=True, cwd=ROOT, timeout=300, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == "" and result.stderr == ""
+    assert sorted(p.name for p in out.iterdir()) == [
+        "01_two_convex-perspective.png",
+        "01_two_convex-top.png",
+        "02_three_obstacles-perspective.png",
+        "02_three_obstacles-top.png",
+    ]
+    assert Image.open(out / "01_two_convex-top.png").size == (320, 200)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--views", "side"], "views must be among top, perspective"),
+        (["--scenario", "no_such_thing"], "cannot load scenario"),
+        (["--width", "3"], "width must be a whole number"),
+    ],
+)
+def test_snapshot_dir_bad_arguments_are_one_line(tmp_path, args, message) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "app", "--snapshot-dir", str(tmp_path / "x"), *args],
+        capture_output=True, text=True, cwd=ROOT, timeout=120, check=False,
+    )  # fmt: skip
+    assert result.returncode == 2
+    assert result.stderr.startswith("error: ") and message in result.stderr
+    assert result.stderr.count("\n") == 1
+    assert not (tmp_path / "x").exists()

@@ -196,6 +196,7 @@ def render_slide(browser, scenario: str | Path | Scene) -> Rendered:
         with open_studio(planner_app, browser, width=WIDTH, height=HEIGHT) as studio:
             png = studio.picture()
             labels = studio.shown.page.evaluate(LABEL_BOXES_JS)
+            assert studio.slide is not None
             return Rendered(png, labels, studio.slide)
     finally:
         planner_app.stop()

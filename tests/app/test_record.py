@@ -12,6 +12,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import imageio.v2 as iio
+import imageio.v3 as iio3
 import numpy as np
 import pytest
 
@@ -41,7 +42,7 @@ def planner_app():
 
 def frames(path: Path) -> np.ndarray:
     """Decode every frame of a video file (RGB)."""
-    return np.stack([np.asarray(f)[..., :3] for f in iio.mimread(path, memtest=False)])
+    return np.stack([np.asarray(f)[..., :3] for f in iio3.imiter(path)])
 
 
 def robot_pixels(planner_app, recording) -> np.ndarray:

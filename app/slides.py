@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import shapely
 
 import planners
 from app.headless import CameraPose, frame_camera, scene_bounds
@@ -370,11 +371,11 @@ def layout(
     legend_box, columns, area = _place_legend(
         rows, legend_font, bounds, full, margin=margin, view=view
     )
+    reserved = [b for b in (title_box, legend_box) if b is not None]
     if view == "top":
         camera = slide_camera(bounds, width, height, area)
     else:
-        camera = frame_camera(bounds, width, height, view)
-    reserved = [b for b in (title_box, legend_box) if b is not None]
+        camera = _perspective_clear_of(bounds, width, height, reserved)
     requests, markers, colors = (
         _label_requests(
             scene, plans, layers, camera, (width, height), registry=registry
@@ -445,6 +446,44 @@ def _place_legend(
     if fit <= 0:  # no room beside or below: over the scene's top-right corner
         return Box(full.x1 - lw, full.y0, full.x1, full.y0 + lh), 1, full
     return legend, columns, area
+
+
+def _perspective_clear_of(
+    bounds: tuple[float, float, float, float],
+    width: int,
+    height: int,
+    reserved: Sequence[Box],
+) -> CameraPose:
+    """Frame the perspective view so the scene stays clear of the title and the legend.
+
+    The framed box grows towards +x and +y (the far right of the picture, where the
+    legend and the title sit) until the scene's outline, walls included, no longer
+    meets them; at most eight steps, then the last framing is kept.
+    """
+    xmin, ymin, xmax, ymax = bounds
+    grow_x = grow_y = 0.0
+    step = 0.08 * max(xmax - xmin, ymax - ymin)
+    camera = frame_camera(bounds, width, height, "perspective")
+    for _ in range(8):
+        camera = frame_camera(
+            (xmin, ymin, xmax + grow_x, ymax + grow_y), width, height, "perspective"
+        )
+        corners = [
+            (x, y, z) for x in (xmin, xmax) for y in (ymin, ymax) for z in (0.0, 0.5)
+        ]
+        outline = shapely.MultiPoint(
+            project(camera, width, height, corners).tolist()
+        ).convex_hull
+        hits = [
+            b
+            for b in reserved
+            if outline.intersects(shapely.box(b.x0, b.y0, b.x1, b.y1))
+        ]
+        if not hits:
+            break
+        grow_x += step
+        grow_y += step * any(b.y1 < height / 4 for b in hits)
+    return camera
 
 
 def _fit(bounds: tuple[float, float, float, float], area: Box) -> float:

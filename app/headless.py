@@ -1,10 +1,12 @@
 """Headless snapshots: draw a scenario in a real browser and save the picture as a PNG.
 
 ``python -m app --scenario NAME --snapshot OUT.png`` ends up in :func:`snapshot`. It starts
-the app on a free loopback port without printing a URL, opens it in Debian's headless
-Chromium through playwright, waits until every scene node is in the browser, points the
-camera at the scenario, hides the GUI panel, waits until the picture stops changing,
-writes the PNG and stops everything it started.
+the app on a free loopback port without printing a URL while Debian's headless Chromium
+launches, opens the app in it through playwright, waits until every scene node is in the
+browser, and takes the slide picture of :mod:`app.pictures` (camera, title, legend and
+labels laid out for the picture's size by :mod:`app.slides`), writes the PNG and stops
+everything it started. :func:`capture` is the plain picture of the app as it is (no
+title, legend or placed labels), which tests use.
 
 What makes the picture repeatable (see ``shared/notes/viser-headless.md``):
 

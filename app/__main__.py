@@ -6,6 +6,9 @@ Examples::
     python -m app --scenario two_convex --port 8081
     python -m app --host 0.0.0.0                    # a classroom: presenter URL + class URL
     python -m app --scenario 06 --snapshot out.png --width 1280 --height 800
+    python -m app --snapshot-dir pictures/ --width 1920 --height 1080  # every scenario
+    python -m app --scenario 06 --record run.mp4 --fps 15 --follow dsb
+    python -m app --scenario 06 --export-html run.html                # no Python needed
 """
 
 from __future__ import annotations
@@ -78,12 +81,118 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         help="snapshot: robot at this trajectory time [s]",
     )
+    _media_arguments(parser)
     return parser
+
+
+def _media_arguments(parser: argparse.ArgumentParser) -> None:
+    """Slides and course pages (README "Slides and course pages")."""
+    group = parser.add_argument_group("slides and course pages")
+    group.add_argument(
+        "--no-legend", action="store_true", help="pictures and videos: no legend"
+    )
+    group.add_argument(
+        "--title",
+        default=None,
+        help="title in the picture (default: the scenario's name; '' for none)",
+    )
+    group.add_argument(
+        "--snapshot-dir",
+        metavar="DIR",
+        default=None,
+        help="a PNG per scenario (--scenario A,B,...; default: every shipped one) with one browser",
+    )
+    group.add_argument(
+        "--views",
+        default=None,
+        help="--snapshot-dir: views to draw, comma-separated (default: --view)",
+    )
+    group.add_argument(
+        "--record",
+        metavar="OUT.mp4|OUT.gif",
+        default=None,
+        help="record the robot following the path, at the trajectory's real time",
+    )
+    group.add_argument(
+        "--fps",
+        type=float,
+        default=15.0,
+        help="--record / --export-html: frames per second",
+    )
+    group.add_argument(
+        "--follow",
+        default=None,
+        help="the planner whose path the robot follows (vg, svg, dsb, bug2)",
+    )
+    group.add_argument(
+        "--until",
+        type=float,
+        default=None,
+        help="--record / --export-html: stop at this trajectory time [s]",
+    )
+    group.add_argument(
+        "--export-html",
+        metavar="OUT.html",
+        default=None,
+        help="one self-contained HTML page (scene and robot animation, no server)",
+    )
+
+
+def _media(args: argparse.Namespace) -> int | None:
+    """Run a slides job if one was asked for; None otherwise."""
+    if args.snapshot_dir is None and args.record is None and args.export_html is None:
+        return None
+    # Lazily: these need playwright (and imageio for videos), the server does not.
+    from app.slides import SlideOptions  # noqa: PLC0415
+
+    options = SlideOptions(legend=not args.no_legend, title=args.title)
+    names = [n for n in (args.scenario or "").split(",") if n]
+    if args.snapshot_dir is not None:
+        from app import pictures  # noqa: PLC0415
+        from app.server import list_scenarios  # noqa: PLC0415
+
+        views = (args.views or args.view).split(",")
+        return pictures.snapshot_dir(
+            names or list(list_scenarios()),
+            args.snapshot_dir,
+            views=views,
+            width=args.width,
+            height=args.height,
+            options=options,
+        )
+    scenario = args.scenario or DEFAULT_SCENARIO
+    if args.record is not None:
+        from app import record  # noqa: PLC0415
+
+        return record.record(
+            scenario,
+            args.record,
+            width=args.width,
+            height=args.height,
+            fps=args.fps,
+            follow=args.follow,
+            until=args.until,
+            options=options,
+        )
+    if args.export_html is not None:
+        from app import export_html  # noqa: PLC0415
+
+        return export_html.export_html(
+            scenario,
+            args.export_html,
+            fps=args.fps,
+            follow=args.follow,
+            until=args.until,
+        )
+    return None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code."""
     args = _parser().parse_args(argv)
+    media = _media(args)
+    if media is not None:
+        return media
     scenario = args.scenario or DEFAULT_SCENARIO
     try:
         resolve_scenario(scenario)
@@ -94,6 +203,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.snapshot is not None:
         # Lazily: the snapshot tool needs playwright, the interactive server does not.
         from app import headless  # noqa: PLC0415
+        from app.slides import SlideOptions  # noqa: PLC0415
 
         return int(
             headless.snapshot(
@@ -103,6 +213,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 height=args.height,
                 view=args.view,
                 robot_time=args.robot_time,
+                options=SlideOptions(legend=not args.no_legend, title=args.title),
             )
         )
 

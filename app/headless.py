@@ -1,10 +1,12 @@
 """Headless snapshots: draw a scenario in a real browser and save the picture as a PNG.
 
 ``python -m app --scenario NAME --snapshot OUT.png`` ends up in :func:`snapshot`. It starts
-the app on a free loopback port without printing a URL, opens it in Debian's headless
-Chromium through playwright, waits until every scene node is in the browser, points the
-camera at the scenario, hides the GUI panel, waits until the picture stops changing,
-writes the PNG and stops everything it started.
+the app on a free loopback port without printing a URL while Debian's headless Chromium
+launches, opens the app in it through playwright, waits until every scene node is in the
+browser, and takes the slide picture of :mod:`app.pictures` (camera, title, legend and
+labels laid out for the picture's size by :mod:`app.slides`), writes the PNG and stops
+everything it started. :func:`capture` is the plain picture of the app as it is (no
+title, legend or placed labels), which tests use.
 
 What makes the picture repeatable (see ``shared/notes/viser-headless.md``):
 
@@ -67,6 +69,7 @@ except ImportError:  # pragma: no cover - depends on the environment
 if TYPE_CHECKING:
     from playwright.sync_api import Browser, Page
 
+    from app.slides import SlideOptions
     from planners.scene import Scene
 
 CHROMIUM = "/usr/bin/chromium"
@@ -703,6 +706,7 @@ def snapshot(
     robot_time: float | None = None,
     timeout: float = 60.0,
     chromium: str | None = None,
+    options: SlideOptions | None = None,
 ) -> int:
     """Render ``scenario`` with every planner in headless Chromium and write a PNG.
 
@@ -727,6 +731,9 @@ def snapshot(
         Longest time [s] to wait for the browser and a settled picture.
     chromium
         Path to the browser; None for :func:`chromium_path`.
+    options
+        Legend, title and labels of the slide picture (:mod:`app.slides`); None: all
+        of them.
 
     Returns
     -------
@@ -744,6 +751,7 @@ def snapshot(
             robot_time=robot_time,
             timeout=timeout,
             chromium=chromium,
+            options=options,
         )
     except _Failure as failure:
         return _fail(failure.message, failure.code)
@@ -777,6 +785,7 @@ def _take_snapshot(
     robot_time: float | None,
     timeout: float,
     chromium: str | None,
+    options: SlideOptions | None = None,
 ) -> None:
     """Do what :func:`snapshot` says; raise :class:`_Failure` with the exit code."""
     problem = _check_args(width, height, view, robot_time)
@@ -795,37 +804,34 @@ def _take_snapshot(
         raise _Failure(f"cannot write {path}: {error.strerror or error}", 1) from None
     # Imported here: app/__init__ imports the server, and this module must stay importable
     # on its own (the app's __main__ imports it only for --snapshot).
-    from app import start_app  # noqa: PLC0415
+    from app import pictures, start_app  # noqa: PLC0415
+    from app.slides import SlideOptions  # noqa: PLC0415
 
-    try:
-        with _quiet_stdout():
-            planner_app = start_app(scenario, host="127.0.0.1", port=0, print_url=False)
-    except (ValueError, LookupError, FileNotFoundError) as error:
-        # planners.ScenarioError is a ValueError; an unknown name may be a LookupError.
-        raise _Failure(f"cannot load scenario: {_first_line(error)}", 2) from None
-    try:
-
-        def take() -> bytes:
-            with launch_browser(chromium) as browser:
-                return capture(
-                    planner_app,
-                    browser,
-                    width=width,
-                    height=height,
-                    view=view,
-                    robot_time=robot_time,
-                    timeout=timeout,
-                )
-
-        png = _in_own_thread(take)
+    def start() -> Any:
         try:
-            partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
-            partial.write_bytes(png)
-            partial.replace(path)
-        except OSError as error:
-            raise _Failure(
-                f"cannot write {path}: {error.strerror or error}", 1
-            ) from None
-    finally:
-        with _quiet_stdout(), contextlib.suppress(Exception):
-            planner_app.stop()
+            with _quiet_stdout():
+                return start_app(scenario, host="127.0.0.1", port=0, print_url=False)
+        except (ValueError, LookupError, FileNotFoundError) as error:
+            # planners.ScenarioError is a ValueError; an unknown name a LookupError.
+            raise _Failure(f"cannot load scenario: {_first_line(error)}", 2) from None
+
+    def take(planner_app: Any, browser: Browser) -> bytes:
+        # The slide picture (app.pictures): sized labels, legend and title.
+        return pictures.shoot(
+            planner_app,
+            browser,
+            width=width,
+            height=height,
+            view=view,
+            robot_time=robot_time,
+            options=options or SlideOptions(),
+            timeout=timeout,
+        )
+
+    png = pictures.run_with_browser(start, take, chromium=chromium)
+    try:
+        partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
+        partial.write_bytes(png)
+        partial.replace(path)
+    except OSError as error:
+        raise _Failure(f"cannot write {path}: {error.strerror or error}", 1) from None

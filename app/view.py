@@ -419,6 +419,7 @@ class _Labels:
         self.anchor = anchor
         self.handles: list[viser.LabelHandle] = []
         self.shown: dict[int, tuple[str | None, tuple[float, ...] | None, bool]] = {}
+        self.hidden = False  # a picture draws its own labels (PlannerView.present)
 
     def set(
         self, items: Sequence[tuple[str, npt.ArrayLike]], visible: bool = True
@@ -434,7 +435,7 @@ class _Labels:
                 )
             )
         for k, handle in enumerate(self.handles):
-            if k < len(items) and visible:
+            if k < len(items) and visible and not self.hidden:
                 text, position = items[k]
                 xyz = tuple(float(v) for v in np.asarray(position, dtype=np.float64))
                 state: tuple[str | None, tuple[float, ...] | None, bool] = (
@@ -1033,6 +1034,32 @@ class PlannerView:
                     self.wheel_spins.append((spin, np.asarray(axle, dtype=np.float64)))
         for node in self.body_parts:
             node.scale = (model.body_scale, model.body_scale, 1.0)
+
+    def present(self, *, line_scale: float = 1.0, labels: bool = True) -> None:
+        """Draw for a picture instead of for editing (:mod:`app.slides`, :mod:`app.export_html`).
+
+        The start and goal gizmos lose their arrows and squares (the markers stay), lines
+        drawn in screen pixels are ``line_scale`` times as wide, and with ``labels``
+        False the 3-D labels are hidden (the picture draws its own, placed for its size).
+        """
+        with self._atomic():
+            for gizmo in self.handles.values():
+                gizmo.disable_axes = True
+                gizmo.disable_sliders = True
+                gizmo.disable_rotations = True
+            for graph in self.graphs.values():
+                graph.edges.handle.thickness = graph.look.edges_px * line_scale
+            pools = [self.obstacle_labels, *(t.labels for t in self.traces.values())]
+            for pool in pools:
+                pool.hidden = not labels
+                pool.shown.clear()  # the next render sends every label's state again
+                for handle in pool.handles:
+                    handle.visible = labels and handle.visible
+            for label in self.marker_labels.values():
+                label.visible = labels
+        self._last.pop("obstacles", None)
+        for name in self.traces:
+            self._last.pop(f"{name}_labels", None)
 
     def set_layer_flags(self, robot: bool, sensing: bool) -> None:
         """Remember the robot and sensing layer toggles for :meth:`render_robot`."""

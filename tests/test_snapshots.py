@@ -1,8 +1,10 @@
 """Screenshot tests: every shipped scenario, drawn by the app in headless Chromium.
 
 Each scenario is rendered top-down at 960 x 600 through the same path as
-``python -m app --snapshot`` (:func:`app.headless.capture`) and compared with its golden PNG
-in ``tests/snapshots/``. Tolerance, refreshing and diffs: ``tests/snapshots/README.md``.
+``python -m app --snapshot`` (the slide picture of :mod:`app.pictures`: title, legend and
+labels sized for the picture) and compared with its golden PNG in ``tests/snapshots/``.
+Tolerance, refreshing and diffs: ``tests/snapshots/README.md``. Each scenario's labels, as
+the browser laid them out, are checked too: none overlaps another or a marker.
 
 - A pixel *differs* when any RGB channel differs by more than ``PIXEL_THRESHOLD`` counts.
 - A picture *matches* when at most ``MAX_DIFF_SHARE`` of its pixels differ (and it has the
@@ -27,7 +29,9 @@ import pytest
 from PIL import Image, ImageDraw, ImageFont
 
 from app import start_app
-from app.headless import capture
+from app.labels import Box
+from app.pictures import open_studio
+from app.slides import Slide
 from planners.scene import Scene, load_scene, move_obstacle
 from tests.browser import use_browser
 
@@ -168,13 +172,60 @@ def browser() -> Iterator[Browser]:
         yield shared
 
 
-def render(browser, scenario: str | Path | Scene) -> bytes:
-    """Start the app on ``scenario``, take the golden-sized top-down picture, stop it."""
+# Where the browser drew each label (its element's box, and whether its text fits).
+LABEL_BOXES_JS = """() => [...document.querySelectorAll('.planner-label')].map(e => {
+    const r = e.getBoundingClientRect();
+    return {text: e.textContent, box: [r.left, r.top, r.right, r.bottom],
+            fits: e.scrollWidth <= e.clientWidth + 1 && e.scrollHeight <= e.clientHeight + 1};
+})"""
+
+
+@dataclasses.dataclass(frozen=True)
+class Rendered:
+    """A slide picture and what the browser drew of its labels."""
+
+    png: bytes
+    labels: list[dict]
+    slide: Slide
+
+
+def render_slide(browser, scenario: str | Path | Scene) -> Rendered:
+    """Start the app on ``scenario``, take the golden-sized slide picture, stop it."""
     planner_app = start_app(scenario, print_url=False)
     try:
-        return capture(planner_app, browser, width=WIDTH, height=HEIGHT, view="top")
+        with open_studio(planner_app, browser, width=WIDTH, height=HEIGHT) as studio:
+            png = studio.picture()
+            labels = studio.shown.page.evaluate(LABEL_BOXES_JS)
+            assert studio.slide is not None
+            return Rendered(png, labels, studio.slide)
     finally:
         planner_app.stop()
+
+
+def render(browser, scenario: str | Path | Scene) -> bytes:
+    """The golden-sized slide picture of ``scenario``."""
+    return render_slide(browser, scenario).png
+
+
+def check_labels(rendered: Rendered, width: int, height: int) -> None:
+    """No label overlaps another label, a marker, the title or the legend; all fit."""
+    slide = rendered.slide
+    drawn = [Box(*d["box"]) for d in rendered.labels]
+    assert len(drawn) == len(slide.labels.placed) > 0
+    assert not slide.labels.dropped
+    others = list(slide.markers)
+    others += [
+        b
+        for b in (slide.title and slide.title[1], slide.legend and slide.legend[1])
+        if b
+    ]
+    for k, (d, box) in enumerate(zip(rendered.labels, drawn, strict=True)):
+        assert d["fits"], f"the text of label {d['text']!r} overflows its box"
+        assert box.inside(width, height)
+        for other in drawn[k + 1 :]:
+            assert not box.grown(-0.5).overlaps(other), (d["text"], box, other)
+        for other in others:
+            assert not box.grown(-0.5).overlaps(other), (d["text"], box, other)
 
 
 def test_every_scenario_is_covered() -> None:
@@ -186,7 +237,9 @@ def test_every_scenario_is_covered() -> None:
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
 def test_scenario_snapshot(browser: Browser, path: Path) -> None:
-    check_snapshot(path.stem, render(browser, path))
+    rendered = render_slide(browser, path)
+    check_labels(rendered, WIDTH, HEIGHT)
+    check_snapshot(path.stem, rendered.png)
 
 
 # The two tests below compare against the goldens even under UPDATE_SNAPSHOTS=1 (then

@@ -20,6 +20,9 @@ MODULES = [
     "app.server",
     "app.style",
     "app.view",
+    "app.labels",
+    "app.slides",
+    "app.record",
 ]
 
 

@@ -1,0 +1,166 @@
+"""``--export-html OUT.html``: the scene and the robot's run in one page that needs no Python.
+
+viser can save what it sends to browsers (its scene serializer,
+``ViserServer.get_scene_serializer()``) and its web client can play such a recording
+back with no server; ``StateSerializer.as_html()`` puts the client (one HTML file of
+about 0.8 MB with its JavaScript and CSS inlined) and the recording (base64 in an inline
+script) into a single document. This module uses exactly that mechanism, so the page is
+drawn by the same client as the app, with every layer the app draws:
+
+1. start the app (no browser needed) and let the view draw for a picture
+   (:meth:`app.view.PlannerView.present`: no editing gizmos);
+2. start recording: the serializer takes the current scene, then every message after;
+3. put the robot at ``t_k = k / fps`` for every frame (:func:`app.record.frame_times`),
+   waiting until each pose is drawn and sent, with a pause of ``1 / fps`` recorded
+   between frames, so the page plays the run at the trajectory's real time (and loops);
+4. write the page, with a small title and legend added as plain HTML.
+
+Nothing in the page is fetched from the network: the fonts, scripts and styles are in
+the file (the test opens it from disk with the network cut off).
+"""
+
+from __future__ import annotations
+
+__all__ = ["export_html", "export_page", "legend_html"]
+
+import html
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import planners
+from app import headless
+from app.jobs import JobFailure, start_quietly
+from app.record import MAX_FPS, frame_times
+from app.slides import legend_rows
+
+
+def legend_html(planner_app: Any, title: str) -> str:
+    """Return the title and legend block added to the page (plain HTML, inline styles)."""
+    controller = planner_app.controller
+    frame = controller.frame
+    rows = legend_rows(
+        controller.plans, frame.layers if frame else {}, controller.registry
+    )
+    items = []
+    for row in rows:
+        swatches = "".join(
+            f'<span style="display:inline-block;width:{"0.9em" if kind == "disk" else "1.4em"};'
+            f"height:{_SWATCH_HEIGHT[kind]};background:{color};margin-right:0.2em;"
+            f"{'border-radius:50%;' if kind == 'disk' else ''}"
+            f'{"opacity:0.45;" if kind == "fill" else ""}vertical-align:middle"></span>'
+            for color, kind in row.swatches
+        )
+        items.append(
+            f'<div style="white-space:nowrap">{swatches} {html.escape(row.text)}</div>'
+        )
+    heading = (
+        f'<div style="font-weight:bold;font-size:1.15em;margin-bottom:0.3em">{html.escape(title)}</div>'
+        if title
+        else ""
+    )
+    return (
+        '<div id="planner-legend" style="position:fixed;right:8px;top:8px;'
+        "z-index:1000;background:rgba(255,255,255,0.92);border:1px solid #444;"
+        "border-radius:6px;padding:6px 10px;font:13px/1.5 'DejaVu Sans',sans-serif;"
+        f'color:#111;pointer-events:none">{heading}{"".join(items)}</div>'
+    )
+
+
+_SWATCH_HEIGHT = {
+    "line": "0.3em",
+    "thin": "0.12em",
+    "box": "0.9em",
+    "fill": "0.9em",
+    "disk": "0.9em",
+}
+
+
+def export_page(
+    planner_app: Any,
+    *,
+    fps: float = 15.0,
+    follow: str | None = None,
+    until: float | None = None,
+    title: str | None = None,
+) -> str:
+    """Record a running app's scene and robot run; return the self-contained page."""
+    controller = planner_app.controller
+    planner_app.view.present(labels=True)
+    if follow is not None:
+        controller.playback.set_follow(follow)
+    planner_app.set_robot_time(0.0)
+    _wait(planner_app)
+    trajectory = controller.playback.trajectory
+    duration = float(getattr(trajectory, "duration", 0.0)) if trajectory else 0.0
+    end = duration if until is None else min(duration, until)
+    serializer = planner_app.server.get_scene_serializer()
+    for t in frame_times(end, fps) if duration > 0 else ():
+        planner_app.set_robot_time(t)
+        _wait(planner_app)
+        serializer.insert_sleep(1.0 / fps)
+    page = serializer.as_html()
+    name = controller.scene.name or ""
+    block = legend_html(planner_app, name if title is None else title)
+    # The client's document has one </body>; the legend goes just before it.
+    at = page.rindex("</body>")
+    return page[:at] + block + page[at:]
+
+
+def _wait(planner_app: Any) -> None:
+    if planner_app.wait_idle(60.0) is False:
+        raise headless.SnapshotError(
+            "the app did not finish planning and drawing in time"
+        )
+
+
+def _check(path: Path, fps: float, follow: str | None) -> str | None:
+    """Return the one-line problem with the arguments, or None."""
+    if path.suffix.lower() not in (".html", ".htm"):
+        return f"{path}: the page must end in .html"
+    if not (math.isfinite(fps) and 1 <= fps <= MAX_FPS):
+        return f"fps must be from 1 to {MAX_FPS}, got {fps!r}"
+    if follow is not None and follow not in planners.REGISTRY:
+        return f"unknown planner {follow!r} to follow (known: {', '.join(planners.REGISTRY)})"
+    return None
+
+
+def export_html(
+    scenario: Any,
+    out: str | os.PathLike[str],
+    *,
+    fps: float = 15.0,
+    follow: str | None = None,
+    until: float | None = None,
+    title: str | None = None,
+) -> int:
+    """Write ``scenario``'s page to ``out``; return the exit code (0, 1 or 2, as :mod:`app.jobs`)."""
+    path = Path(out)
+    problem = _check(path, fps, follow)
+    if problem is not None:
+        return headless._fail(problem, 2)
+    planner_app = None
+    try:
+        planner_app = start_quietly(scenario)
+        page = export_page(
+            planner_app, fps=fps, follow=follow, until=until, title=title
+        )
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
+        partial.write_text(page, encoding="utf-8")
+        partial.replace(path)
+    except JobFailure as failure:
+        return headless._fail(failure.message, failure.code)
+    except OSError as error:
+        return headless._fail(f"cannot write {path}: {error.strerror or error}", 1)
+    except Exception as error:  # a command-line tool: no traceback
+        return headless._fail(
+            f"failed: {type(error).__name__}: {headless._first_line(error)}",
+            1,
+        )
+    finally:
+        if planner_app is not None:
+            with headless._quiet_stdout():
+                planner_app.stop()
+    return 0

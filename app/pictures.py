@@ -1,0 +1,414 @@
+"""Slide pictures, batches of them and video frames, with one server, one browser, one page.
+
+:class:`Studio` starts the app once, opens it once in headless Chromium and then takes as
+many pictures as asked: another scenario is loaded into the same app (the browser gets the
+changed nodes only), another view is another camera. What costs seconds (starting the
+server, launching Chromium, loading viser's client and compiling its shaders) is paid once
+per batch, not once per picture.
+
+Each picture is laid out by :func:`app.slides.layout` for its size (camera, title, legend,
+labels placed so none overlaps another or a marker) and drawn by the app's own view in
+"presentation" mode (:meth:`app.view.PlannerView.present`: no editing gizmos, screen-pixel
+lines scaled to the picture, the view's own 3-D labels replaced by the slide's).
+
+Frames of a recording (:meth:`Studio.frame`) are taken at trajectory times given
+explicitly, never from the wall clock: the robot is put at ``t`` and the frame is taken
+once the browser shows it there (:data:`_ROBOT_AT_JS`), so two recordings are the same.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "Studio",
+    "batch",
+    "open_studio",
+    "run_with_browser",
+    "settle",
+    "shoot",
+    "snapshot_dir",
+]
+
+import contextlib
+import dataclasses
+import os
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
+
+import numpy as np
+
+from app import headless
+from app.headless import PlaywrightError
+from app.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout
+
+if TYPE_CHECKING:
+    from playwright.sync_api import Browser, Page
+
+# A picture's page stays open across scenarios; a 3-D label of the view would show.
+_HIDE_CSS = (
+    headless._HIDE_GUI_CSS
+    + "\n#planner-slide, #planner-slide * { visibility: visible !important; }\n"
+)
+
+# True when the browser's robot frame and wheels are where the server put them.
+_ROBOT_AT_JS = """(want) => {
+    const m = window.__viserMutable;
+    if (!m || !m.nodeRefFromName) return false;
+    const close = (a, b) => Math.abs(a - b) < 1e-4;
+    for (const [name, p, q] of want) {
+        const o = m.nodeRefFromName[name];
+        if (!o) return false;
+        if (p && !(close(o.position.x, p[0]) && close(o.position.y, p[1]) &&
+                   close(o.position.z, p[2]))) return false;
+        if (q && !(close(Math.abs(o.quaternion.w * q[0] + o.quaternion.x * q[1] +
+                   o.quaternion.y * q[2] + o.quaternion.z * q[3]), 1))) return false;
+    }
+    return true;
+}"""
+
+_TWO_FRAMES_JS = """() => new Promise(done => requestAnimationFrame(
+    () => requestAnimationFrame(() => done(true))))"""
+
+
+@dataclasses.dataclass
+class Studio:
+    """One running app shown in one browser page of a fixed size."""
+
+    app: Any
+    """What :func:`app.start_app` returned."""
+    shown: headless.AppPage
+    width: int
+    height: int
+    timeout: float = 60.0
+    slide: Slide | None = None
+    """The layout of the last picture taken."""
+
+    # ------------------------------------------------------------------ scene
+
+    def load(self, scenario: str | Path) -> None:
+        """Show another scenario (a shipped name or a scenario file) in the same app."""
+        from app.server import resolve_scenario  # noqa: PLC0415
+
+        key, path = resolve_scenario(str(scenario))
+        files = self.app.controller.files
+        if key and key in files.scenarios:
+            files.load_scenario(key)
+        else:
+            files.load_text(Path(path).read_bytes(), Path(path).name)
+        self._wait_idle()
+
+    def follow(self, planner: str) -> None:
+        """Let the robot follow ``planner``'s path."""
+        self.app.controller.playback.set_follow(planner)
+        self._wait_idle()
+
+    @property
+    def duration(self) -> float:
+        """Duration [s] of the robot's trajectory (0 when there is none)."""
+        trajectory = self.app.controller.playback.trajectory
+        return float(getattr(trajectory, "duration", 0.0)) if trajectory else 0.0
+
+    # ------------------------------------------------------------------ pictures
+
+    def compose(
+        self,
+        view: str = "top",
+        options: SlideOptions = SlideOptions(),  # noqa: B008
+    ) -> Slide:
+        """Lay out the picture of what the app shows now and draw its overlay."""
+        controller = self.app.controller
+        frame = controller.frame
+        layers = frame.layers if frame is not None else {}
+        slide = layout(
+            controller.scene,
+            controller.plans,
+            layers,
+            self.width,
+            self.height,
+            view=view,
+            options=options,
+            registry=controller.registry,
+        )
+        deadline = time.monotonic() + self.timeout
+        # Camera, line widths and overlay first, the page's full size last: the software
+        # renderer draws the intermediate frames at the small loading size.
+        headless._apply_camera(self.shown.client, slide.camera, deadline)
+        self.app.view.present(line_scale=slide.line_scale, labels=False)
+        self._wait_idle()
+        page = self.shown.page
+        page.evaluate(DRAW_OVERLAY_JS, slide.overlay_spec())
+        page.evaluate(headless._RECOMPILE_MATERIALS_JS)
+        size = page.viewport_size
+        if size is None or (size["width"], size["height"]) != (self.width, self.height):
+            page.set_viewport_size({"width": self.width, "height": self.height})
+        self.slide = slide
+        return slide
+
+    def picture(
+        self,
+        view: str = "top",
+        options: SlideOptions = SlideOptions(),  # noqa: B008
+        robot_time: float | None = None,
+    ) -> bytes:
+        """Return a settled PNG of the current scenario, laid out for slides."""
+        self.app.set_robot_time(0.0 if robot_time is None else float(robot_time))
+        self._wait_idle()
+        self.compose(view, options)
+        return settle(self.shown.page, time.monotonic() + self.timeout)
+
+    def frame(self, t: float, image_format: str = "png") -> bytes:
+        """One frame of a recording: the robot at trajectory time ``t`` [s].
+
+        :meth:`compose` must have been called for the layout. The frame is taken once
+        the browser shows the robot's frame and wheels where the server put them, and
+        after two more animation frames, so it does not depend on timing.
+        """
+        self.app.set_robot_time(float(t))
+        self._wait_idle()
+        view = self.app.view
+        want = [
+            ["/robot", list(view.robot.position), list(view.robot.wxyz)],
+            *(
+                [spin.name, None, list(np.asarray(spin.wxyz, dtype=float))]
+                for spin, _ in view.wheel_spins
+            ),
+        ]
+        page = self.shown.page
+        page.wait_for_function(
+            _ROBOT_AT_JS, arg=want, polling=20, timeout=self.timeout * 1e3
+        )
+        page.evaluate(_TWO_FRAMES_JS)
+        return page.screenshot(type=image_format, animations="disabled", caret="hide")  # type: ignore[arg-type]
+
+    def _wait_idle(self) -> None:
+        if self.app.wait_idle(self.timeout) is False:
+            raise headless.SnapshotError(
+                "the app did not finish planning and drawing in time"
+            )
+
+
+_LOAD_VIEWPORT = (480, 300)
+"""Viewport [px] while viser's client loads the scene: the software renderer draws every
+frame of the loading at this size, which takes about a second less than at 1920 x 1080.
+The page is then resized to the picture's size (the canvas follows)."""
+
+
+@contextlib.contextmanager
+def open_studio(
+    planner_app: Any,
+    browser: Browser,
+    *,
+    width: int,
+    height: int,
+    timeout: float = 60.0,
+) -> Iterator[Studio]:
+    """Open a running app in ``browser`` for pictures of ``width`` x ``height``."""
+    small_w, small_h = (min(width, _LOAD_VIEWPORT[0]), min(height, _LOAD_VIEWPORT[1]))
+    with headless.open_page(
+        planner_app, browser, width=small_w, height=small_h, timeout=timeout
+    ) as shown:
+        try:
+            shown.page.add_style_tag(content=_HIDE_CSS)
+            shown.page.evaluate("() => document.fonts.ready.then(() => true)")
+        except PlaywrightError as error:
+            raise headless.SnapshotError(
+                f"the browser failed: {headless._first_line(error)}"
+            ) from None
+        yield Studio(planner_app, shown, width, height, timeout)
+
+
+T = TypeVar("T")
+
+
+def run_with_browser(
+    start: Callable[[], Any],
+    work: Callable[[Any, Browser], T],
+    *,
+    chromium: str | None = None,
+) -> T:
+    """Start the app with ``start()`` while Chromium launches; return ``work(app, browser)``.
+
+    The browser is launched (and used) in a thread of its own, as playwright's sync API
+    needs; the app starts in the calling thread at the same time, so the two slow starts
+    overlap. Both are stopped on return, also on errors, which are raised here.
+    """
+    ready = threading.Event()
+    box: dict[str, Any] = {}
+
+    def browse() -> T:
+        with headless.launch_browser(chromium) as browser:
+            ready.wait()
+            if "app" not in box:
+                raise _Cancelled
+            return work(box["app"], browser)
+
+    result: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            result["value"] = browse()
+        except BaseException as error:  # handed to the caller below
+            result["error"] = error
+
+    worker = threading.Thread(target=run, name="pictures-browser", daemon=True)
+    worker.start()
+    planner_app = None
+    try:
+        planner_app = start()
+        box["app"] = planner_app
+    finally:
+        ready.set()
+        worker.join()
+        if planner_app is not None:
+            with headless._quiet_stdout(), contextlib.suppress(Exception):
+                planner_app.stop()
+    if "error" in result:
+        raise result["error"]
+    return result["value"]
+
+
+class _Cancelled(Exception):
+    """The app did not start: the browser thread stops without working.
+
+    Never raised to the caller: ``start()``'s own error is.
+    """
+
+
+def settle(page: Page, deadline: float) -> bytes:
+    """Wait until the picture stops changing; return it as a PNG.
+
+    After two animation frames, cheap JPEG screenshots are taken until two in a row are
+    byte for byte the same (any changed pixel changes a JPEG's bytes); only then is the
+    PNG taken. A PNG of 1920 x 1080 costs about 0.4 s in the software renderer, a JPEG a
+    fifth of that.
+    """
+    page.evaluate(_TWO_FRAMES_JS)
+    previous = _jpeg(page)
+    while True:
+        current = _jpeg(page)
+        if current == previous:
+            return page.screenshot(type="png", animations="disabled", caret="hide")
+        if time.monotonic() > deadline:
+            raise headless.SnapshotError(
+                "the picture kept changing; it did not settle in time"
+            )
+        previous = current
+        page.evaluate(_TWO_FRAMES_JS)
+
+
+def _jpeg(page: Page) -> bytes:
+    return page.screenshot(type="jpeg", quality=90, animations="disabled", caret="hide")
+
+
+def shoot(
+    planner_app: Any,
+    browser: Browser,
+    *,
+    width: int,
+    height: int,
+    view: str = "top",
+    robot_time: float | None = None,
+    options: SlideOptions = SlideOptions(),  # noqa: B008
+    timeout: float = 60.0,
+) -> bytes:
+    """One slide picture (PNG bytes) of a running app: what ``--snapshot`` writes."""
+    with open_studio(
+        planner_app, browser, width=width, height=height, timeout=timeout
+    ) as shot:
+        try:
+            return shot.picture(view, options, robot_time)
+        except PlaywrightError as error:
+            raise headless.SnapshotError(
+                f"the browser failed: {headless._first_line(error)}"
+            ) from None
+
+
+def batch(
+    planner_app: Any,
+    browser: Browser,
+    jobs: Sequence[tuple[str, str, Path]],
+    *,
+    width: int,
+    height: int,
+    options: SlideOptions = SlideOptions(),  # noqa: B008
+    timeout: float = 60.0,
+) -> list[Path]:
+    """Write one picture per ``(scenario, view, path)`` with one page; return the paths.
+
+    The app must show ``jobs[0]``'s scenario already; each other scenario is loaded into
+    it when its turn comes (in order, so consecutive views of one scenario share it).
+    """
+    written: list[Path] = []
+    with open_studio(
+        planner_app, browser, width=width, height=height, timeout=timeout
+    ) as shot:
+        current = jobs[0][0] if jobs else None
+        for scenario, view, path in jobs:
+            if scenario != current:
+                shot.load(scenario)
+                current = scenario
+            png = shot.picture(view, options)
+            partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
+            partial.write_bytes(png)
+            partial.replace(path)
+            written.append(path)
+    return written
+
+
+def snapshot_dir(
+    scenarios: Sequence[str],
+    folder: str | os.PathLike[str],
+    *,
+    views: Sequence[str] = ("top",),
+    width: int = 1280,
+    height: int = 800,
+    options: SlideOptions = SlideOptions(),  # noqa: B008
+    timeout: float = 60.0,
+    chromium: str | None = None,
+) -> int:
+    """``--snapshot-dir``: a slide picture of every scenario (and view) into ``folder``.
+
+    Files are named ``NAME.png`` (``NAME-VIEW.png`` with several views), NAME the
+    scenario's key (``02_three_obstacles``) or file stem. One server, one browser and one
+    page serve the whole batch. Returns the exit code (0: every file written).
+    """
+    from app.jobs import run_job  # noqa: PLC0415
+    from app.server import resolve_scenario  # noqa: PLC0415
+    from planners.scene import ScenarioError  # noqa: PLC0415
+
+    out = Path(folder)
+    problem = headless._check_args(width, height, views[0] if views else "", None)
+    bad = [v for v in views if v not in headless.VIEWS]
+    if bad or not views:
+        problem = (
+            f"views must be among {', '.join(headless.VIEWS)}, got {', '.join(views)!r}"
+        )
+    jobs: list[tuple[str, str, Path]] = []
+    for name in scenarios:
+        try:
+            key, path = resolve_scenario(name)
+        except ScenarioError as error:
+            problem = problem or f"cannot load scenario: {error}"
+            continue
+        stem = key or Path(path).stem
+        for view in views:
+            suffix = f"-{view}" if len(views) > 1 else ""
+            jobs.append((str(path), view, out / f"{stem}{suffix}.png"))
+    if not jobs and problem is None:
+        problem = "no scenario to draw"
+
+    def work(planner_app: Any, browser: Browser) -> list[Path]:
+        return batch(
+            planner_app,
+            browser,
+            jobs,
+            width=width,
+            height=height,
+            options=options,
+            timeout=timeout,
+        )
+
+    first = jobs[0][0] if jobs else None
+    return run_job(first, out, problem, work, chromium=chromium)

@@ -1,0 +1,91 @@
+"""Wall-clock cost of pictures and videos for slides (issue 16), end to end.
+
+    PYTHONPATH=. .venv/bin/python tests/benchmarks/bench_pictures.py [--repeats 3]
+
+Each measurement is a fresh ``python -m app`` process (import, server, browser, page,
+picture, stop), as a lecturer runs it:
+
+- ``snapshot``: one ``--snapshot`` at 1920 x 1080 (the slide picture);
+- ``plain``: the same picture through the pre-issue-16 path (``app.headless.capture``:
+  browser launched after the app, page opened at full size, three identical PNGs) for
+  comparison, in-process but with the same steps;
+- ``batch N``: ``--snapshot-dir`` over the N shipped scenarios at 1920 x 1080, and the
+  cost per extra picture, (batch - snapshot) / (N - 1);
+- ``record``: ``--record`` of 4 s of the run at 10 fps, 640 x 360 (41 frames), per frame;
+- ``export``: ``--export-html`` of the whole run at 15 fps.
+
+Runs interleave (snapshot, plain, snapshot, plain, ...) so that load from other processes
+on a shared machine falls on both alike. It prints medians; it asserts nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO = "02_three_obstacles"
+
+PLAIN = """
+import sys
+from app import start_app
+from app.headless import capture, launch_browser, _in_own_thread, _quiet_stdout
+with _quiet_stdout():
+    app = start_app(sys.argv[1], port=0, print_url=False)
+def take():
+    with launch_browser() as browser:
+        return capture(app, browser, width=1920, height=1080)
+open(sys.argv[2], "wb").write(_in_own_thread(take))
+with _quiet_stdout():
+    app.stop()
+"""
+
+
+def timed(args: list[str]) -> float:
+    start = time.perf_counter()
+    subprocess.run(args, cwd=ROOT, check=True, capture_output=True)
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    repeats = parser.parse_args().repeats
+    py = sys.executable
+    scenarios = sorted((ROOT / "static_scenarios").glob("*.json"))
+    times: dict[str, list[float]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        for _ in range(repeats):
+            for name, args in (
+                ("snapshot", [py, "-m", "app", "--scenario", SCENARIO, "--snapshot",
+                              str(out / "s.png"), "--width", "1920", "--height", "1080"]),
+                ("plain", [py, "-c", PLAIN, SCENARIO, str(out / "p.png")]),
+                (f"batch {len(scenarios)}", [py, "-m", "app", "--snapshot-dir",
+                                             str(out / "dir"), "--width", "1920",
+                                             "--height", "1080"]),
+                ("record", [py, "-m", "app", "--scenario", SCENARIO, "--record",
+                            str(out / "r.mp4"), "--width", "640", "--height", "360",
+                            "--fps", "10", "--until", "4"]),
+                ("export", [py, "-m", "app", "--scenario", SCENARIO, "--export-html",
+                            str(out / "e.html")]),
+            ):  # fmt: skip
+                times.setdefault(name, []).append(timed(args))
+    median = {k: statistics.median(v) for k, v in times.items()}
+    for name, value in median.items():
+        print(f"{name:>10}: {value:6.2f} s (median of {repeats}: "
+              f"{', '.join(f'{t:.2f}' for t in times[name])})")  # fmt: skip
+    n = len(scenarios)
+    extra = (median[f"batch {n}"] - median["snapshot"]) / (n - 1)
+    print(f"per extra picture in a batch: {extra:.2f} s")
+    print(f"record: {(median['record'] - median['snapshot']) / 41:.2f} s per frame "
+          "beyond one snapshot (41 frames, 640 x 360)")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

@@ -428,6 +428,9 @@ def _resume(
         blocking=blocking,
         left=None,
     )
+    if bug.mode in (REACHED, UNREACHABLE):
+        # The piece it drove was the last one, for the old scene: not there yet.
+        bug = _evolve(bug, mode=SEEK, follow=None, reason=None, terminated=None)
     f = bug.follow
     if bug.mode != FOLLOW or f is None:
         return bug
@@ -636,6 +639,12 @@ def _rest_of(plan: FloatArray, cum: FloatArray, s: float) -> FloatArray:
         return np.zeros((0, 2))
     i = int(np.searchsorted(cum, s, side="right"))
     return _dedupe(np.vstack([_point_at(plan, cum, s)[None, :], plan[i:]]))
+
+
+def _cut(plan: FloatArray, cum: FloatArray, s: float) -> FloatArray:
+    """Return the piece up to arclength ``s``."""
+    i = int(np.searchsorted(cum, s, side="left"))
+    return _dedupe(np.vstack([plan[:i], _point_at(plan, cum, s)[None, :]]))
 
 
 def _turns(plan: FloatArray) -> FloatArray:
@@ -848,9 +857,13 @@ def _brake_along(
     x, y, phi = state.pose
     speed = float(np.hypot(*state.velocity[:2]))
     if speed > 0.0:
-        if len(old) < 2 or not _plan_free(space, old):
+        if len(old) < 2:
             return None
         cum = _arclength(old)
+        # Only the way to where it can stop needs to be free (with one more step).
+        stop = speed * dt + _brake_distance(speed, 0.0, budget.dv, dt) + speed * dt
+        if not _plan_free(space, _cut(old, cum, min(stop, float(cum[-1])))):
+            return None
         for d in np.linspace(0.0, min(speed * dt, float(cum[-1])), _GRID + 1):
             p = _point_at(old, cum, float(d))
             v = np.array([*(p - old[0]) / dt, 0.0])

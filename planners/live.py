@@ -776,7 +776,18 @@ def _drive_differential(state: LiveState, budget: _Budget) -> LiveState:
     if abs(turn) > _TURN_EPS and not moving:
         return _rotate(_evolve_live(state, turn_left=turn), budget)
     if abs(turn) > _TURN_EPS:
-        return _over(state, budget)  # cannot happen: corners are stops
+        # Still rolling at the slow speed it arrived with: come to rest, then turn.
+        zero = np.zeros(len(state.rates))
+        if not budget.ok(zero, np.asarray(state.rates)):
+            return _over(state, budget)
+        return _moved(
+            state,
+            budget,
+            rest=plan,
+            pose=state.pose,
+            velocity=np.zeros(3),
+            rates=zero,
+        )
     # Drive the first segment: a corner (or the piece's end) is where it must stop.
     return _translate(state, budget, plan[:2], phi)
 

@@ -29,6 +29,7 @@ import planners
 from app import robot as robot_model
 from app.controller import Controller
 from app.files import ScenesFolder
+from app.live import LiveRun, StatusWriter, add_live_panel
 from app.panels import Panels
 from app.view import PlannerView, scene_bounds
 from planners.scene import ScenarioError, Scene
@@ -112,6 +113,8 @@ class PlannerApp:
     """The control panel."""
     host: str
     """Host the server listens on."""
+    live: LiveRun | None = None
+    """The *Live* DSB robot (:mod:`app.live`)."""
 
     @property
     def port(self) -> int:
@@ -138,6 +141,8 @@ class PlannerApp:
 
     def stop(self) -> None:
         """Stop the controller's threads and the server."""
+        if self.live is not None:
+            self.live.close()
         self.controller.close()
         self.server.stop()
 
@@ -239,8 +244,17 @@ def _wire(
     )
     controller_box.append(controller)
     panels.attach(controller)
+    # Live mode (issue 17): its own thread, folder and nodes; it reads the newest scene.
+    writer = StatusWriter()
+    live = LiveRun(lambda: controller.scene, server, [view], on_change=writer)
+    writer.handle = add_live_panel(server, live)
     return PlannerApp(
-        server=server, controller=controller, view=view, panels=panels, host=host
+        server=server,
+        controller=controller,
+        view=view,
+        panels=panels,
+        host=host,
+        live=live,
     )
 
 

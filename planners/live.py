@@ -55,6 +55,7 @@ __all__ = [
     "LiveState",
     "LiveStep",
     "LiveTrace",
+    "live_space",
     "live_start",
     "live_step",
     "run_live",
@@ -100,6 +101,9 @@ LIVE_STATUSES = ("driving", "blocked", "waiting", "reached", "unreachable")
 _TURN_EPS = 1e-9  # [rad] a vertex turning less than this is no corner
 _SAME = 1e-12  # [m] pieces shorter than this are no motion
 _GRID = 48  # candidate distances per step (largest feasible one is taken)
+# Braking is planned with this share of the allowed speed change per step: the slack
+# absorbs rounding, so the last steps before a stop stay within the wheel limits.
+_PLAN = 0.99
 
 
 @dataclasses.dataclass(frozen=True)
@@ -264,7 +268,7 @@ def live_step(
     state = _evolve_live(state, events=(), decisions=(), over_limit=False)
     if state.status in (REACHED, UNREACHABLE):
         return _rest(state, dt)
-    space = _space(scene, options, memo)
+    space = live_space(scene, options, memo)
     x = np.array(state.pose[:2])
     if bool(space.contains_blocked(x)[0]):
         return _blocked(state, space, dt)
@@ -305,7 +309,9 @@ def _evolve_live(state: LiveState, **changes: Any) -> LiveState:
     return dataclasses.replace(state, **changes)
 
 
-def _space(scene: Scene, options: LiveOptions, memo: Memo | None) -> ConfigurationSpace:
+def live_space(
+    scene: Scene, options: LiveOptions, memo: Memo | None
+) -> ConfigurationSpace:
     """Build the configuration space of the scene now, as :func:`planners.plan_all` builds it."""
     return configuration_space(
         scene.obstacles,
@@ -671,7 +677,7 @@ def _drive_holonomic(state: LiveState, budget: _Budget) -> LiveState:
     speed = float(np.hypot(*v_prev))
     hi = min(budget.v_max, speed + budget.dv) * dt
     best = None
-    for d in np.linspace(hi, 0.0, _GRID + 1):
+    for d in _candidates(hi, max(speed - budget.dv, 0.0) * dt):
         d = min(float(d), float(cum[-1]))  # noqa: PLW2901 - clipped candidate
         if not _can_stop(d / dt, d, caps, budget):
             continue
@@ -696,6 +702,14 @@ def _drive_holonomic(state: LiveState, budget: _Budget) -> LiveState:
     )
 
 
+def _candidates(hi: float, lo: float) -> FloatArray:
+    """Distances to try, largest first: the band the speed can reach, then below it."""
+    lo = min(lo, hi)
+    return np.concatenate(
+        [np.linspace(hi, lo, _GRID + 1), np.linspace(lo, 0.0, _GRID + 1)[1:]]
+    )
+
+
 def _can_stop(
     u: float, d: float, caps: list[tuple[float, float]], budget: _Budget
 ) -> bool:
@@ -706,7 +720,7 @@ def _can_stop(
             if u > cap + 1e-12 and at > 0:
                 return False  # this step passes the corner faster than its cap
             continue
-        if _brake_distance(u, cap, budget.dv, budget.dt) > ahead + 1e-12:
+        if _brake_distance(u, cap, _PLAN * budget.dv, budget.dt) > ahead + 1e-12:
             return False
     return True
 
@@ -749,10 +763,10 @@ def _over(state: LiveState, budget: _Budget) -> LiveState:
     """No command keeps the wheels within their limits: stop now and say so."""
     text = "emergency stop: no command within the wheel limits"
     out = _rest(state, budget.dt)
+    # The piece stays: the robot drives on along it from rest (its DSB memory is at the
+    # piece's end).
     return _evolve_live(
         out,
-        plan=np.zeros((0, 2)),
-        turn_left=0.0,
         events=(*state.events, _event(state, "emergency_stop", text, "stop")),
         over_limit=True,
     )
@@ -801,7 +815,7 @@ def _translate(
     speed = float(np.hypot(*state.velocity[:2]))
     hi = min(budget.v_max * dt, (speed + budget.dv) * dt, length)
     r_prev = np.asarray(state.rates)
-    for d in np.linspace(hi, 0.0, _GRID + 1):
+    for d in _candidates(hi, min(max(speed - budget.dv, 0.0) * dt, hi)):
         d = float(d)  # noqa: PLW2901
         if not _can_stop(d / dt, d, caps, budget):
             continue
@@ -834,7 +848,8 @@ def _rotate(state: LiveState, budget: _Budget) -> LiveState:
     x, y, phi = state.pose
     r_prev = np.asarray(state.rates)
     caps = [(abs(left), 0.0)]
-    for a in np.linspace(min(hi, abs(left)), 0.0, _GRID + 1):
+    top = min(hi, abs(left))
+    for a in _candidates(top, min(max(w - budget.dw, 0.0) * dt, top)):
         a = float(a)  # noqa: PLW2901
         if not _can_stop_rot(a / dt, a, caps, budget):
             continue
@@ -910,7 +925,7 @@ def _can_stop_rot(
     w: float, a: float, caps: list[tuple[float, float]], budget: _Budget
 ) -> bool:
     for at, cap in caps:
-        if _brake_distance(w, cap, budget.dw, budget.dt) > at - a + 1e-12:
+        if _brake_distance(w, cap, _PLAN * budget.dw, budget.dt) > at - a + 1e-12:
             return False
     return True
 

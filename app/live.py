@@ -146,6 +146,7 @@ class LiveRun:
         scene_fn: Callable[[], Scene],
         server: Any,
         views: list[Any],
+        *,
         on_change: Callable[[LiveState | None, bool], None] | None = None,
         options: LiveOptions | None = None,
         speed: float = 1.0,
@@ -297,7 +298,8 @@ class LiveRun:
             self._steps.append(record)
             self._events.extend(new.events)
             self._decisions.extend(new.decisions)
-            path = [self._steps[0].pose, *(p.pose for p in self._steps)]
+            start = self._start_scene.start if self._start_scene else new.pose[:2]
+            path = [tuple(start), *(p.pose for p in self._steps)]
             if new.status in ("reached", "unreachable"):
                 self._running = False
         self._draw(new, now, scene, path)

@@ -136,7 +136,7 @@ def test_live_runs_a_moving_scenario_without_a_browser():
         assert state is not None and not live.running
         t = state.t
         time.sleep(0.3)
-        assert live.state is state and live.state.t == t  # stopped means stopped
+        assert live.state is state and state.t == t  # stopped means stopped
         trace = live.trace()
         assert trace is not None and len(trace.steps) >= 40
         assert trace.steps[-1].offsets  # the person's offset is recorded

@@ -24,8 +24,16 @@ step. :meth:`LiveRun.trace` returns the run so far as a
 
 from __future__ import annotations
 
-__all__ = ["LiveRun", "add_live_panel", "live_pose", "live_status_markdown"]
+__all__ = [
+    "LivePanel",
+    "LiveRun",
+    "add_live_panel",
+    "live_pose",
+    "live_pose_at",
+    "live_status_markdown",
+]
 
+import dataclasses
 import logging
 import math
 import threading
@@ -46,9 +54,10 @@ from planners.live import (
     live_space,
     live_start,
     live_step,
+    record_step,
 )
 from planners.memo import Memo
-from planners.motion import motion_offset, scene_at
+from planners.motion import scene_at
 from planners.scene import Scene
 from planners.sensor import sense
 
@@ -67,42 +76,97 @@ def live_pose(state: LiveState, scene: Scene, memo: Memo | None = None) -> Robot
     The sensing picture is the sensor's reading at the robot in the scene it decided in
     (:func:`planners.sensor.sense`), and r_next is the live robot's own aim.
     """
-    x, y, phi = state.pose
-    sensing = None
-    try:
-        options = LiveOptions()
-        space = live_space(scene, options, memo)
-        seen = sense(space, (x, y), float(scene.sensor_range))
-        points = np.asarray(seen.points, dtype=np.float64).reshape(-1, 2)
-        centre = np.array([x, y])
-        tangents = (
-            np.stack([np.broadcast_to(centre, points.shape), points], axis=1)
-            if len(points)
-            else np.zeros((0, 2, 2))
+    return _robot_pose(
+        LiveStep(
+            t=state.t,
+            pose=state.pose,
+            velocity=state.velocity,
+            rates=state.rates,
+            mode=state.plan_mode,
+            status=state.status,
+            aim=state.aim,
+            offsets=(),
+        ),
+        scene,
+        memo,
+        playing=True,
+    )
+
+
+def live_pose_at(
+    trace: LiveTrace, t: float, scene: Scene, memo: Memo | None = None
+) -> RobotPose:
+    """Describe the recorded robot at time ``t`` of ``trace`` (a replay, a recording).
+
+    ``scene`` gives the robot and R; the obstacles and the goal are the recorded ones of
+    that step, so moving obstacles and the user's edits are where they were.
+    """
+    step = trace.step_at(t)
+    if step is None:
+        first = trace.steps[0] if trace.steps else None
+        step = LiveStep(
+            t=0.0,
+            pose=trace.start,
+            velocity=(0.0, 0.0, 0.0),
+            rates=(0.0,) * (len(first.rates) if first else 0),
+            mode="seek",
+            status="driving",
+            aim=None,
+            offsets=(),
+            obstacles=first.obstacles if first else scene.obstacles,
+            goal=first.goal if first else scene.goal,
         )
-        sensing = {
-            "center": (x, y),
-            "radius": float(seen.radius),
-            "seen": np.asarray(seen.segments, dtype=np.float64).reshape(-1, 2, 2),
-            "tangents": tangents,
-            "points": points,
-            "chosen": state.aim if state.plan_mode == "seek" else None,
-            "goal": (float(scene.goal[0]), float(scene.goal[1])),
-        }
-    except Exception:  # a scene mid-edit (a self-intersecting polygon): no picture
-        logger.debug("no sensing picture", exc_info=True)
+    sensed = dataclasses.replace(
+        scene,
+        obstacles=step.obstacles or scene.obstacles,
+        goal=step.goal or scene.goal,
+        motions=(),
+    )
+    return _robot_pose(step, sensed, memo, playing=False)
+
+
+def _robot_pose(
+    step: LiveStep, scene: Scene, memo: Memo | None, *, playing: bool
+) -> RobotPose:
+    x, y, phi = step.pose
     return RobotPose(
-        t=state.t,
-        duration=state.t,
+        t=step.t,
+        duration=step.t,
         xy=(x, y),
         phi=phi,
-        wheel_angles=(0.0,) * len(state.rates),
-        wheel_rates=state.rates,
-        velocity=state.velocity,
-        playing=True,
+        wheel_angles=(0.0,) * len(step.rates),
+        wheel_rates=step.rates,
+        velocity=step.velocity,
+        playing=playing,
         planner="live",
-        sensing=sensing,
+        sensing=_sensing(step, scene, memo),
     )
+
+
+def _sensing(step: LiveStep, scene: Scene, memo: Memo | None) -> dict[str, Any] | None:
+    """Read the sensor at the robot in ``scene`` (Fig. 9.16), for the view."""
+    x, y, _ = step.pose
+    try:
+        space = live_space(scene, LiveOptions(), memo)
+        seen = sense(space, (x, y), float(scene.sensor_range))
+    except Exception:  # a scene mid-edit (a self-intersecting polygon): no picture
+        logger.debug("no sensing picture", exc_info=True)
+        return None
+    points = np.asarray(seen.points, dtype=np.float64).reshape(-1, 2)
+    tangents = (
+        np.stack([np.broadcast_to(np.array([x, y]), points.shape), points], axis=1)
+        if len(points)
+        else np.zeros((0, 2, 2))
+    )
+    return {
+        "center": (x, y),
+        "radius": float(seen.radius),
+        "seen": np.asarray(seen.segments, dtype=np.float64).reshape(-1, 2, 2),
+        "tangents": tangents,
+        "points": points,
+        "chosen": step.aim if step.mode == "seek" else None,
+        "goal": (float(scene.goal[0]), float(scene.goal[1])),
+    }
 
 
 def live_status_markdown(state: LiveState | None, running: bool) -> str:
@@ -154,7 +218,8 @@ class LiveRun:
         self._scene_fn = scene_fn
         self._server = server
         self._views = views
-        self._on_change = on_change
+        self.on_change = on_change
+        """Called with (state, running) after every step (the panel)."""
         self._options = options if options is not None else LiveOptions()
         self._speed = speed
         self._cond = threading.Condition()
@@ -167,10 +232,18 @@ class LiveRun:
         self._start_scene: Scene | None = None
         self._memo = Memo()
         self._trail = server.scene.add_line_segments(
-            "/live/trail", np.zeros((0, 2, 3)), colors=_TRAIL, line_width=3.0
+            "/live/trail",
+            np.zeros((0, 2, 3)),
+            colors=_TRAIL,
+            thickness=3.0,
+            thickness_units="screen",
         )
         self._moving = server.scene.add_line_segments(
-            "/live/moving", np.zeros((0, 2, 3)), colors=_MOVING, line_width=4.0
+            "/live/moving",
+            np.zeros((0, 2, 3)),
+            colors=_MOVING,
+            thickness=4.0,
+            thickness_units="screen",
         )
         self._thread = threading.Thread(target=self._loop, name="live-dsb", daemon=True)
         self._thread.start()
@@ -238,6 +311,37 @@ class LiveRun:
                 motions=tuple(m.obstacle for m in self._start_scene.motions),
             )
 
+    def recent_rates(
+        self, window: float
+    ) -> tuple[FloatArray, FloatArray, float | None] | None:
+        """Return (t, rates (T, k), rate limit or None) of the last ``window`` seconds."""
+        with self._cond:
+            if not self._steps or self._start_scene is None:
+                return None
+            t_end = self._steps[-1].t
+            recent = [s for s in self._steps[-2000:] if s.t >= t_end - window]
+            limit = self._start_scene.robot.max_wheel_rate
+        t = np.array([s.t for s in recent], dtype=np.float64)
+        rates = np.array([s.rates for s in recent], dtype=np.float64)
+        return t, rates, limit
+
+    def show_at(self, t: float) -> None:
+        """Draw the recorded run at time ``t`` (a stopped run; the replay slider)."""
+        trace = self.trace()
+        if trace is None or self.running:
+            return
+        scene = self._scene_fn()
+        pose = live_pose_at(trace, t, scene, self._memo)
+        for view in self._views:
+            view.render_robot(pose)
+        shown = [s for s in trace.steps if s.t <= t + 1e-9]
+        path = [trace.start, *(s.pose for s in shown)]
+        pts = np.asarray([p[:2] for p in path], dtype=np.float64).reshape(-1, 2)
+        self._trail.points = _polyline_segments(pts, _Z)
+        step = shown[-1] if shown else None
+        moved = [o for o in step.obstacles if o not in scene.obstacles] if step else []
+        self._moving.points = _outline_segments(moved, _Z + 0.01)
+
     # ------------------------------------------------------------------ internals
 
     def _reset_locked(self) -> None:
@@ -247,9 +351,9 @@ class LiveRun:
         self._steps, self._events, self._decisions = [], [], []
 
     def _tell(self) -> None:
-        if self._on_change is not None:
+        if self.on_change is not None:
             try:
-                self._on_change(self.state, self.running)
+                self.on_change(self.state, self.running)
             except Exception:
                 logger.exception("live status update failed")
 
@@ -279,18 +383,7 @@ class LiveRun:
         scene = self._scene_fn()
         now = scene_at(scene, state.t)
         new = live_step(state, now, self._options, self._memo)
-        record = LiveStep(
-            t=new.t,
-            pose=new.pose,
-            velocity=new.velocity,
-            rates=new.rates,
-            mode=new.plan_mode,
-            status=new.status,
-            aim=new.aim,
-            offsets=tuple(motion_offset(m, state.t) for m in scene.motions),
-            message=new.message,
-            over_limit=new.over_limit,
-        )
+        record = record_step(new, scene, now, state.t)
         with self._cond:
             if self._state is not state:
                 return  # reset meanwhile
@@ -332,54 +425,99 @@ def _outline_segments(polygons: list[Any], z: float) -> FloatArray:
     return np.concatenate(parts) if parts else np.zeros((0, 2, 3))
 
 
-def add_live_panel(server: Any, run: LiveRun) -> Any:
-    """Add the *Live DSB* folder to the panel; each button calls one :class:`LiveRun` method.
+_WHEELS = ("#0072B2", "#E69F00", "#009E73")  # Okabe-Ito, as the trajectory plot
 
-    Returns the status markdown handle (the run's ``on_change`` writes to it).
+
+def add_live_panel(server: Any, run: LiveRun) -> LivePanel:
+    """Add the *Live DSB* folder to the panel and make it the run's ``on_change``."""
+    panel = LivePanel(server, run)
+    run.on_change = panel
+    return panel
+
+
+class LivePanel:
+    """The *Live DSB* folder: buttons, status in words, replay slider, wheel-rate plot.
+
+    Each control calls one :class:`LiveRun` method. Called with the run's state after
+    every step, it updates the words, the slider's range and the plot (the last
+    ``window`` seconds, with the wheel rate limit dashed), at most ``rate`` times a
+    second (a change of status at once).
     """
-    gui = server.gui
-    with gui.add_folder("Live DSB"):
-        status = gui.add_markdown(live_status_markdown(None, False))
-        buttons = gui.add_button_group("Live", ["Start live", "Stop", "Reset"])
-        save = gui.add_button(
-            "Save the live run (.json)", hint="The run so far, step by step"
-        )
 
-    @buttons.on_click
-    def _(event: Any) -> None:
-        {"Start live": run.start, "Stop": run.stop, "Reset": run.reset}[
-            event.target.value
-        ]()
-
-    @save.on_click
-    def _(event: Any) -> None:
-        trace = run.trace()
-        if trace is not None and event.client is not None:
-            data = trace.to_json().encode("utf-8")
-            event.client.send_file_download(
-                "live_run.json", data, save_immediately=True
+    def __init__(
+        self, server: Any, run: LiveRun, rate: float = 4.0, window: float = 10.0
+    ) -> None:
+        self._run = run
+        self._period = 1.0 / rate
+        self._window = window
+        self._last = 0.0
+        self._head = ""
+        gui = server.gui
+        with gui.add_folder("Live DSB"):
+            self.status = gui.add_markdown(live_status_markdown(None, False))
+            self.buttons = gui.add_button_group("Live", ["Start live", "Stop", "Reset"])
+            self.replay = gui.add_slider("Replay t [s]", 0.0, 1.0, 0.05, 0.0)
+            self.save = gui.add_button(
+                "Save the live run (.json)", hint="The run so far, step by step"
+            )
+            self.plot = gui.add_uplot(
+                (np.zeros(2), np.zeros(2)),
+                ({"label": "t [s]"}, {"label": "wheel 1", "stroke": _WHEELS[0]}),
+                title="Live wheel rates [rad/s]",
+                scales={"x": {"time": False}},
+                aspect=1.6,
             )
 
-    return status
+        @self.buttons.on_click
+        def _(event: Any) -> None:
+            {"Start live": run.start, "Stop": run.stop, "Reset": run.reset}[
+                event.target.value
+            ]()
 
+        @self.replay.on_update
+        def _(event: Any) -> None:
+            if event.client is not None:  # not the panel's own updates while driving
+                run.show_at(float(event.target.value))
 
-class StatusWriter:
-    """Write the live status to a markdown handle, at most ``rate`` times a second."""
-
-    def __init__(self, rate: float = 5.0) -> None:
-        self.handle: Any = None
-        self._period = 1.0 / rate
-        self._last = 0.0
-        self._text = ""
+        @self.save.on_click
+        def _(event: Any) -> None:
+            trace = run.trace()
+            if trace is not None and event.client is not None:
+                data = trace.to_json().encode("utf-8")
+                event.client.send_file_download(
+                    "live_run.json", data, save_immediately=True
+                )
 
     def __call__(self, state: LiveState | None, running: bool) -> None:
-        """Show ``state`` (a change of status is shown at once, time ticks throttled)."""
-        if self.handle is None:
-            return
+        """Show ``state`` (throttled)."""
         text = live_status_markdown(state, running)
         head = text.split("t =")[0] + (state.status if state is not None else "")
         now = time.monotonic()
-        if head == self._text and now - self._last < self._period:
+        if head == self._head and now - self._last < self._period:
             return
-        self._text, self._last = head, now
-        self.handle.content = text
+        self._head, self._last = head, now
+        self.status.content = text
+        t = state.t if state is not None else 0.0
+        self.replay.max = max(round(t, 2), 0.05)
+        self.replay.value = min(t, self.replay.max)
+        self._plot()
+
+    def _plot(self) -> None:
+        data = self._run.recent_rates(self._window)
+        if data is None:
+            return
+        t, rates, limit = data
+        series: list[dict[str, Any]] = [{"label": "t [s]"}]
+        series += [
+            {"label": f"wheel {k + 1}", "stroke": _WHEELS[k % 3], "width": 2}
+            for k in range(rates.shape[1])
+        ]
+        columns = [t, *(rates[:, k] for k in range(rates.shape[1]))]
+        if limit is not None:  # section 9.7.3: the wheel rate limit, dashed
+            series += [
+                {"label": name, "stroke": "#888888", "width": 1, "dash": [6, 4]}
+                for name in ("+limit", "-limit")
+            ]
+            columns += [np.full(len(t), limit), np.full(len(t), -limit)]
+        self.plot.series = tuple(series)  # type: ignore[assignment]
+        self.plot.data = tuple(columns)

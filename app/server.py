@@ -29,7 +29,7 @@ import planners
 from app import robot as robot_model
 from app.controller import Controller
 from app.files import ScenesFolder
-from app.live import LiveRun, StatusWriter, add_live_panel
+from app.live import LiveRun, add_live_panel
 from app.panels import Panels
 from app.view import PlannerView, scene_bounds
 from planners.scene import ScenarioError, Scene
@@ -245,9 +245,8 @@ def _wire(
     controller_box.append(controller)
     panels.attach(controller)
     # Live mode (issue 17): its own thread, folder and nodes; it reads the newest scene.
-    writer = StatusWriter()
-    live = LiveRun(lambda: controller.scene, server, [view], on_change=writer)
-    writer.handle = add_live_panel(server, live)
+    live = LiveRun(lambda: controller.scene, server, [view])
+    add_live_panel(server, live)
     return PlannerApp(
         server=server,
         controller=controller,

@@ -58,6 +58,7 @@ __all__ = [
     "live_space",
     "live_start",
     "live_step",
+    "record_step",
     "run_live",
 ]
 
@@ -69,6 +70,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 import shapely
+from shapely import Polygon
 
 from kinematics.robot import RobotParams
 from kinematics.wheel_limits import WheelLimits
@@ -957,6 +959,11 @@ class LiveStep:
     """The status in words."""
     over_limit: bool = False
     """The command exceeded a wheel limit (an emergency stop)."""
+    obstacles: tuple[Polygon, ...] = ()
+    """The obstacles as the robot sensed them in this period (moving ones where they
+    were, the user's edits as they were) [m]."""
+    goal: Point | None = None
+    """The goal in this period [m] (the user may drag it)."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -1021,7 +1028,7 @@ class LiveTrace:
             "status": self.status,
             "start": list(self.start),
             "motions": list(self.motions),
-            "steps": [dataclasses.asdict(s) for s in self.steps],
+            "steps": _steps_json(self.steps),
             "events": [dataclasses.asdict(e) for e in self.events],
             "decisions": [
                 {
@@ -1039,6 +1046,25 @@ class LiveTrace:
     def to_json(self) -> str:
         """Return the run as JSON text (what the app's Save offers)."""
         return json.dumps(self.to_dict(), indent=1) + "\n"
+
+
+def _steps_json(steps: tuple[LiveStep, ...]) -> list[dict[str, Any]]:
+    """Each step as a mapping; its obstacles only where they differ from the step before."""
+    out, before = [], None
+    for s in steps:
+        row = {
+            f.name: getattr(s, f.name)
+            for f in dataclasses.fields(s)
+            if f.name != "obstacles"
+        }
+        if s.obstacles != before:
+            row["obstacles"] = [
+                [[float(x), float(y)] for x, y in o.exterior.coords[:-1]]
+                for o in s.obstacles
+            ]
+            before = s.obstacles
+        out.append(row)
+    return out
 
 
 def run_live(
@@ -1071,9 +1097,10 @@ def run_live(
     decisions: list[Decision] = []
     n = math.ceil(duration / options.dt)
     for _ in range(n):
-        now = scene_at(scene, state.t)
+        t0 = state.t
+        now = scene_at(scene, t0)
         state = live_step(state, now, options, memo)
-        steps.append(_record(state, scene, options.dt))
+        steps.append(record_step(state, scene, now, t0))
         events.extend(state.events)
         decisions.extend(state.decisions)
         if state.status == REACHED or (state.status == "waiting" and not scene.motions):
@@ -1091,9 +1118,12 @@ def run_live(
     )
 
 
-def _record(state: LiveState, scene: Scene, dt: float) -> LiveStep:
-    # The obstacles as the robot sensed them in this step (at its start time).
-    t0 = state.t - dt
+def record_step(state: LiveState, scene: Scene, sensed: Scene, t0: float) -> LiveStep:
+    """Return the record of the step that led to ``state`` (what :class:`LiveTrace` keeps).
+
+    ``scene`` is the scene with its motions, ``sensed`` the scene the step was given
+    (:func:`planners.motion.scene_at` at ``t0``, the step's start time).
+    """
     return LiveStep(
         t=state.t,
         pose=state.pose,
@@ -1105,4 +1135,6 @@ def _record(state: LiveState, scene: Scene, dt: float) -> LiveStep:
         offsets=tuple(motion_offset(m, t0) for m in scene.motions),
         message=state.message,
         over_limit=state.over_limit,
+        obstacles=sensed.obstacles,
+        goal=(float(sensed.goal[0]), float(sensed.goal[1])),
     )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import time
@@ -11,10 +12,12 @@ from typing import Any
 import numpy as np
 import pytest
 import shapely
+from numpy.testing import assert_allclose
 from shapely import Polygon
 
 from app import start_app
 from app.controller import TOOLS
+from app.live import LivePanel
 from planners.scene import Robot, Scene, load_scene
 from tests.app.app_helpers import TopCamera, launch_chromium, wait_until
 from tests.app.test_app_browser import choose, click
@@ -121,6 +124,10 @@ def test_live_robot_turns_away_from_a_new_obstacle_before_touching_it(browser, h
 
 def test_live_runs_a_moving_scenario_without_a_browser():
     scene = load_scene("static_scenarios/10_person_crossing.json")
+    limited = dataclasses.replace(
+        scene.robot, max_wheel_rate=12.0, max_wheel_acceleration=40.0
+    )
+    scene = dataclasses.replace(scene, robot=limited)
     app = start_app(scene, port=0, print_url=False)
     try:
         live = app.live
@@ -140,6 +147,21 @@ def test_live_runs_a_moving_scenario_without_a_browser():
         trace = live.trace()
         assert trace is not None and len(trace.steps) >= 40
         assert trace.steps[-1].offsets  # the person's offset is recorded
+        # The wheel rates stay within the limit, and the live plot draws it.
+        assert np.abs(trace.rates).max() <= 12.0 * (1 + 1e-9)
+        panel = live.on_change
+        assert isinstance(panel, LivePanel)
+        panel(live.state, live.running)
+        labels = [s["label"] for s in panel.plot.series]
+        assert labels[-2:] == ["+limit", "-limit"]
+        assert_allclose(panel.plot.data[-2], 12.0)
+        # The replay slider's answer: the robot and the person where they were at t.
+        k = len(trace.steps) // 2
+        live.show_at(trace.steps[k].t)
+        assert_allclose(app.view.robot.position[:2], trace.steps[k].pose[:2])
+        person = np.asarray(live._moving.points)[:, :, :2].reshape(-1, 2)
+        recorded = np.asarray(trace.steps[k].obstacles[1].exterior.coords)
+        assert_allclose(person.min(axis=0), recorded.min(axis=0))
         live.reset()
         assert live.state is None
     finally:

@@ -519,5 +519,11 @@ class LivePanel:
                 for name in ("+limit", "-limit")
             ]
             columns += [np.full(len(t), limit), np.full(len(t), -limit)]
+        top = max(float(np.abs(rates).max()) if rates.size else 1.0, limit or 0.0)
+        # The window's own ranges: the plot does not re-range as new data come in.
+        self.plot.scales = {  # type: ignore[assignment]
+            "x": {"time": False, "range": [float(t[0]), float(max(t[-1], t[0] + 0.1))]},
+            "y": {"range": [-1.1 * top - 0.1, 1.1 * top + 0.1]},
+        }
         self.plot.series = tuple(series)  # type: ignore[assignment]
         self.plot.data = tuple(columns)

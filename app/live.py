@@ -27,6 +27,7 @@ from __future__ import annotations
 __all__ = [
     "LivePanel",
     "LiveRun",
+    "MotionPaths",
     "add_live_panel",
     "live_pose",
     "live_pose_at",
@@ -34,6 +35,7 @@ __all__ = [
 ]
 
 import dataclasses
+import itertools
 import logging
 import math
 import threading
@@ -527,3 +529,51 @@ class LivePanel:
         }
         self.plot.series = tuple(series)  # type: ignore[assignment]
         self.plot.data = tuple(columns)
+
+
+class MotionPaths:
+    """A view that draws where each moving obstacle goes (its centroid's cycle), dashed.
+
+    Added to the controller's views: it draws every frame's scene, live or not, so a
+    scenario's motions are shown in the scene before anything moves.
+    """
+
+    def __init__(self, server: Any) -> None:
+        self._key: Any = None
+        self._handle = server.scene.add_line_segments(
+            "/live/motion_paths",
+            np.zeros((0, 2, 3)),
+            colors=_MOVING,
+            thickness=2.0,
+            thickness_units="screen",
+        )
+
+    def render(self, frame: Any) -> None:
+        """Draw the motions of ``frame.scene`` (only when they changed)."""
+        scene = frame.scene
+        key = (scene.motions, tuple(scene.obstacles[m.obstacle] for m in scene.motions))
+        if key == self._key:
+            return
+        self._key = key
+        parts = [_dashes(_cycle(scene, m), _Z) for m in scene.motions]
+        self._handle.points = np.concatenate(parts) if parts else np.zeros((0, 2, 3))
+
+    def render_robot(self, pose: Any) -> None:
+        """Nothing: the robot is the 3-D view's."""
+
+
+def _cycle(scene: Scene, motion: Any) -> FloatArray:
+    c = scene.obstacles[motion.obstacle].centroid
+    return np.asarray(motion.cycle, dtype=np.float64) + np.array([c.x, c.y])
+
+
+def _dashes(points: FloatArray, z: float, dash: float = 0.15) -> FloatArray:
+    """Segments of ``dash`` metres every ``2 * dash`` along the polyline."""
+    out = []
+    for a, b in itertools.pairwise(points):
+        length = float(np.hypot(*(b - a)))
+        n = max(int(length / (2 * dash)), 1) if length > 0 else 0
+        for k in range(n):
+            f0, f1 = 2 * k * dash / length, min((2 * k + 1) * dash / length, 1.0)
+            out.append([[*(a + f0 * (b - a)), z], [*(a + f1 * (b - a)), z]])
+    return np.asarray(out, dtype=np.float64).reshape(-1, 2, 3)

@@ -29,7 +29,7 @@ import planners
 from app import robot as robot_model
 from app.controller import Controller
 from app.files import ScenesFolder
-from app.live import LiveRun, add_live_panel
+from app.live import LiveRun, MotionPaths, add_live_panel
 from app.panels import Panels
 from app.view import PlannerView, scene_bounds
 from planners.scene import ScenarioError, Scene
@@ -245,8 +245,9 @@ def _wire(
     controller_box.append(controller)
     panels.attach(controller)
     # Live mode (issue 17): its own thread, folder and nodes; it reads the newest scene.
-    live = LiveRun(lambda: controller.scene, server, [view])
+    live = LiveRun(lambda: controller.scene, server, [controller.views])
     add_live_panel(server, live)
+    controller.add_view(MotionPaths(server))
     return PlannerApp(
         server=server,
         controller=controller,

@@ -83,8 +83,11 @@ def trajectory(scene: Scene, path: npt.ArrayLike) -> kinematics.Trajectory:
             max_acceleration=scene.robot.max_wheel_acceleration or math.inf,
         )
         limits = centre_limits(params, wheels)
+    # With wheel limits, long turns in place are costly: the differential robot may
+    # reverse instead (stop mode).
+    options = kinematics.TrajectoryOptions(reverse=limits is not None)
     return kinematics.plan_trajectory(
-        np.asarray(path, dtype=np.float64), params, limits=limits
+        np.asarray(path, dtype=np.float64), params, limits=limits, options=options
     )
 
 

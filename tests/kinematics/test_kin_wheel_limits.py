@@ -42,3 +42,29 @@ def test_limits_must_be_positive():
 def test_peaks_by_hand():
     rate, acc = wheel_peaks(np.array([[0.0, 0.0], [0.5, -1.0], [0.5, -1.0]]), 0.1)
     assert (rate, acc) == (1.0, 10.0)
+
+
+def test_the_differential_robot_may_reverse_where_the_turn_is_shorter():
+    from kinematics import TrajectoryOptions
+    from kinematics.differential import sway_residual
+    from kinematics.odometry import integrate_wheel_rates
+
+    robot = RobotParams("differential", wheel_radius=0.05, wheel_distance=0.2)
+    path = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 0.05]])  # back almost the same way
+    plain = plan_trajectory(path, robot, options=TrajectoryOptions(continuous=False))
+    back = plan_trajectory(
+        path, robot, options=TrajectoryOptions(continuous=False, reverse=True)
+    )
+    assert back.duration < plain.duration
+    turned = np.abs(np.diff(back.pose[:, 2])).sum()
+    assert turned < 0.1  # a few degrees, not half a turn
+    forward = (
+        np.cos(back.pose[:, 2]) * back.velocity[:, 0]
+        + np.sin(back.pose[:, 2]) * back.velocity[:, 1]
+    )
+    assert forward.min() < -0.1  # it drove backwards
+    assert_allclose = np.testing.assert_allclose
+    assert_allclose(back.pose[-1, :2], path[-1], atol=1e-9)
+    assert_allclose(integrate_wheel_rates(back), back.pose, atol=1e-9)
+    residual = sway_residual(back.velocity[:, 0], back.velocity[:, 1], back.pose[:, 2])
+    assert np.abs(residual).max() < 1e-9

@@ -234,6 +234,11 @@ class Controller:
 
     # ------------------------------------------------------------------ lifetime
 
+    @property
+    def views(self) -> Views:
+        """Every view, drawn one thread at a time (for the live robot's thread)."""
+        return self._views
+
     def add_view(self, view: View) -> None:
         """Draw on one more view from the next frame on (a benchmark's probe, a recorder)."""
         self._views.add(view)

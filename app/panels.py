@@ -122,9 +122,13 @@ def results_markdown(
 
 
 def wheel_rate_plot_data(
-    trajectory: Any, max_points: int = 400
+    trajectory: Any, max_points: int = 400, max_rate: float | None = None
 ) -> tuple[npt.NDArray[np.float64], ...] | None:
-    """(t, rate_1, ..., rate_k) arrays of a trajectory for the wheel-rate plot, or None."""
+    """(t, rate_1, ..., rate_k) arrays of a trajectory for the wheel-rate plot, or None.
+
+    With a wheel rate limit ``max_rate`` (section 9.7.3) two more series, +limit and
+    -limit, follow the rates.
+    """
     if trajectory is None:
         return None
     t = np.asarray(getattr(trajectory, "t", ()), dtype=np.float64)
@@ -134,7 +138,11 @@ def wheel_rate_plot_data(
     step = max(1, math.ceil(len(t) / max_points))
     idx = np.r_[np.arange(0, len(t), step), len(t) - 1]
     idx = np.unique(idx)
-    return (t[idx], *(rates[idx, k] for k in range(rates.shape[1])))
+    out = (t[idx], *(rates[idx, k] for k in range(rates.shape[1])))
+    if max_rate is not None and math.isfinite(max_rate):
+        flat = np.full(len(idx), float(max_rate))
+        out = (*out, flat, -flat)
+    return out
 
 
 class Panels:
@@ -487,7 +495,8 @@ class Panels:
         if trajectory is self._plot_key:
             return
         self._plot_key = trajectory
-        data = wheel_rate_plot_data(trajectory)
+        limit = frame.scene.robot.max_wheel_rate
+        data = wheel_rate_plot_data(trajectory, max_rate=limit)
         if data is None:
             self.plot.visible = False
             self.time.max = 1.0
@@ -498,8 +507,13 @@ class Panels:
                 "stroke": _WHEEL_COLORS[k % len(_WHEEL_COLORS)],
                 "width": 2,
             }
-            for k in range(len(data) - 1)
+            for k in range(len(data) - 1 - (2 if limit is not None else 0))
         ]
+        if limit is not None:  # the wheel rate limit, dashed (section 9.7.3)
+            series += [
+                {"label": label, "stroke": "#888888", "width": 1, "dash": [6, 4]}
+                for label in ("+limit", "-limit")
+            ]
         self.plot.series = tuple(series)  # type: ignore[assignment]
         self.plot.data = data
         self.plot.visible = True

@@ -18,6 +18,7 @@ __all__ = [
 
 import dataclasses
 import functools
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -26,6 +27,7 @@ import numpy.typing as npt
 
 import kinematics
 from kinematics import RobotParams
+from kinematics.wheel_limits import WheelLimits, centre_limits
 from planners.scene import Robot, Scene
 
 FloatArray = npt.NDArray[np.float64]
@@ -69,8 +71,23 @@ def trajectory(scene: Scene, path: npt.ArrayLike) -> kinematics.Trajectory:
     >>> float(round(trajectory(s, [[0, 0], [1, 0]]).pose[-1, 0], 9))
     1.0
     """
+    params = robot_params(scene.robot)
+    limits = None
+    if (
+        scene.robot.max_wheel_rate is not None
+        or scene.robot.max_wheel_acceleration is not None
+    ):
+        # Section 9.7.3: the centre's limits are derived so every wheel keeps within its own.
+        wheels = WheelLimits(
+            max_rate=scene.robot.max_wheel_rate or math.inf,
+            max_acceleration=scene.robot.max_wheel_acceleration or math.inf,
+        )
+        limits = centre_limits(params, wheels)
+    # With wheel limits, long turns in place are costly: the differential robot may
+    # reverse instead (stop mode).
+    options = kinematics.TrajectoryOptions(reverse=limits is not None)
     return kinematics.plan_trajectory(
-        np.asarray(path, dtype=np.float64), robot_params(scene.robot)
+        np.asarray(path, dtype=np.float64), params, limits=limits, options=options
     )
 
 

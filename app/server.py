@@ -31,6 +31,7 @@ from app import robot as robot_model
 from app.classroom import Classroom, new_token, presenter_url
 from app.controller import Controller
 from app.files import ScenesFolder
+from app.live import LiveRun, MotionPaths, add_live_panel
 from app.panels import Panels
 from app.scoped import ScopedTarget
 from app.view import PlannerView, scene_bounds
@@ -117,6 +118,8 @@ class PlannerApp:
     """Host the server listens on."""
     classroom: Classroom | None = None
     """The classroom (presenter mode), or None: everyone edits (loopback)."""
+    live: LiveRun | None = None
+    """The *Live* DSB robot (:mod:`app.live`)."""
 
     @property
     def presenter_url(self) -> str | None:
@@ -149,7 +152,9 @@ class PlannerApp:
         return ok
 
     def stop(self) -> None:
-        """Stop the controller's threads (and the private copies') and the server."""
+        """Stop the live robot, the controller's threads (and copies') and the server."""
+        if self.live is not None:
+            self.live.close()
         if self.classroom is not None:
             self.classroom.close()
         self.controller.close()
@@ -268,8 +273,17 @@ def _wire(
     )
     controller_box.append(controller)
     panels.attach(controller)
+    # Live mode (issue 17): its own thread, folder and nodes; it reads the newest scene.
+    live = LiveRun(lambda: controller.scene, server, [controller.views])
+    add_live_panel(server, live)
+    controller.add_view(MotionPaths(server))
     return PlannerApp(
-        server=server, controller=controller, view=view, panels=panels, host=host
+        server=server,
+        controller=controller,
+        view=view,
+        panels=panels,
+        host=host,
+        live=live,
     )
 
 

@@ -145,6 +145,10 @@ class TrajectoryOptions:
     """Automatic mode: a path is dense if its median segment is at most this long [m]..."""
     dense_min_segments: int = 8
     """... and it has at least this many segments."""
+    reverse: bool = False
+    """Stop mode, differential robot: at a via point, turn to face the next segment or
+    its opposite, whichever turn is shorter, and drive backwards in the second case
+    (section 9.7.3's limits make long turns costly)."""
 
     def __post_init__(self) -> None:
         check_positive("dt", self.dt)
@@ -445,7 +449,10 @@ def _is_dense(points: FloatArray, options: TrajectoryOptions) -> bool:
 class _Motion:
     """Accumulates rest-to-rest motion pieces that share their boundary samples."""
 
-    def __init__(self, pose0: FloatArray, dt: float, limits: Limits) -> None:
+    def __init__(
+        self, pose0: FloatArray, dt: float, limits: Limits, reverse: bool = False
+    ) -> None:
+        self.reverse = reverse  # may drive backwards (TrajectoryOptions.reverse)
         self.poses: list[FloatArray] = [pose0[None, :].copy()]
         self.vels: list[FloatArray] = [np.zeros((1, 3))]
         self.dt = dt
@@ -502,7 +509,12 @@ def _stop_mode(motion: _Motion, points: FloatArray, follow: bool) -> None:
     for target in _drop_collinear(points)[1:]:
         if follow:
             p = motion.pose
-            motion.turn_to(math.atan2(target[1] - p[1], target[0] - p[0]))
+            ahead = math.atan2(target[1] - p[1], target[0] - p[0])
+            turn = _wrap(ahead - float(p[2]))
+            if motion.reverse:
+                back = _wrap(ahead + math.pi - float(p[2]))
+                turn = back if abs(back) < abs(turn) else turn
+            motion.rotate_by(turn)
         motion.translate(target)
 
 
@@ -780,7 +792,12 @@ def plan_trajectory(
         phi0 = math.atan2(points[1, 1] - points[0, 1], points[1, 0] - points[0, 0])
     else:
         phi0 = math.pi / 2  # robot frame aligned with the world frame
-    motion = _Motion(np.array([points[0, 0], points[0, 1], phi0]), options.dt, limits)
+    motion = _Motion(
+        np.array([points[0, 0], points[0, 1], phi0]),
+        options.dt,
+        limits,
+        reverse=options.reverse and differential,
+    )
 
     if continuous:
         for piece in _split_sharp(points, options.max_blend_angle):

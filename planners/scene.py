@@ -44,6 +44,8 @@ from typing import Any
 import shapely
 from shapely import Polygon
 
+from planners.motion import MOTION_MODES, Motion
+
 ROBOT_KINDS = ("holonomic", "differential")
 EXPANSION_MODES = ("disk", "square")
 FORMAT_VERSION = 1
@@ -73,6 +75,11 @@ class Robot:
     """Wheel radius r [m]."""
     wheel_distance: float = 0.25
     """Distance L from the robot's centre to each wheel [m]."""
+    max_wheel_rate: float | None = None
+    """Largest wheel angular rate [rad/s] (section 9.7.3), None for no limit."""
+    max_wheel_acceleration: float | None = None
+    """Largest wheel angular acceleration [rad/s^2] (limits wheel slip, section 9.7.3),
+    None for no limit."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,6 +109,9 @@ class Scene:
     """Short title shown in the app."""
     description: str = ""
     """A sentence or two a lecturer can read aloud."""
+    motions: tuple[Motion, ...] = ()
+    """Moving obstacles (:mod:`planners.motion`), at most one per obstacle, by obstacle
+    index; ``obstacles`` is the scene at time 0."""
 
 
 Scenario = Scene  # the file format's name for the same value
@@ -122,10 +132,21 @@ _TOP_KEYS = frozenset(
         "robot",
         "expansion",
         "sensor_range",
+        "motions",
     }
 )
 _REQUIRED_KEYS = ("format", "obstacles", "start", "goal")
-_ROBOT_KEYS = frozenset({"kind", "radius", "wheel_radius", "wheel_distance"})
+_ROBOT_KEYS = frozenset(
+    {
+        "kind",
+        "radius",
+        "wheel_radius",
+        "wheel_distance",
+        "max_wheel_rate",
+        "max_wheel_acceleration",
+    }
+)
+_MOTION_KEYS = frozenset({"obstacle", "waypoints", "speed", "mode", "pause"})
 
 
 def _number(source: str, field: str, value: Any) -> float:
@@ -231,8 +252,9 @@ def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
     boundary = None
     if data.get("boundary") is not None:
         boundary = _polygon(source, "boundary", data["boundary"])
+    obstacles = _obstacles(source, data["obstacles"])
     return Scene(
-        obstacles=_obstacles(source, data["obstacles"]),
+        obstacles=obstacles,
         start=_point(source, "start", data["start"]),
         goal=_point(source, "goal", data["goal"]),
         boundary=boundary,
@@ -243,6 +265,7 @@ def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
         sensor_range=_positive(source, "sensor_range", data.get("sensor_range", 2.0)),
         name=name,
         description=description,
+        motions=_motions(source, data.get("motions", []), len(obstacles)),
     )
 
 
@@ -328,7 +351,79 @@ def _robot(source: str, data: Any) -> Robot:
                 source, f"robot.{key}", f"must be {bound}, got {value!r}"
             )
         values[key] = value
-    return Robot(kind=kind, **values)
+    limits = {
+        key: _positive(source, f"robot.{key}", data[key])
+        for key in ("max_wheel_rate", "max_wheel_acceleration")
+        if data.get(key) is not None
+    }
+    return Robot(kind=kind, **values, **limits)
+
+
+def _motions(source: str, value: Any, n_obstacles: int) -> tuple[Motion, ...]:
+    """Check the optional ``motions`` list (:mod:`planners.motion`), one per obstacle."""
+    if not isinstance(value, (list, tuple)):
+        raise ScenarioError(
+            source, "motions", f"expected a list of motions, got {_describe(value)}"
+        )
+    out = [
+        _motion(source, f"motions[{k}]", m, n_obstacles) for k, m in enumerate(value)
+    ]
+    seen: set[int] = set()
+    for k, m in enumerate(out):
+        if m.obstacle in seen:
+            raise ScenarioError(
+                source,
+                f"motions[{k}].obstacle",
+                f"obstacle {m.obstacle} already has a motion",
+            )
+        seen.add(m.obstacle)
+    return tuple(out)
+
+
+def _motion(source: str, field: str, data: Any, n_obstacles: int) -> Motion:
+    if not isinstance(data, Mapping):
+        raise ScenarioError(source, field, f"expected an object, got {_describe(data)}")
+    unknown = sorted(set(data) - _MOTION_KEYS)
+    if unknown:
+        raise ScenarioError(
+            source,
+            f"{field}.{unknown[0]}",
+            f"unknown key (allowed: {', '.join(sorted(_MOTION_KEYS))})",
+        )
+    for key in ("obstacle", "waypoints", "speed"):
+        if key not in data:
+            raise ScenarioError(source, f"{field}.{key}", "missing required key")
+    index = data["obstacle"]
+    if isinstance(index, bool) or not isinstance(index, int):
+        raise ScenarioError(
+            source, f"{field}.obstacle", f"expected an index, got {_describe(index)}"
+        )
+    if not 0 <= index < n_obstacles:
+        raise ScenarioError(
+            source,
+            f"{field}.obstacle",
+            f"no obstacle {index} (the file has {n_obstacles}, numbered from 0)",
+        )
+    waypoints = data["waypoints"]
+    if not isinstance(waypoints, (list, tuple)) or not waypoints:
+        raise ScenarioError(
+            source,
+            f"{field}.waypoints",
+            f"expected a non-empty list of [dx, dy], got {_describe(waypoints)}",
+        )
+    pause = _number(source, f"{field}.pause", data.get("pause", 0.0))
+    if pause < 0:
+        raise ScenarioError(source, f"{field}.pause", f"must be >= 0, got {pause!r}")
+    return Motion(
+        obstacle=index,
+        waypoints=tuple(
+            _point(source, f"{field}.waypoints[{k}]", w)
+            for k, w in enumerate(waypoints)
+        ),
+        speed=_positive(source, f"{field}.speed", data["speed"]),
+        mode=_choice(source, f"{field}.mode", data.get("mode", "loop"), MOTION_MODES),
+        pause=pause,
+    )
 
 
 def load_scene(path_or_dict: str | os.PathLike[str] | Mapping[str, Any]) -> Scene:
@@ -414,9 +509,23 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
     data["obstacles"] = [_ring_list(o) for o in scene.obstacles]
     data["start"] = list(scene.start)
     data["goal"] = list(scene.goal)
-    data["robot"] = dataclasses.asdict(scene.robot)
+    # Wheel limits only when set: a scene without them is written as before.
+    data["robot"] = {
+        k: v for k, v in dataclasses.asdict(scene.robot).items() if v is not None
+    }
     data["expansion"] = scene.expansion
     data["sensor_range"] = scene.sensor_range
+    if scene.motions:  # only when there are: static scenes are written as before
+        data["motions"] = [
+            {
+                "obstacle": m.obstacle,
+                "waypoints": [list(w) for w in m.waypoints],
+                "speed": m.speed,
+                "mode": m.mode,
+                "pause": m.pause,
+            }
+            for m in scene.motions
+        ]
     return data
 
 
@@ -584,10 +693,16 @@ def add_obstacle(scene: Scene, coords: Sequence[Iterable[float]]) -> Scene:
 
 
 def delete_obstacle(scene: Scene, i: int) -> Scene:
-    """Return ``scene`` without obstacle ``i``."""
+    """Return ``scene`` without obstacle ``i`` (and its motion; later ones renumbered)."""
     obstacles = list(scene.obstacles)
     del obstacles[i]
-    return dataclasses.replace(scene, obstacles=tuple(obstacles))
+    i = i % (len(obstacles) + 1)  # a negative index names the same obstacle
+    motions = tuple(
+        m if m.obstacle < i else dataclasses.replace(m, obstacle=m.obstacle - 1)
+        for m in scene.motions
+        if m.obstacle != i
+    )
+    return dataclasses.replace(scene, obstacles=tuple(obstacles), motions=motions)
 
 
 def move_obstacle(scene: Scene, i: int, delta: Iterable[float]) -> Scene:

@@ -78,7 +78,10 @@ class ObstacleHull:
     """One obstacle of the configuration space with its convex hull (Fig. 9.11)."""
 
     index: int
-    """Position in :attr:`ConfigurationSpace.merged` (0-based)."""
+    """Position in the explanation's list of obstacles (:attr:`Explanation.data`),
+    which follows the scene's numbering; :attr:`SvgTag.obstacle` refers to it."""
+    merged_index: int
+    """Position of its shape in :attr:`ConfigurationSpace.merged`."""
     name: str
     """``"obstacle 2"``, or ``"obstacles 2 and 3"`` when they merged after expansion."""
     hull: tuple[tuple[float, float], ...]
@@ -197,11 +200,16 @@ def _setting(
     ):
         raise RuntimeError("the SVG builder gave a different graph on the same scene")
     # In the scene's order of obstacles (a merged one where its first obstacle is).
-    comps = sorted(cspace.merged.geoms, key=lambda c: _members(cspace, c)[:1] or [0])
+    geoms = list(cspace.merged.geoms)
+    order = sorted(
+        range(len(geoms)), key=lambda m: _members(cspace, geoms[m])[:1] or [0]
+    )
+    comps = [geoms[m] for m in order]
     hull_polygons = tuple(shapely.convex_hull(c) for c in comps)
     hulls = tuple(
         ObstacleHull(
             k,
+            order[k],
             _component_name(cspace, comp),
             _ccw(hull_polygons[k]),
             _holds(hull_polygons[k], scene, cspace.eps),
@@ -349,7 +357,7 @@ def _same_obstacle_tag(
 ) -> SvgTag:
     hull = setting.hulls[k]
     tol = 10 * setting.cspace.eps
-    comp = setting.cspace.merged.geoms[k]
+    comp = setting.cspace.merged.geoms[hull.merged_index]
     obstacle_edge = _along(comp.boundary, a, b, tol)
     hull_edge = _along(setting.hull_polygons[k].boundary, a, b, tol)
     if hull.holds and obstacle_edge:

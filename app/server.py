@@ -28,6 +28,7 @@ import viser
 import planners
 from app import robot as robot_model
 from app.controller import Controller
+from app.explain_panel import ExplainPanel
 from app.files import ScenesFolder
 from app.panels import Panels
 from app.view import PlannerView, scene_bounds
@@ -112,6 +113,8 @@ class PlannerApp:
     """The control panel."""
     host: str
     """Host the server listens on."""
+    explain: ExplainPanel | None = None
+    """The Explain panel (issue 13): ``explain.choose("svg")``, ``explain.explainer.go(3)``."""
 
     @property
     def port(self) -> int:
@@ -138,6 +141,8 @@ class PlannerApp:
 
     def stop(self) -> None:
         """Stop the controller's threads and the server."""
+        if self.explain is not None:
+            self.explain.close()
         self.controller.close()
         self.server.stop()
 
@@ -239,8 +244,15 @@ def _wire(
     )
     controller_box.append(controller)
     panels.attach(controller)
+    explain = ExplainPanel(server, controller)
+    controller.add_view(explain)
     return PlannerApp(
-        server=server, controller=controller, view=view, panels=panels, host=host
+        server=server,
+        controller=controller,
+        view=view,
+        panels=panels,
+        host=host,
+        explain=explain,
     )
 
 

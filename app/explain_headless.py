@@ -10,7 +10,7 @@ step, so a sequence of 30 pictures takes one page load.
 
 from __future__ import annotations
 
-__all__ = ["explain_snapshots", "parse_step"]
+__all__ = ["explain_snapshots", "parse_step", "step_bounds"]
 
 import contextlib
 import math
@@ -213,17 +213,18 @@ def _pictures(
         )
     wanted = [number - 1] if number is not None else list(range(count))
     deadline = time.monotonic() + timeout * max(1, len(wanted))
-    pose = headless.frame_camera(
-        headless.scene_bounds(planner_app.controller.scene), width, height, view
-    )
+    whole = headless.scene_bounds(planner_app.controller.scene)
     with headless.open_page(
         planner_app, browser, width=width, height=height, timeout=timeout
     ) as shown:
         shown.page.add_style_tag(content=headless._HIDE_GUI_CSS)
         shown.page.evaluate("() => document.fonts.ready.then(() => true)")
-        headless._apply_camera(shown.client, pose, deadline)
         lines = []
         for n in wanted:
+            bounds = step_bounds(explanation, n, whole)
+            planner_app.explain.caption_bounds = bounds
+            pose = headless.frame_camera(bounds, width, height, view)
+            headless._apply_camera(shown.client, pose, deadline)
             explainer.go(n)
             explainer.wait_ready(timeout)
             planner_app.wait_idle(timeout)
@@ -234,6 +235,35 @@ def _pictures(
             lines.append(f"{n + 1:03d} {explanation.steps[n].text}")
         if number is None:
             _write(out / "steps.txt", ("\n".join(lines) + "\n").encode())
+
+
+def step_bounds(
+    explanation: Any, n: int, whole: tuple[float, float, float, float]
+) -> tuple[float, float, float, float]:
+    """Return what the picture of step ``n`` frames [m].
+
+    The whole scene, except for a DSB step with a finite sensor range: the robot's
+    neighbourhood (2.5 R around r, at least 1.2 m), where the decision is taken and its
+    O_i and labels would otherwise be a few pixels apart.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as NS
+    >>> from planners.explain import Step, point_mark
+    >>> step = Step("dsb:choose_O_i", "t", (point_mark("focus", [(5.0, 5.0)]),))
+    >>> ex = NS(method="dsb", data=NS(sensor_range=0.6), step=lambda n: step)
+    >>> step_bounds(ex, 0, (0.0, 0.0, 10.0, 8.0))
+    (3.5, 3.5, 6.5, 6.5)
+    """
+    step = explanation.step(n)
+    focus = step.mark("focus")
+    data = getattr(explanation, "data", None)
+    sensor_range = getattr(data, "sensor_range", math.inf)
+    if explanation.method != "dsb" or focus is None or not math.isfinite(sensor_range):
+        return whole
+    x, y = (float(v) for v in focus.points[0])
+    half = max(2.5 * float(sensor_range), 1.2)
+    return (x - half, y - half, x + half, y + half)
 
 
 def _write(path: Path, data: bytes) -> None:

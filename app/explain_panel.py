@@ -286,6 +286,9 @@ class ExplainPanel:
         self._saved_layers: dict[str, bool] | None = None
         self._layers: Mapping[str, bool] = {}
         self._scene: Scene | None = None
+        self.caption_bounds: tuple[float, float, float, float] | None = None
+        """Where the caption goes: the top-left of these bounds (xmin, ymin, xmax, ymax)
+        [m] when set (a picture that frames part of the scene), else the scene's."""
         gui = server.gui
         with gui.add_folder("Explain", expand_by_default=False):
             self.method = gui.add_dropdown("Method", list(METHOD_TITLES.values()))
@@ -366,8 +369,14 @@ class ExplainPanel:
     # ---------------------------------------------------------------- drawing
 
     def _draw(self, step: Step | None, explanation: Explanation | None) -> None:
-        scene = self._scene
-        at = _caption_at(scene) if scene is not None else None
+        scene, box = self._scene, self.caption_bounds
+        at = (
+            (box[0], box[3], 0.12)
+            if box is not None
+            else _caption_at(scene)
+            if scene is not None
+            else None
+        )
         n = self.explainer.step
         if step is None or explanation is None:
             self._view.show(None)

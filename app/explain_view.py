@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from app.style import BLACK, BLUE, DARK_PURPLE, GREEN, ORANGE, SKY, VERMILLION, tint
-from app.view import _Labels, _Segments, lift_segments
+from app.view import _Labels, _Segments, lift_segments, merge_labels
 from planners.explain import ROLES, Step, circle_segments
 
 if TYPE_CHECKING:
@@ -61,6 +61,7 @@ ROLE_LOOKS: Mapping[str, RoleLook] = MappingProxyType(
         "result": RoleLook(GREEN, 0.06, 0.081),
         "current": RoleLook(GREEN, 0.06, 0.082),
         "chosen": RoleLook(BLACK, 0.05, 0.084),
+        "heading": RoleLook((110, 110, 110), 0.012, 0.083),
         "candidate": RoleLook(ORANGE, 0.03, 0.086, point_size=0.09),
         "focus": RoleLook(VERMILLION, 0.04, 0.088, point_size=0.14),
     }
@@ -68,6 +69,9 @@ ROLE_LOOKS: Mapping[str, RoleLook] = MappingProxyType(
 """Look of each role of :data:`planners.explain.ROLES`: what this step adds in bold green,
 earlier steps pale blue, blocked lines of sight pale red with their blocking edge bold red,
 the path black, the O_i orange, the vertex or robot under study ringed in red."""
+
+LABEL_JOIN_M = 0.2
+"""Labels of one role closer than this [m] are joined into one ("O_1 ... | O_4 ...")."""
 
 CAPTION_SCALE = 0.9
 """Screen scale of the caption (the step's line of text drawn in the scene)."""
@@ -140,5 +144,7 @@ def _labels(step: Step | None) -> list[tuple[str, Any]]:
     out = []
     for mark in step.marks:
         z = ROLE_LOOKS[mark.role].height + 0.01
-        out.extend((text, (float(x), float(y), z)) for text, (x, y) in mark.labels)
+        # Two O_i a few centimetres apart would print one label over the other.
+        joined = merge_labels(list(mark.labels), LABEL_JOIN_M)
+        out.extend((text, (float(x), float(y), z)) for text, (x, y) in joined)
     return out

@@ -55,6 +55,7 @@ ROLES = (
     "focus",
     "candidate",
     "chosen",
+    "heading",
     "sensor",
     "seen",
     "shape",
@@ -71,7 +72,9 @@ ROLES = (
 - ``"path"``: the shortest path found, or the robot's path so far;
 - ``"focus"``: the vertex being examined, or the robot r;
 - ``"candidate"``: the O_i in view (Fig. 9.16);
-- ``"chosen"``: r_next, the line r -> O_i -> g;
+- ``"chosen"``: r_next, the line r -> O_i;
+- ``"heading"``: the rest of the estimate, O_i -> g (a straight line, through
+  whatever lies between: d(O_i, g) ignores obstacles);
 - ``"sensor"``: the circle of radius R around the robot;
 - ``"seen"``: the border the sensor sees;
 - ``"shape"``: the robot model placed at an obstacle vertex (Figs. 9.7b / 9.8b);

@@ -318,12 +318,12 @@ def _step(trace: BugTrace, d: Decision, rec: DsbStep, end: float) -> Step:
             for c in rec.candidates
         ),
     )
-    chosen = (
-        as_segments([(rec.r, rec.r_next), (rec.r_next, trace.goal)])
-        if rec.r_next is not None
-        else np.zeros((0, 2, 2))
+    none = np.zeros((0, 2, 2))
+    chosen = as_segments([(rec.r, rec.r_next)]) if rec.r_next is not None else none
+    heading = (
+        as_segments([(rec.r_next, trace.goal)]) if rec.r_next is not None else none
     )
-    label = "M" if rec.local_minimum else "r"
+    focus = _focus(trace, rec)
     table = tuple(
         (
             c.label + (" *" if c.chosen else "") + ("" if c.valid else " (away)"),
@@ -335,13 +335,14 @@ def _step(trace: BugTrace, d: Decision, rec: DsbStep, end: float) -> Step:
         f"dsb:{rec.box}",
         rec.why,
         marks(
-            path=_piece(trace, 0.0, d.s),
+            done=_piece(trace, 0.0, d.s),
             current=_piece(trace, d.s, end),
             sensor=sensor,
             seen=sensing.segments if sensing is not None else np.zeros((0, 2, 2)),
             candidate=cand,
             chosen=chosen,
-            focus=point_mark("focus", [rec.r], ((label, rec.r),)),
+            heading=heading,
+            focus=focus,
         ),
         (
             ("mode", rec.mode),
@@ -350,6 +351,30 @@ def _step(trace: BugTrace, d: Decision, rec: DsbStep, end: float) -> Step:
             *table,
         ),
     )
+
+
+def _focus(trace: BugTrace, rec: DsbStep) -> Any:
+    """Return the robot r as a focus mark, and the M it follows a border from.
+
+    r is named M or L where it declares a local minimum or leaves, with the leave
+    test's numbers while it follows a border.
+    """
+    name = "M" if rec.local_minimum else "L" if rec.box == "leave" else "r"
+    if rec.leave_test and rec.box != "local_minimum":
+        (a, x), (b, y) = rec.leave_test[0], rec.leave_test[-1]
+        sign = "<" if rec.box == "leave" else ">="
+        name = f"{name}: {a} {x:.2f} {sign} {b} {y:.2f}"
+    points, labels = [rec.r], [(name, rec.r)]
+    m = _last_local_min(trace, rec.s)
+    if m is not None and rec.mode == "boundary following" and not rec.local_minimum:
+        points.append(m)
+        labels.append(("M", m))
+    return point_mark("focus", points, labels)
+
+
+def _last_local_min(trace: BugTrace, s: float) -> tuple[float, float] | None:
+    ms = [e.at for e in trace.events if e.kind == "local_min" and e.s <= s + 1e-12]
+    return (float(ms[-1][0]), float(ms[-1][1])) if ms else None
 
 
 def _piece(trace: BugTrace, s0: float, s1: float) -> FloatArray:

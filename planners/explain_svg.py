@@ -346,8 +346,8 @@ def _tangent_tag(
     first, second = sorted((k, m))
     why = (
         f"Step 1: a common tangent of {setting.hulls[first].name} and "
-        f"{setting.hulls[second].name}: the line through it touches both without "
-        "entering either."
+        f"{setting.hulls[second].name}: the line through it touches both at its ends "
+        "without entering either there."
     )
     return SvgTag(a, b, "1", first, why)
 
@@ -448,6 +448,7 @@ def _rule_steps(setting: _Setting, tags: tuple[SvgTag, ...]) -> list[Step]:
                     done=_tag_segments(done),
                     hull=hull_mark,
                     current=_tag_segments(group),
+                    focus=point_mark("focus", _focus(setting, group)),
                 ),
                 (("segments", str(len(group))),),
             )
@@ -467,17 +468,51 @@ def _groups(
         names = [setting.hulls[k].name for k in pair]
         text = (
             f"Step 1: the common tangents of {names[0]} and {names[1]} "
-            f"({len(group)} segment{'s' * (len(group) != 1)}): each touches both "
-            "obstacles at a vertex without entering either."
+            f"({len(group)} segment{'s' * (len(group) != 1)}): the line through each "
+            "touches both obstacles at its ends without entering either there."
         )
         out.append(("svg:1", text, group, list(pair)))
     for hull in setting.hulls:
         out.extend(_obstacle_groups(hull, tags))
     for rule in ("pocket", "mouth", "pinch", "wall", "direct"):
-        group = [t for t in tags if t.rule == rule]
-        if group:
-            out.append((f"svg:{rule}", group[0].why, group, []))
+        for k in sorted({t.obstacle for t in tags if t.rule == rule}, key=_none_first):
+            group = [t for t in tags if t.rule == rule and t.obstacle == k]
+            out.append((f"svg:{rule}", group[0].why, group, [] if k is None else [k]))
     return out
+
+
+def _none_first(k: int | None) -> int:
+    return -1 if k is None else k
+
+
+def _focus(setting: _Setting, group: list[SvgTag]) -> list[tuple[float, float]]:
+    """Return the points a step is about.
+
+    The start or goal it joins, the pocket or pinch vertices it adds; none for step 1
+    and edges (the segments themselves tell).
+    """
+    points: list[tuple[float, float]] = []
+    for t in group:
+        if t.end is not None and t.rule in ("2a", "2b"):
+            points.append(t.a)
+        elif t.rule == "pocket" and t.obstacle is not None:
+            points.extend(p for p in (t.a, t.b) if _in_pocket(setting, t.obstacle, p))
+        elif t.rule == "pinch":
+            points.extend(
+                p
+                for p in (t.a, t.b)
+                if setting.reasons[_node_of(setting, p)] == "pinch"
+            )
+    return list(dict.fromkeys(points))
+
+
+def _in_pocket(setting: _Setting, k: int, p: tuple[float, float]) -> bool:
+    n = _node_of(setting, p)
+    return setting.owner[n] == k and not _on_hull(setting, k, p)
+
+
+def _node_of(setting: _Setting, p: tuple[float, float]) -> int:
+    return int(np.argmin(np.hypot(*(setting.arrays.points - np.asarray(p)).T)))
 
 
 def _pair(setting: _Setting, tag: SvgTag) -> tuple[int, int]:
@@ -488,8 +523,7 @@ def _pair(setting: _Setting, tag: SvgTag) -> tuple[int, int]:
 
 
 def _owner_of(setting: _Setting, p: tuple[float, float]) -> int:
-    d = np.hypot(*(setting.arrays.points - np.asarray(p)).T)
-    return setting.owner[int(np.argmin(d))]
+    return setting.owner[_node_of(setting, p)]
 
 
 def _obstacle_groups(

@@ -21,6 +21,7 @@ __all__ = [
     "ExplainPanel",
     "Explainer",
     "flowchart_html",
+    "hidden_layers",
     "table_html",
 ]
 
@@ -68,6 +69,20 @@ HIDDEN_LAYERS = (
 )
 """Layers hidden while a method is explained (the explanation draws its own), restored
 as they were when Explain is switched off."""
+
+
+def hidden_layers(method: str) -> tuple[str, ...]:
+    """Return the layers hidden while ``method`` is explained.
+
+    Examples
+    --------
+    >>> "expanded" in hidden_layers("expansion"), "expanded" in hidden_layers("svg")
+    (True, False)
+    """
+    if method == "off":
+        return ()
+    # The expansion explained is built step by step: the finished one would give it away.
+    return (*HIDDEN_LAYERS, "expanded") if method == "expansion" else HIDDEN_LAYERS
 
 
 def table_html(step: Step) -> str:
@@ -333,23 +348,25 @@ class ExplainPanel:
 
     def choose(self, method: str, obstacle: int | None = None) -> None:
         """Explain ``method`` (a key of :data:`METHOD_TITLES`), hiding the plans' layers."""
-        self._hide_layers(method != "off")
+        self._restore_layers()
+        if method != "off":
+            self._hide_layers(hidden_layers(method))
         self.explainer.choose(method, obstacle)
         self.method.value = METHOD_TITLES[method]
 
-    def _hide_layers(self, hide: bool) -> None:
-        if hide and self._saved_layers is None:
-            self._saved_layers = {
-                k: bool(self._layers.get(k, True)) for k in HIDDEN_LAYERS
-            }
-            for key in HIDDEN_LAYERS:
-                if key in self._layers:
-                    self._controller.set_layer(key, False)
-        elif not hide and self._saved_layers is not None:
-            for key, visible in self._saved_layers.items():
-                if key in self._layers:
-                    self._controller.set_layer(key, visible)
-            self._saved_layers = None
+    def _hide_layers(self, keys: tuple[str, ...]) -> None:
+        self._saved_layers = {k: bool(self._layers.get(k, True)) for k in keys}
+        for key in keys:
+            if key in self._layers:
+                self._controller.set_layer(key, False)
+
+    def _restore_layers(self) -> None:
+        if self._saved_layers is None:
+            return
+        for key, visible in self._saved_layers.items():
+            if key in self._layers:
+                self._controller.set_layer(key, visible)
+        self._saved_layers = None
 
     # ---------------------------------------------------------------- the view protocol
 

@@ -51,7 +51,7 @@ ROLE_LOOKS: Mapping[str, RoleLook] = MappingProxyType(
     {
         "done": RoleLook(tint(BLUE, 0.55), 0.02, 0.070),
         "hull": RoleLook(SKY, 0.035, 0.072),
-        "shape": RoleLook(tint(ORANGE, 0.2), 0.02, 0.073),
+        "shape": RoleLook(BLUE, 0.02, 0.073),
         "seen": RoleLook(SKY, 0.07, 0.074),
         "sensor": RoleLook(DARK_PURPLE, 0.025, 0.075),
         "blocked": RoleLook(tint(VERMILLION, 0.5), 0.012, 0.076),

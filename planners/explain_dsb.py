@@ -366,7 +366,13 @@ def _focus(trace: BugTrace, rec: DsbStep) -> Any:
         name = f"{name}: {a} {x:.2f} {sign} {b} {y:.2f}"
     points, labels = [rec.r], [(name, rec.r)]
     m = _last_local_min(trace, rec.s)
-    if m is not None and rec.mode == "boundary following" and not rec.local_minimum:
+    far = m is not None and math.dist(m, rec.r) > 0.25 * min(trace.sensor_range, 1.0)
+    if (
+        m is not None
+        and far
+        and rec.mode == "boundary following"
+        and not rec.local_minimum
+    ):
         points.append(m)
         labels.append(("M", m))
     return point_mark("focus", points, labels)

@@ -40,6 +40,7 @@ FloatArray = npt.NDArray[np.float64]
 
 _FIGURE = MappingProxyType({"disk": "Fig. 9.7", "square": "Fig. 9.8"})
 _SHAPE = MappingProxyType({"disk": "disk", "square": "enclosing square"})
+_ARTICLE = MappingProxyType({"disk": "a", "square": "an"})
 
 
 def explain_expansion(
@@ -102,8 +103,8 @@ def _model_steps(
     steps = [
         Step(
             f"expansion:{model}",
-            f"{fig}(a): obstacle {obstacle} as a polygon; the robot, modelled as a "
-            f"{shape} ({size}), shrinks to a point.",
+            f"{fig}(a): obstacle {obstacle} as a polygon; the robot, modelled as "
+            f"{_ARTICLE[model]} {shape} ({size}), shrinks to a point.",
             marks(current=outline),
         )
     ]

@@ -113,7 +113,7 @@ class PlannerApp:
     """The control panel."""
     host: str
     """Host the server listens on."""
-    explain: ExplainPanel | None = None
+    explain: ExplainPanel
     """The Explain panel (issue 13): ``explain.choose("svg")``, ``explain.explainer.go(3)``."""
 
     @property
@@ -141,8 +141,7 @@ class PlannerApp:
 
     def stop(self) -> None:
         """Stop the controller's threads and the server."""
-        if self.explain is not None:
-            self.explain.close()
+        self.explain.close()
         self.controller.close()
         self.server.stop()
 

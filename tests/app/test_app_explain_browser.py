@@ -55,7 +55,9 @@ def planner() -> Iterator[Any]:
 
 
 def _open(browser: Any, planner: Any) -> Any:
-    page = browser.new_page(viewport={"width": WIDTH, "height": HEIGHT}, device_scale_factor=1)
+    page = browser.new_page(
+        viewport={"width": WIDTH, "height": HEIGHT}, device_scale_factor=1
+    )
     page.goto(f"{planner.url}?fixedDpr=1")
     page.wait_for_function(
         "() => window.__viserMutable && ('/explain/current' in window.__viserMutable.nodeRefFromName)"
@@ -161,8 +163,14 @@ def test_explain_steps_forward_in_the_browser_and_follows_an_edit(browser, plann
     done = wait_shown(page, planner, "done")
     assert len(done) >= len(seen_current[0]) + len(seen_current[1])
 
+    _drag_the_goal_while_explaining(page, planner)
+    page.close()
+
+
+def _drag_the_goal_while_explaining(page: Any, planner: Any) -> None:
     # A student drags the goal while Explain is on: the new scene is explained, at the
     # same step number.
+    explainer = planner.explain.explainer
     before_goal = planner.controller.scene.goal
     before = explainer.explanation
     target = (9.0, 1.0)
@@ -190,4 +198,3 @@ def test_explain_steps_forward_in_the_browser_and_follows_an_edit(browser, plann
     ready(planner)
     assert planner.controller.frame.layers["svg_edges"]
     assert browser_segments(page, "current") is None
-    page.close()

@@ -114,13 +114,16 @@ def flowchart_html(box: str | None) -> str:
     parts = []
     for key, label in FLOWCHART:
         on = key == box
-        style = (
-            "border:1px solid #333;border-radius:4px;padding:2px 4px;margin:1px 0;"
-            + ("background:#E69F00;font-weight:bold;" if on else "background:#f4f4f4;")
+        style = "border:1px solid #333;border-radius:3px;padding:1px 4px;margin:0;" + (
+            "background:#E69F00;font-weight:bold;" if on else "background:#f4f4f4;"
         )
         parts.append(f'<div style="{style}">{html.escape(label)}</div>')
-    arrows = '<div style="text-align:center;color:#666">&darr;</div>'
-    return '<div style="font-size:0.8em">' + arrows.join(parts) + "</div>"
+    arrows = '<div style="text-align:center;color:#666;line-height:1">&darr;</div>'
+    return (
+        '<div style="font-size:0.75em"><b>Fig. 9.15</b> (DSB flowchart)'
+        + arrows.join(parts)
+        + "</div>"
+    )
 
 
 class Explainer:
@@ -309,10 +312,11 @@ class ExplainPanel:
             self.method = gui.add_dropdown("Method", list(METHOD_TITLES.values()))
             self.obstacle = gui.add_number("Obstacle", 1, min=1, max=99, step=1)
             self.nav = gui.add_button_group("Step", ["|<", "<", ">", ">|"])
-            self.slider = gui.add_slider("Step no.", 0, 1, 1, 0)
+            # Numbered from 1, as the text says "step n of N".
+            self.slider = gui.add_slider("Step no.", 1, 2, 1, 1)
             self.text = gui.add_markdown("*Choose a method to step through it.*")
-            self.table = gui.add_html("")
             self.flowchart = gui.add_html("")
+            self.table = gui.add_html("")
         self.explainer = Explainer(self._draw)
         self._bind()
 
@@ -342,7 +346,7 @@ class ExplainPanel:
         @self.slider.on_update
         def _(event: Any) -> None:
             if event.client is not None:
-                self.explainer.go(int(event.target.value))
+                self.explainer.go(int(event.target.value) - 1)
 
     # ---------------------------------------------------------------- commands
 
@@ -418,8 +422,8 @@ class ExplainPanel:
             )
             self.table.content = self.flowchart.content = ""
             return
-        self.slider.max = max(1, len(explanation.steps) - 1)
-        self.slider.value = n
+        self.slider.max = max(2, len(explanation.steps))
+        self.slider.value = n + 1
         self.text.content = f"**{explanation.title}**, step {n + 1} of {len(explanation.steps)}\n\n{step.text}"
         self.table.content = table_html(step)
         dsb = explanation.method == "dsb"

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
+import shapely
 
 from planners.border import ring_geometry
 from planners.explain import Explanation, Step, as_segments, marks, point_mark
@@ -176,11 +177,23 @@ def _first_crossing(
 def _entry_edge(
     cspace: ConfigurationSpace, seg: FloatArray, start: FloatArray, end: FloatArray
 ) -> int:
+    """Return the border edge where a segment that crosses none enters blocked space.
+
+    It passes through a vertex (or leaves one) into an obstacle: of the edges it touches,
+    the one nearest its first blocked point.
+    """
     t = np.linspace(0.0, 1.0, _SAMPLES)[1:-1]
     pts = seg[0] + t[:, None] * (seg[1] - seg[0])
     inside = cspace.contains_blocked(pts)
     entry = pts[int(np.argmax(inside))]
-    return _nearest_edge(start, end, entry)
+    edges = shapely.linestrings(np.stack([start, end], axis=1))
+    gap = np.asarray(
+        shapely.distance(shapely.linestrings(seg), edges), dtype=np.float64
+    )
+    touching = np.flatnonzero(gap <= 10.0 * cspace.eps)
+    if len(touching) == 0:  # cannot happen for a blocked segment; never fail a drawing
+        return _nearest_edge(start, end, entry)
+    return int(touching[_nearest_edge(start[touching], end[touching], entry)])
 
 
 def _nearest_edge(start: FloatArray, end: FloatArray, p: FloatArray) -> int:

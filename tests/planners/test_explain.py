@@ -502,3 +502,30 @@ def test_invalid_scene_gives_one_step_that_says_why():
 def test_step_clamps():
     ex = planners.explain_svg(_scenario("01_two_convex"))
     assert ex.step(-3) is ex.steps[0] and ex.step(999) is ex.steps[-1]
+
+
+def test_vg_blocker_of_a_diagonal_through_its_own_square():
+    # From corner (0, 0) to corner (1, 1) through the square: no edge is crossed; the
+    # segment leaves the vertex into the obstacle, and its blocker is an edge there.
+    scene = load_scene(scene_dict([[(0, 0), (1, 0), (1, 1), (0, 1)]], (-1, -1), (3, 3)))
+    plans = plan_all(scene, ("vg",))
+    ex = planners.explain_vg(scene, plans=plans)
+    points = plans["vg"].arrays.points
+    corner = next(look for look in ex.data if np.allclose(points[look.node], (0, 0)))
+    k = next(i for i, seg in enumerate(corner.blocked) if np.allclose(seg[1], (1, 1)))
+    assert any(np.allclose(p, (0, 0)) for p in corner.blockers[k])
+
+
+def test_vg_blocker_where_three_triangles_overlap():
+    # Found by Hypothesis: a segment that enters blocked space through a vertex of
+    # merged triangles; its blocker is an edge it touches, not merely a nearby one.
+    tri = [(2, 1), (0.5, 1.866), (0.5, 0.134)]
+    scene = load_scene(
+        scene_dict(
+            [tri, tri, [(2, 1), (0.5, 1.866), (0.75, 0.567)]],
+            (0, 0),
+            (0, 0),
+            radius=0.15,
+        )
+    )
+    assert _check_vg(scene)

@@ -347,6 +347,7 @@ def _step(trace: BugTrace, d: Decision, rec: DsbStep, end: float) -> Step:
         (
             ("mode", rec.mode),
             ("box", rec.box),
+            ("arrow", rec.arrow),
             ("d(r, g)", f"{rec.d_goal:.2f}"),
             *table,
         ),

@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 FloatArray = npt.NDArray[np.float64]
 
 # Points along a blocked segment tested to find where it first enters an obstacle.
-_SAMPLES = 257
+_SAMPLES = 129
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -147,8 +147,9 @@ def _blockers(cspace: ConfigurationSpace, blocked: FloatArray) -> FloatArray:
         return np.zeros((0, 2, 2))
     geo = ring_geometry(cspace, cleaned=False)
     edge = _first_crossing(blocked, geo.start, geo.end, cspace.eps)
-    for k in np.flatnonzero(edge < 0).tolist():
-        edge[k] = _entry_edge(cspace, blocked[k], geo.start, geo.end)
+    rest = np.flatnonzero(edge < 0)
+    if len(rest):
+        edge[rest] = _entry_edges(cspace, blocked[rest], geo.start, geo.end)
     return np.stack([geo.start[edge], geo.end[edge]], axis=1)
 
 
@@ -174,34 +175,37 @@ def _first_crossing(
     )
 
 
-def _entry_edge(
-    cspace: ConfigurationSpace, seg: FloatArray, start: FloatArray, end: FloatArray
-) -> int:
-    """Return the border edge where a segment that crosses none enters blocked space.
+def _entry_edges(
+    cspace: ConfigurationSpace, segs: FloatArray, start: FloatArray, end: FloatArray
+) -> npt.NDArray[np.intp]:
+    """Return, per segment that crosses no edge, the border edge where it enters blocked space.
 
-    It passes through a vertex (or leaves one) into an obstacle: of the edges it touches,
-    the one nearest its first blocked point.
+    Such a segment passes through a vertex (or leaves one) into an obstacle: of the edges
+    it touches, the one nearest its first blocked point.
     """
     t = np.linspace(0.0, 1.0, _SAMPLES)[1:-1]
-    pts = seg[0] + t[:, None] * (seg[1] - seg[0])
-    inside = cspace.contains_blocked(pts)
-    entry = pts[int(np.argmax(inside))]
+    pts = segs[:, None, 0] + t[None, :, None] * (segs[:, 1] - segs[:, 0])[:, None, :]
+    inside = cspace.contains_blocked(pts.reshape(-1, 2)).reshape(len(segs), -1)
+    entry = pts[np.arange(len(segs)), np.argmax(inside, axis=1)]  # (f, 2)
+    lines = shapely.linestrings(segs)
     edges = shapely.linestrings(np.stack([start, end], axis=1))
-    gap = np.asarray(
-        shapely.distance(shapely.linestrings(seg), edges), dtype=np.float64
-    )
-    touching = np.flatnonzero(gap <= 10.0 * cspace.eps)
-    if len(touching) == 0:  # cannot happen for a blocked segment; never fail a drawing
-        return _nearest_edge(start, end, entry)
-    return int(touching[_nearest_edge(start[touching], end[touching], entry)])
+    touching = shapely.dwithin(lines[:, None], edges[None, :], 10.0 * cspace.eps)
+    gap = _point_edge_distances(entry, start, end)  # (f, m)
+    # A blocked segment touches the border; should none be found, the nearest edge.
+    gap = np.where(touching | ~touching.any(axis=1, keepdims=True), gap, np.inf)
+    return np.argmin(gap, axis=1).astype(np.intp)
 
 
-def _nearest_edge(start: FloatArray, end: FloatArray, p: FloatArray) -> int:
+def _point_edge_distances(
+    p: FloatArray, start: FloatArray, end: FloatArray
+) -> FloatArray:
+    """Return the distance of each point to each edge, shape (points, edges) [m]."""
     d = end - start
     len2 = np.maximum((d * d).sum(axis=1), 1e-300)
-    u = np.clip(((p - start) * d).sum(axis=1) / len2, 0.0, 1.0)
-    closest = start + u[:, None] * d
-    return int(np.argmin(np.hypot(*(closest - p).T)))
+    rel = p[:, None, :] - start[None, :, :]
+    u = np.clip((rel * d[None]).sum(axis=2) / len2, 0.0, 1.0)
+    closest = start[None] + u[..., None] * d[None]
+    return np.hypot(*np.moveaxis(p[:, None, :] - closest, -1, 0))
 
 
 def _vertex_steps(arrays: GraphArrays, looks: tuple[VertexLook, ...]) -> list[Step]:

@@ -9,6 +9,8 @@ Examples::
     python -m app --snapshot-dir pictures/ --width 1920 --height 1080  # every scenario
     python -m app --scenario 06 --record run.mp4 --fps 15 --follow dsb
     python -m app --scenario 06 --export-html run.html                # no Python needed
+    python -m app --scenario 05 --snapshot step3.png --explain svg --step 3
+    python -m app --scenario 06 --snapshot dsb/ --explain dsb --step all --sensor-range 0.6
 """
 
 from __future__ import annotations
@@ -82,6 +84,7 @@ def _parser() -> argparse.ArgumentParser:
         help="snapshot: robot at this trajectory time [s]",
     )
     _media_arguments(parser)
+    _explain_arguments(parser)
     return parser
 
 
@@ -187,6 +190,34 @@ def _media(args: argparse.Namespace) -> int | None:
     return None
 
 
+def _explain_arguments(parser: argparse.ArgumentParser) -> None:
+    # Explain mode's pictures (issue 13): app.explain_headless.
+    parser.add_argument(
+        "--explain",
+        choices=("expansion", "vg", "svg", "dsb"),
+        default=None,
+        help="snapshot: draw a step of this method's explanation",
+    )
+    parser.add_argument(
+        "--step",
+        default="1",
+        help="snapshot with --explain: step number from 1, or 'all' (OUT is then a "
+        "folder of numbered pictures)",
+    )
+    parser.add_argument(
+        "--obstacle",
+        type=int,
+        default=1,
+        help="snapshot with --explain expansion: which obstacle (from 1)",
+    )
+    parser.add_argument(
+        "--sensor-range",
+        type=float,
+        default=None,
+        help="snapshot with --explain: the scene's sensor range R [m]",
+    )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code."""
     args = _parser().parse_args(argv)
@@ -199,6 +230,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ScenarioError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+
+    if args.snapshot is not None and args.explain is not None:
+        from app import explain_headless  # noqa: PLC0415 - needs playwright
+
+        return explain_headless.explain_snapshots(
+            scenario,
+            args.snapshot,
+            method=args.explain,
+            step=args.step,
+            obstacle=args.obstacle,
+            sensor_range=args.sensor_range,
+            width=args.width,
+            height=args.height,
+            view=args.view,
+        )
 
     if args.snapshot is not None:
         # Lazily: the snapshot tool needs playwright, the interactive server does not.

@@ -30,6 +30,7 @@ import planners
 from app import robot as robot_model
 from app.classroom import Classroom, new_token, presenter_url
 from app.controller import Controller
+from app.explain_panel import ExplainPanel
 from app.files import ScenesFolder
 from app.live import LiveRun, MotionPaths, add_live_panel
 from app.panels import Panels
@@ -120,6 +121,8 @@ class PlannerApp:
     """The classroom (presenter mode), or None: everyone edits (loopback)."""
     live: LiveRun | None = None
     """The *Live* DSB robot (:mod:`app.live`)."""
+    explain: ExplainPanel | None = None
+    """The Explain panel (issue 13): ``explain.choose("svg")``, ``explain.explainer.go(3)``."""
 
     @property
     def presenter_url(self) -> str | None:
@@ -152,9 +155,11 @@ class PlannerApp:
         return ok
 
     def stop(self) -> None:
-        """Stop the live robot, the controller's threads (and copies') and the server."""
+        """Stop the live robot, Explain, the controller's threads (and copies'), the server."""
         if self.live is not None:
             self.live.close()
+        if self.explain is not None:
+            self.explain.close()
         if self.classroom is not None:
             self.classroom.close()
         self.controller.close()
@@ -277,6 +282,8 @@ def _wire(
     live = LiveRun(lambda: controller.scene, server, [controller.views])
     add_live_panel(server, live)
     controller.add_view(MotionPaths(server))
+    explain = ExplainPanel(server, controller)
+    controller.add_view(explain)
     return PlannerApp(
         server=server,
         controller=controller,
@@ -284,6 +291,7 @@ def _wire(
         panels=panels,
         host=host,
         live=live,
+        explain=explain,
     )
 
 

@@ -32,6 +32,11 @@ from planners.expansion import (
     expand_polygon,
     expand_square,
 )
+from planners.explain import Explanation, Mark, Step, explain, explain_methods
+from planners.explain_dsb import explain_dsb
+from planners.explain_expansion import explain_expansion
+from planners.explain_svg import explain_svg
+from planners.explain_vg import explain_vg
 from planners.memo import Memo
 from planners.registry import REGISTRY, PlannerSpec, PlanOptions, PlanResult
 from planners.scene import (
@@ -67,7 +72,9 @@ __all__ = [
     "BugState",
     "BugTrace",
     "ConfigurationSpace",
+    "Explanation",
     "InvalidResult",
+    "Mark",
     "Memo",
     "PlanOptions",
     "PlanResult",
@@ -76,6 +83,7 @@ __all__ = [
     "ScenarioError",
     "Scene",
     "Sensing",
+    "Step",
     "VisibilityResult",
     "api",
     "border",
@@ -85,6 +93,12 @@ __all__ = [
     "expand_polygon",
     "expand_square",
     "expansion",
+    "explain",
+    "explain_dsb",
+    "explain_expansion",
+    "explain_methods",
+    "explain_svg",
+    "explain_vg",
     "live",
     "load_scene",
     "memo",

@@ -45,6 +45,7 @@ __all__ = [
     "segments_free",
     "shortest_path",
     "simplified_visibility_graph",
+    "svg_reasons",
     "visibility_graph",
 ]
 
@@ -166,7 +167,9 @@ class GraphArrays:
         weight = np.concatenate([self.weight, self.weight])[order]
         return first.tolist(), v[order].tolist(), weight.tolist()
 
-    def shortest_path(self) -> tuple[FloatArray, float] | None:
+    def shortest_path(
+        self, settled: list[tuple[int, int, float]] | None = None
+    ) -> tuple[FloatArray, float] | None:
         """Return the shortest (path, length) from start to goal, or None.
 
         A* with the straight-line distance as heuristic (admissible, so the path is
@@ -174,9 +177,15 @@ class GraphArrays:
         order, tie-breaking and floating-point sums -- on index lists instead of a
         graph, so it finds the very path :func:`shortest_path` finds in
         :meth:`to_networkx` (a property test holds the two together).
+
+        ``settled``, when given, receives (node, parent, cost) for each node the search
+        settles, in order (the parent is -1 for the start; the goal comes last when
+        reached): what an explanation of the search shows (section 9.4).
         """
         s, g = self.start, self.goal
+        record = settled.append if settled is not None else _ignore
         if s == g:
+            record((s, -1, 0.0))
             return self.points[[s]].copy(), 0.0
         keys = list(map(tuple, self.points.tolist()))
         first, other_of, weight_of = self._adjacency()
@@ -188,6 +197,7 @@ class GraphArrays:
         while queue:
             _, _, node, cost, parent = heapq.heappop(queue)
             if node == g:
+                record((node, parent, cost))
                 order = [node, parent]
                 while order[-1] != s:
                     order.append(explored[order[-1]])
@@ -199,6 +209,7 @@ class GraphArrays:
                 if enqueued[node][0] < cost:  # a shorter way here is already known
                     continue
             explored[node] = parent
+            record((node, parent, cost))
             for k in range(first[node], first[node + 1]):
                 other, new = other_of[k], cost + weight_of[k]
                 if other in enqueued:
@@ -210,6 +221,10 @@ class GraphArrays:
                 enqueued[other] = new, h
                 heapq.heappush(queue, (new + h, next(count), other, new, node))
         return None
+
+
+def _ignore(_item: object) -> None:
+    """Do nothing (a search nobody records)."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -779,6 +794,47 @@ def simplified_visibility_graph(
 def _svg_arrays(
     cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
 ) -> GraphArrays:
+    return _svg_build(cspace, start, goal)[0]
+
+
+def svg_reasons(
+    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
+) -> tuple[GraphArrays, tuple[str, ...]]:
+    """Build the SVG as :func:`plan_visibility` does and say why each node may have edges.
+
+    The builder keeps a segment when both ends may carry one and the line through it is
+    tangent at each obstacle end. The second value names, per node of the graph's
+    ``points``, why it may carry segments: ``"start"``, ``"goal"``, ``"convex"`` (a convex
+    vertex: a path can wrap around it) or ``"pinch"`` (obstacles touch there: every
+    visible segment is kept); ``"reflex"`` for the rest (they carry none). This is what
+    :func:`planners.explain_svg` tags with the chapter's rules.
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
+    >>> arrays, why = svg_reasons(space, (-1, 0.5), (2, 0.5))
+    >>> arrays.edges, why
+    (8, ('convex', 'convex', 'convex', 'convex', 'start', 'goal'))
+    """
+    arrays, border, q = _svg_build(cspace, start, goal)
+    convex = np.append(border.convex_nodes, False)
+    pinch = np.append(border.pinch_nodes, False)
+    why = []
+    for n, node in enumerate(q.node.tolist()):
+        if node < 0:
+            why.append("start" if n == q.start else "goal")
+        elif pinch[node]:
+            why.append("pinch")
+        else:
+            why.append("convex" if convex[node] else "reflex")
+    return arrays, tuple(why)
+
+
+def _svg_build(
+    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
+) -> tuple[GraphArrays, _Border, _Query]:
     border, q = _query(cspace, start, goal)
     # Index -1 (start, goal) reads the appended False.
     convex = np.append(border.convex_nodes, False)
@@ -802,7 +858,7 @@ def _svg_arrays(
     i, j = np.concatenate(found_i), np.concatenate(found_j)
     order = np.lexsort((j, i))
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
-    return _graph_arrays(q, i[order], j[order], drop_isolated=True)
+    return _graph_arrays(q, i[order], j[order], drop_isolated=True), border, q
 
 
 def _tangents_of_known(

@@ -23,7 +23,7 @@ This is a report, not a test: it always exits 0 unless ``--strict``. The last co
 "steal", is the share of the machine's CPU time its hypervisor gave to other guests
 during the scenario: on a shared host every latency above grows with it.
 
-Run: ``python tests/benchmarks/bench_app.py [--events 300] [--rate 60] [--scenario NAME ...] [--drag goal|vertex]``
+Run: ``python tests/benchmarks/bench_app.py [--events 300] [--rate 60] [--scenario NAME ...] [--drag goal|vertex] [--explain svg|vg|dsb|expansion]``
 """
 
 from __future__ import annotations
@@ -185,7 +185,9 @@ def latencies(
     return out
 
 
-def bench(name: str, events: int, rate: float, drag: str = "goal") -> dict[str, Any]:
+def bench(
+    name: str, events: int, rate: float, drag: str = "goal", explain: str = "off"
+) -> dict[str, Any]:
     steal = StealMeter()
     with contextlib.redirect_stdout(io.StringIO()):
         app = start_app(name, port=0, print_url=False)
@@ -195,6 +197,9 @@ def bench(name: str, events: int, rate: float, drag: str = "goal") -> dict[str, 
         probe = Probe(slow)
         controller.add_view(probe)
         assert app.wait_idle(60)
+        if explain != "off":  # Explain mode on while dragging (issue 13)
+            app.explain.choose(explain)
+            assert app.explain.explainer.wait_ready(120) and app.wait_idle(60)
         scene = controller.scene
         handle, points = drag_path(scene, drag, events)
 
@@ -256,6 +261,12 @@ def main(argv: list[str] | None = None) -> int:
         help="what to drag: the goal, an obstacle's vertex (default: both)",
     )
     parser.add_argument(
+        "--explain",
+        default="off",
+        choices=("off", "expansion", "vg", "svg", "dsb"),
+        help="drag with Explain mode on for this method (default off)",
+    )
+    parser.add_argument(
         "--strict", action="store_true", help="exit 1 when a budget is missed"
     )
     args = parser.parse_args(argv)
@@ -294,7 +305,7 @@ def main(argv: list[str] | None = None) -> int:
 
     for name in names:
         for drag in drags:
-            s = bench(name, args.events, args.rate, drag)
+            s = bench(name, args.events, args.rate, drag, args.explain)
             print(
                 f"{s['scenario'][:26]:26s} {drag:6s} {s['vg_edges']:8d} | {pair(s['step_fast']):>18s} {pair(s['step_full']):>18s} | "
                 f"{pair(s['mouse_fast']):>19s} {pair(s['mouse_full']):>19s} {s['mouse_frames']:4d}/{s['events']}"

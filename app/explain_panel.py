@@ -1,0 +1,448 @@
+"""The Explain panel: step through a method as the chapter does (issue 13).
+
+A folder *Explain* in the GUI: choose a method (obstacle expansion, VG, SVG, DSB), then
+step forward and back, jump to the start or the end, or drag a slider over the steps.
+The scene shows the current step (:class:`app.explain_view.ExplainView`) and the panel
+its line of text, and for DSB the table of the O_i and the flowchart of Fig. 9.15 with
+the current box highlighted.
+
+Explanations are computed on demand, in a thread of their own (:class:`Explainer`):
+never while Explain is off, never on the scheduler's drag path. The panel is a view of
+the controller (:meth:`render` keeps the newest frame and wakes the thread); while a
+handle is dragged the overlay is hidden and nothing is computed; once the drag ends the
+new scene is explained and shown at the same step number where it still exists.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "HIDDEN_LAYERS",
+    "METHOD_TITLES",
+    "ExplainPanel",
+    "Explainer",
+    "flowchart_html",
+    "hidden_layers",
+    "table_html",
+]
+
+import html
+import threading
+import time
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
+
+from app.explain_view import ExplainView
+from planners import Memo, PlanOptions, plan_all
+from planners.explain import Explanation, Step
+from planners.explain_dsb import FLOWCHART, explain_dsb
+from planners.explain_expansion import explain_expansion
+from planners.explain_svg import explain_svg
+from planners.explain_vg import explain_vg
+
+if TYPE_CHECKING:
+    import viser
+
+    from app.frames import Frame, RobotPose
+    from planners.scene import Scene
+
+METHOD_TITLES: Mapping[str, str] = MappingProxyType(
+    {
+        "off": "Off",
+        "expansion": "Obstacle expansion (9.3)",
+        "vg": "Visibility graph (9.4)",
+        "svg": "Simplified VG (9.5)",
+        "dsb": "DSB (9.6, Fig. 9.15)",
+    }
+)
+"""Method key -> its name in the dropdown."""
+
+HIDDEN_LAYERS = (
+    "vg_edges",
+    "vg_path",
+    "svg_edges",
+    "svg_path",
+    "dsb_path",
+    "bug2_path",
+    "robot",
+    "sensing",
+)
+"""Layers hidden while a method is explained (the explanation draws its own), restored
+as they were when Explain is switched off."""
+
+
+def hidden_layers(method: str) -> tuple[str, ...]:
+    """Return the layers hidden while ``method`` is explained.
+
+    Examples
+    --------
+    >>> "expanded" in hidden_layers("expansion"), "expanded" in hidden_layers("svg")
+    (True, False)
+    """
+    if method == "off":
+        return ()
+    # The expansion explained is built step by step: the finished one would give it away.
+    return (*HIDDEN_LAYERS, "expanded") if method == "expansion" else HIDDEN_LAYERS
+
+
+def table_html(step: Step) -> str:
+    """Return the step's facts (:attr:`Step.detail`) as a small HTML table.
+
+    Examples
+    --------
+    >>> from planners.explain import Step
+    >>> table_html(Step("k", "t", (), (("O_1 *", "0.60 + 9.20 = 9.80"),)))
+    '<table style="font-size:0.85em"><tr><td>O_1 *</td><td>0.60 + 9.20 = 9.80</td></tr></table>'
+    """
+    if not step.detail:
+        return ""
+    rows = "".join(
+        f"<tr><td>{html.escape(k)}</td><td>{html.escape(v)}</td></tr>"
+        for k, v in step.detail
+    )
+    return f'<table style="font-size:0.85em">{rows}</table>'
+
+
+def flowchart_html(box: str | None) -> str:
+    """Return the flowchart of Fig. 9.15 as HTML boxes, ``box`` highlighted.
+
+    Examples
+    --------
+    >>> "background:#E69F00" in flowchart_html("leave")
+    True
+    """
+    parts = []
+    for key, label in FLOWCHART:
+        on = key == box
+        style = "border:1px solid #333;border-radius:3px;padding:1px 4px;margin:0;" + (
+            "background:#E69F00;font-weight:bold;" if on else "background:#f4f4f4;"
+        )
+        parts.append(f'<div style="{style}">{html.escape(label)}</div>')
+    arrows = '<div style="text-align:center;color:#666;line-height:1">&darr;</div>'
+    return (
+        '<div style="font-size:0.75em"><b>Fig. 9.15</b> (DSB flowchart)'
+        + arrows.join(parts)
+        + "</div>"
+    )
+
+
+class Explainer:
+    """Keeps the explanation of the newest scene and the current step; computes in a thread.
+
+    Pure of viser: it draws through ``draw(step, explanation)``, a callable the panel
+    gives. ``render(frame)`` only stores the frame and wakes the thread, so it never
+    blocks the scheduler.
+    """
+
+    def __init__(self, draw: Callable[[Step | None, Explanation | None], None]) -> None:
+        self._draw = draw
+        self._cond = threading.Condition()
+        self._frame: Frame | None = None
+        self._method = "off"
+        self._obstacle = 1
+        self._step = 0
+        self._dirty = False
+        self._busy = False
+        self._closed = False
+        self._key: tuple[Any, ...] | None = None
+        self._explanation: Explanation | None = None
+        self._error: str | None = None
+        self._memo = Memo()
+        self._thread = threading.Thread(target=self._run, name="explain", daemon=True)
+        self._thread.start()
+
+    # ---------------------------------------------------------------- questions
+
+    @property
+    def method(self) -> str:
+        """The method explained, or ``"off"``."""
+        return self._method
+
+    @property
+    def step(self) -> int:
+        """The current step number (0-based)."""
+        return self._step
+
+    @property
+    def explanation(self) -> Explanation | None:
+        """The explanation shown (None while off or not yet computed)."""
+        return self._explanation
+
+    @property
+    def error(self) -> str | None:
+        """Why the last explanation failed, in one line (None when it did not)."""
+        return self._error
+
+    # ---------------------------------------------------------------- commands
+
+    def render(self, frame: Frame) -> None:
+        """Keep the newest frame; explain it later if a method is on (never blocks)."""
+        with self._cond:
+            self._frame = frame
+            if self._method != "off":
+                self._wake()
+
+    def choose(self, method: str, obstacle: int | None = None) -> None:
+        """Explain ``method`` (``"off"`` stops); ``obstacle`` for the expansion."""
+        if method not in METHOD_TITLES:
+            raise ValueError(f"unknown method {method!r}")
+        with self._cond:
+            if method != self._method:
+                self._step = 0
+            self._method = method
+            if obstacle is not None:
+                self._obstacle = max(1, int(obstacle))
+            self._wake()
+
+    def go(self, n: int) -> None:
+        """Show step ``n`` (clamped to the steps there are)."""
+        with self._cond:
+            self._step = self._clamp(int(n))
+            self._wake()
+
+    def move(self, delta: int) -> None:
+        """Step forward (``+1``) or back (``-1``)."""
+        with self._cond:
+            self._step = self._clamp(self._step + int(delta))
+            self._wake()
+
+    def to_end(self) -> None:
+        """Jump to the last step."""
+        self.go(1 << 30)
+
+    def wait_ready(self, timeout: float = 30.0) -> bool:
+        """Block until the current choice is computed and drawn; False on timeout."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while self._dirty or self._busy:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return False
+                self._cond.wait(left)
+        return True
+
+    def close(self) -> None:
+        """Stop the thread."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self._thread.join(timeout=5.0)
+
+    # ---------------------------------------------------------------- the thread
+
+    def _wake(self) -> None:
+        self._dirty = True
+        self._cond.notify_all()
+
+    def _clamp(self, n: int) -> int:
+        count = len(self._explanation.steps) if self._explanation is not None else 1
+        return min(max(n, 0), count - 1)
+
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                while not self._dirty and not self._closed:
+                    self._cond.wait()
+                if self._closed:
+                    return
+                self._dirty, self._busy = False, True
+                frame, method, obstacle = self._frame, self._method, self._obstacle
+            try:
+                self._update(frame, method, obstacle)
+            finally:
+                with self._cond:
+                    self._busy = False
+                    self._cond.notify_all()
+
+    def _update(self, frame: Frame | None, method: str, obstacle: int) -> None:
+        if method == "off" or frame is None or frame.dragging:
+            # Off, or a drag in progress: show nothing rather than a stale story.
+            self._draw(None, None)
+            return
+        key = (frame.version, method, obstacle)
+        if key != self._key:
+            explanation = self._compute(frame.scene, method, obstacle)
+            with self._cond:
+                self._key, self._explanation = key, explanation
+                # The same step number on the new scene, where it still exists.
+                self._step = self._clamp(self._step)
+        with self._cond:
+            explanation, n = self._explanation, self._step
+        self._draw(
+            explanation.step(n) if explanation is not None else None, explanation
+        )
+
+    def _compute(self, scene: Scene, method: str, obstacle: int) -> Explanation | None:
+        try:
+            self._error = None
+            return _explain(scene, method, obstacle, self._memo)
+        except Exception as error:  # a bug in an explanation must not stop the app
+            self._error = f"{type(error).__name__}: {error}".splitlines()[0]
+            return None
+
+
+def _explain(scene: Scene, method: str, obstacle: int, memo: Memo) -> Explanation:
+    options = PlanOptions()
+    if method == "expansion":
+        return explain_expansion(scene, options, obstacle=obstacle)
+    functions = {"vg": explain_vg, "svg": explain_svg, "dsb": explain_dsb}
+    plans = plan_all(scene, (method,), options, memo=memo)
+    return functions[method](scene, options, plans=plans)
+
+
+class ExplainPanel:
+    """The *Explain* folder of the GUI and the explanation's layer in the scene.
+
+    A view of the controller (``render``, ``render_robot``); each callback calls one
+    method of its :class:`Explainer` (choosing a method also hides the plans' layers,
+    restored when Explain goes off).
+    """
+
+    def __init__(self, server: viser.ViserServer, controller: Any) -> None:
+        self._controller = controller
+        self._view = ExplainView(server.scene)
+        self._saved_layers: dict[str, bool] | None = None
+        self._layers: Mapping[str, bool] = {}
+        self._scene: Scene | None = None
+        self.caption_bounds: tuple[float, float, float, float] | None = None
+        """Where the caption goes: the top-left of these bounds (xmin, ymin, xmax, ymax)
+        [m] when set (a picture that frames part of the scene), else the scene's."""
+        gui = server.gui
+        with gui.add_folder("Explain", expand_by_default=False):
+            self.method = gui.add_dropdown("Method", list(METHOD_TITLES.values()))
+            self.obstacle = gui.add_number("Obstacle", 1, min=1, max=99, step=1)
+            self.nav = gui.add_button_group("Step", ["|<", "<", ">", ">|"])
+            # Numbered from 1, as the text says "step n of N".
+            self.slider = gui.add_slider("Step no.", 1, 2, 1, 1)
+            self.text = gui.add_markdown("*Choose a method to step through it.*")
+            self.flowchart = gui.add_html("")
+            self.table = gui.add_html("")
+        self.explainer = Explainer(self._draw)
+        self._bind()
+
+    def _bind(self) -> None:
+        titles = {v: k for k, v in METHOD_TITLES.items()}
+
+        @self.method.on_update
+        def _(event: Any) -> None:
+            if event.client is not None:
+                self.choose(titles[event.target.value])
+
+        @self.obstacle.on_update
+        def _(event: Any) -> None:
+            if event.client is not None:
+                self.explainer.choose(self.explainer.method, int(event.target.value))
+
+        @self.nav.on_click
+        def _(event: Any) -> None:
+            actions = {
+                "|<": lambda: self.explainer.go(0),
+                "<": lambda: self.explainer.move(-1),
+                ">": lambda: self.explainer.move(1),
+                ">|": self.explainer.to_end,
+            }
+            actions[event.target.value]()
+
+        @self.slider.on_update
+        def _(event: Any) -> None:
+            if event.client is not None:
+                self.explainer.go(int(event.target.value) - 1)
+
+    # ---------------------------------------------------------------- commands
+
+    def choose(self, method: str, obstacle: int | None = None) -> None:
+        """Explain ``method`` (a key of :data:`METHOD_TITLES`), hiding the plans' layers."""
+        self._restore_layers()
+        if method != "off":
+            self._hide_layers(hidden_layers(method))
+        self.explainer.choose(method, obstacle)
+        self.method.value = METHOD_TITLES[method]
+
+    def _hide_layers(self, keys: tuple[str, ...]) -> None:
+        self._saved_layers = {k: bool(self._layers.get(k, True)) for k in keys}
+        for key in keys:
+            if key in self._layers:
+                self._controller.set_layer(key, False)
+
+    def _restore_layers(self) -> None:
+        if self._saved_layers is None:
+            return
+        for key, visible in self._saved_layers.items():
+            if key in self._layers:
+                self._controller.set_layer(key, visible)
+        self._saved_layers = None
+
+    # ---------------------------------------------------------------- the view protocol
+
+    def render(self, frame: Frame) -> None:
+        """Keep the newest frame (see :meth:`Explainer.render`)."""
+        self._layers = frame.layers
+        self._scene = frame.scene
+        self.explainer.render(frame)
+
+    def render_robot(self, pose: RobotPose | None) -> None:
+        """Nothing: the explanation does not move with the robot."""
+
+    def close(self) -> None:
+        """Stop the explanation thread."""
+        self.explainer.close()
+
+    # ---------------------------------------------------------------- drawing
+
+    def _draw(self, step: Step | None, explanation: Explanation | None) -> None:
+        scene, box = self._scene, self.caption_bounds
+        at = (
+            (box[0], box[3], 0.12)
+            if box is not None
+            else _caption_at(scene)
+            if scene is not None
+            else None
+        )
+        n = self.explainer.step
+        if step is None or explanation is None:
+            self._view.show(None)
+            self._show_text(None, None, n)
+            return
+        caption = f"{n + 1}/{len(explanation.steps)}  {step.text}"
+        self._view.show(step, caption, at)
+        self._show_text(step, explanation, n)
+
+    def _show_text(
+        self, step: Step | None, explanation: Explanation | None, n: int
+    ) -> None:
+        if explanation is None or step is None:
+            error = self.explainer.error
+            off = self.explainer.method == "off"
+            self.text.content = (
+                "*Choose a method to step through it.*"
+                if off
+                else f"*{error}*"
+                if error
+                else "*Explaining the scene...*"
+            )
+            self.table.content = self.flowchart.content = ""
+            return
+        self.slider.max = max(2, len(explanation.steps))
+        self.slider.value = n + 1
+        self.text.content = f"**{explanation.title}**, step {n + 1} of {len(explanation.steps)}\n\n{step.text}"
+        self.table.content = table_html(step)
+        dsb = explanation.method == "dsb"
+        box = step.kind.split(":", 1)[1] if dsb and ":" in step.kind else None
+        self.flowchart.content = flowchart_html(box) if dsb else ""
+
+
+def _caption_at(scene: Scene) -> tuple[float, float, float]:
+    """Top-left corner of the scene (walls, or obstacles, start and goal) [m]."""
+    if scene.boundary is not None:
+        x0, _, _, y1 = scene.boundary.bounds
+    else:
+        xs = [x for o in scene.obstacles for x, _ in o.exterior.coords] + [
+            scene.start[0],
+            scene.goal[0],
+        ]
+        ys = [y for o in scene.obstacles for _, y in o.exterior.coords] + [
+            scene.start[1],
+            scene.goal[1],
+        ]
+        x0, y1 = min(xs), max(ys)
+    return (float(x0), float(y1), 0.12)

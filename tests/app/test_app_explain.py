@@ -1,0 +1,317 @@
+"""The Explain panel's logic without a browser, and Explain mode's headless pictures."""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from app import start_app
+from app.explain_headless import explain_snapshots, parse_step, step_bounds
+from app.explain_panel import HIDDEN_LAYERS, Explainer, flowchart_html, table_html
+from app.explain_view import ROLE_LOOKS, role_segments
+from app.frames import Frame
+from planners import load_scene
+from planners.explain import ROLES
+from tests.app.app_helpers import wait_until
+from tests.browser import use_browser
+from tests.conftest import ROOT
+
+SCENARIO = ROOT / "static_scenarios" / "05_pocket_start.json"
+
+
+def _frame(scene, version: int, dragging: frozenset = frozenset()) -> Frame:
+    return Frame(
+        version=version,
+        scene=scene,
+        plans={},
+        problems=(),
+        message=None,
+        tool="drag",
+        layers={},
+        selection=None,
+        draft=(),
+        dragging=dragging,
+        can_undo=False,
+        can_redo=False,
+        follow="vg",
+        trajectory=None,
+        other_expanded=None,
+        scenario="",
+        compute_ms=0.0,
+    )
+
+
+class Drawn:
+    """Records what the explainer draws, from its thread."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[Any, Any]] = []
+        self.lock = threading.Lock()
+
+    def __call__(self, step, explanation) -> None:
+        with self.lock:
+            self.calls.append((step, explanation))
+
+
+@pytest.fixture
+def explainer() -> Iterator[tuple[Explainer, Drawn]]:
+    drawn = Drawn()
+    ex = Explainer(drawn)
+    yield ex, drawn
+    ex.close()
+
+
+def test_off_computes_nothing(explainer):
+    ex, drawn = explainer
+    ex.render(_frame(load_scene(SCENARIO), 1))
+    assert ex.wait_ready(5)
+    assert drawn.calls == [] and ex.explanation is None
+
+
+def test_steps_clamp_and_survive_an_edit_at_the_same_number(explainer):
+    ex, drawn = explainer
+    scene = load_scene(SCENARIO)
+    ex.render(_frame(scene, 1))
+    ex.choose("svg")
+    assert ex.wait_ready(30)
+    first = ex.explanation
+    assert first is not None and drawn.calls[-1][0] is first.steps[0]
+    ex.move(3)
+    assert ex.wait_ready(30) and ex.step == 3
+    assert drawn.calls[-1][0] is first.steps[3]
+    ex.move(-1)
+    assert ex.wait_ready(30) and ex.step == 2
+    ex.to_end()
+    assert ex.wait_ready(30) and ex.step == len(first.steps) - 1
+    ex.go(3)
+    assert ex.wait_ready(30)
+    # An edit: the goal moves; the new scene is explained at the same step number.
+    moved = dataclasses.replace(scene, goal=(9.0, 6.5))
+    ex.render(_frame(moved, 2))
+    assert wait_until(lambda: ex.explanation is not first, 30)
+    assert ex.wait_ready(30)
+    assert ex.step == 3 and drawn.calls[-1][0] is ex.explanation.steps[3]
+    # A scene with fewer steps keeps the last one.
+    ex.go(999)
+    assert ex.wait_ready(30)
+    last = ex.step
+    bare = dataclasses.replace(scene, obstacles=scene.obstacles[:1])
+    ex.render(_frame(bare, 3))
+    assert wait_until(
+        lambda: ex.explanation is not None and len(ex.explanation.steps) < last + 1, 30
+    )
+    assert ex.wait_ready(30)
+    assert ex.step == len(ex.explanation.steps) - 1
+
+
+def test_nothing_is_computed_or_shown_while_dragging(explainer):
+    ex, drawn = explainer
+    scene = load_scene(SCENARIO)
+    ex.render(_frame(scene, 1))
+    ex.choose("vg")
+    assert ex.wait_ready(30)
+    shown = ex.explanation
+    ex.render(
+        _frame(dataclasses.replace(scene, goal=(9.0, 6.0)), 2, frozenset({("goal",)}))
+    )
+    assert ex.wait_ready(30)
+    assert drawn.calls[-1] == (None, None)  # hidden, not a stale story
+    assert ex.explanation is shown  # and nothing computed during the drag
+    ex.render(_frame(dataclasses.replace(scene, goal=(9.0, 6.0)), 3))
+    assert ex.wait_ready(30)
+    assert ex.explanation is not shown and drawn.calls[-1][0] is not None
+
+
+def test_a_failing_explanation_is_one_line_not_a_crash(explainer, monkeypatch):
+    ex, drawn = explainer
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("boom\nsecond line")
+
+    monkeypatch.setattr("app.explain_panel._explain", broken)
+    ex.render(_frame(load_scene(SCENARIO), 1))
+    ex.choose("svg")
+    assert ex.wait_ready(30)
+    assert ex.error == "RuntimeError: boom" and ex.explanation is None
+    assert drawn.calls[-1] == (None, None)
+
+
+def test_unknown_method_is_refused(explainer):
+    ex, _ = explainer
+    with pytest.raises(ValueError, match="unknown method"):
+        ex.choose("rrt")
+
+
+def test_every_role_has_a_look_and_roles_draw_their_points():
+    assert set(ROLE_LOOKS) == set(ROLES)
+    from planners.explain import Step, point_mark
+
+    step = Step("k", "t", (point_mark("focus", [(1.0, 2.0)]),))
+    segs = role_segments(step, "focus", 0.3)
+    # A ring of 24 segments around the point, at the role's radius.
+    assert segs.shape == (24, 2, 3)
+    r = np.hypot(segs[:, 0, 0] - 1.0, segs[:, 0, 1] - 2.0)
+    assert np.allclose(r, ROLE_LOOKS["focus"].point_size) and np.allclose(
+        segs[..., 2], 0.3
+    )
+
+
+def test_flowchart_highlights_exactly_the_current_box():
+    html = flowchart_html("local_minimum")
+    assert html.count("background:#E69F00") == 1
+    assert "Local minimum?" in html.split("background:#E69F00")[1].split("</div>")[0]
+    # The O_i table escapes what it prints.
+    from planners.explain import Step
+
+    assert "&lt;" in table_html(Step("k", "t", (), (("d_reach", "4.45 < 4.50"),)))
+
+
+def _layers(app) -> Any:
+    frame = app.controller.frame
+    assert frame is not None
+    return frame.layers
+
+
+def test_the_app_hides_the_plans_layers_and_restores_them():
+    app = start_app(SCENARIO, port=0, print_url=False)
+    try:
+        layers = _layers(app)
+        assert all(layers[k] for k in HIDDEN_LAYERS if k in layers)
+        app.explain.choose("dsb")
+        assert app.wait_idle(30) and app.explain.explainer.wait_ready(30)
+        assert app.wait_idle(30)
+        layers = _layers(app)
+        assert not any(layers[k] for k in HIDDEN_LAYERS if k in layers)
+        shown = app.explain.explainer.explanation
+        assert shown is not None and shown.method == "dsb"
+        # The flowchart of Fig. 9.15 with the first decision's box highlighted.
+        first = shown.tags[0]
+        assert app.explain.flowchart.content == flowchart_html(first.box)
+        assert app.explain.flowchart.content.count("background:#E69F00") == 1
+        assert "step 1 of" in app.explain.text.content
+        app.explain.choose("off")
+        assert app.wait_idle(30) and app.explain.explainer.wait_ready(30)
+        assert app.wait_idle(30)
+        layers = _layers(app)
+        assert all(layers[k] for k in HIDDEN_LAYERS if k in layers)
+        assert not app.explain._view._layers["current"].handle.visible
+    finally:
+        app.stop()
+
+
+# --------------------------------------------------------------------------- headless
+
+
+def test_parse_step():
+    assert parse_step("7") == 7 and parse_step("ALL") is None
+    for bad in ("0", "-2", "x"):
+        with pytest.raises(ValueError, match="step must be"):
+            parse_step(bad)
+
+
+def test_dsb_pictures_frame_the_robot_others_the_scene():
+    from types import SimpleNamespace as NS
+
+    from planners.explain import Step, point_mark
+
+    step = Step("k", "t", (point_mark("focus", [(2.0, 3.0)]),))
+    whole = (0.0, 0.0, 10.0, 8.0)
+    dsb = NS(method="dsb", data=NS(sensor_range=2.0), step=lambda n: step)
+    assert step_bounds(dsb, 0, whole) == (-3.0, -2.0, 7.0, 8.0)
+    svg = NS(method="svg", data=(), step=lambda n: step)
+    assert step_bounds(svg, 0, whole) == whole
+    unlimited = NS(
+        method="dsb", data=NS(sensor_range=float("inf")), step=lambda n: step
+    )
+    assert step_bounds(unlimited, 0, whole) == whole
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"method": "rrt"}, "explain must be one of"),
+        ({"method": "svg", "step": "zero"}, "step must be"),
+        ({"method": "dsb", "sensor_range": -1.0}, "sensor range must be"),
+    ],
+)
+def test_bad_explain_arguments_exit_2(tmp_path, capsys, kwargs, message):
+    assert explain_snapshots(SCENARIO, tmp_path / "x.png", **kwargs) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and message in err and err.count("\n") == 1
+
+
+def test_a_step_that_does_not_exist_exits_2(tmp_path, capsys):
+    with use_browser():
+        code = explain_snapshots(
+            ROOT / "static_scenarios" / "08_narrow_gap.json",
+            tmp_path / "x.png",
+            method="svg",
+            step=99,
+        )
+    assert code == 2
+    assert "step 99 does not exist" in capsys.readouterr().err
+
+
+def test_one_step_and_all_steps_pictures(tmp_path):
+    with use_browser():
+        one = tmp_path / "one.png"
+        assert (
+            explain_snapshots(
+                SCENARIO, one, method="svg", step=2, width=320, height=200
+            )
+            == 0
+        )
+        folder = tmp_path / "all"
+        code = explain_snapshots(
+            ROOT / "static_scenarios" / "01_two_convex.json",
+            folder,
+            method="svg",
+            step="all",
+            width=320,
+            height=200,
+        )
+    assert code == 0
+    pictures = sorted(folder.glob("*.png"))
+    lines = (folder / "steps.txt").read_text().splitlines()
+    assert len(pictures) == len(lines) >= 4
+    assert [p.name for p in pictures] == [
+        f"{k:03d}.png" for k in range(1, len(lines) + 1)
+    ]
+    assert lines[1].startswith("002 Step 1:")
+    images = [np.asarray(Image.open(p).convert("RGB")) for p in pictures]
+    assert all(im.shape == (200, 320, 3) for im in images)
+    # Each step draws something else.
+    assert all(not np.array_equal(a, b) for a, b in itertools.pairwise(images))
+    assert np.asarray(Image.open(one)).shape[:2] == (200, 320)
+
+
+def test_cli_explain_writes_the_picture(tmp_path):
+    from tests.conftest import run_module
+
+    out = tmp_path / "step.png"
+    done = run_module(
+        "app",
+        "--scenario",
+        "08",
+        "--snapshot",
+        str(out),
+        "--explain",
+        "vg",
+        "--step",
+        "1",
+        "--width",
+        "320",
+        "--height",
+        "200",
+        timeout=180,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == "" and Path(out).is_file()

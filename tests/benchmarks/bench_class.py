@@ -476,7 +476,7 @@ def print_header() -> None:
     print(
         f"{'watchers':>8s} {'copies':>6s} | {'presenter fast':>15s} {'presenter +DSB':>15s} "
         f"{'to watchers':>15s} | {'copies fast':>15s} {'copies +DSB':>15s} | "
-        f"{'server MB':>13s} {'workers MB':>10s} | {'CPU s: server workers clients':>29s} | {'end ok':>11s} {'steal':>5s}"
+        f"{'server MB':>13s} {'workers MB':>10s} | {'CPU s: server workers clients':>29s} | {'end ok':>11s} {'frames':>7s} {'steal':>5s}"
     )
     print("-" * 170)
 
@@ -489,7 +489,7 @@ def print_row(s: dict[str, Any]) -> None:
         f"{pair(s['wire']):>15s} | {pair(s['copy_fast']):>15s} {pair(s['copy_full']):>15s} | "
         f"{before:5.0f} -> {after:4.0f} {s['rss_workers']:7.0f} ({s['workers']}) | "
         f"{s['server_cpu_s']:14.1f} {s['workers_cpu_s']:7.1f} {s['client_cpu_s']:7.1f} | "
-        f"{ok:>11s} {s['steal']:4.0%}",
+        f"{ok:>11s} {s['frames']:7d} {s['steal']:4.0%}",
         flush=True,
     )
 

@@ -12,8 +12,9 @@ Modules: :mod:`app.controller` (one session: a small facade, no viser) over
 :mod:`app.scheduler` (planning lanes, coalescing, frames), :mod:`app.lanes` (the slow
 planners' process), :mod:`app.playback` (the robot's motion) and :mod:`app.frames` (what
 views draw); :mod:`app.view` (the 3-D scene), :mod:`app.panels` (the GUI panel),
-:mod:`app.robot` (kinematics glue), :mod:`app.server` (wiring) and :mod:`app.headless`
-(snapshots through a browser).
+:mod:`app.robot` (kinematics glue), :mod:`app.server` (wiring), :mod:`app.headless`
+(snapshots through a browser) and, for a class, :mod:`app.classroom` (presenter mode,
+private copies) with :mod:`app.scoped`, :mod:`app.gate` and :mod:`app.pool`.
 
 The names below are imported on first use, so that a worker process that needs only
 :mod:`app.controller` does not load viser.

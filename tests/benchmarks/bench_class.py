@@ -30,6 +30,9 @@ What is reported (all times from ``time.perf_counter``, one clock for both proce
 ``memory``
     Resident memory of the server process before any browser connects and after the
     run (each configuration runs in a fresh process), and of its worker processes.
+``CPU``
+    CPU time [s] of the server process and of its workers during the drags, and of the
+    client process in all: on a busy machine, a steadier measure of cost than latency.
 ``end state``
     Whether every watcher's last goal is the presenter's final goal, and every copy's
     scene ends where its student left it.
@@ -261,6 +264,18 @@ def rss_mb(pid: int | None = None) -> float:
     return 0.0
 
 
+def _cpu_s(pids: list[int]) -> float:
+    """CPU time (user + system) of processes [s] (Linux /proc; 0 for a vanished one)."""
+    total = 0.0
+    for pid in pids:
+        try:
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        total += (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return total
+
+
 def worker_pids(app: Any) -> list[int]:
     """Process ids of the presenter's DSB worker and of the copies' pool."""
     pids = []
@@ -305,6 +320,7 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         connect_s = time.perf_counter() - t_connect
         probes, recorders = _watch_copies(room, copies)
         _warm_up(app, controller)
+        cpu0 = (time.process_time(), _cpu_s(worker_pids(app)))
         clients.send("go")
         points = drag_positions(controller.scene, args.events)
         sent = mouse_drag(controller, ("goal",), points, args.rate)
@@ -314,6 +330,7 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         clients.send(f"report {json.dumps(list(controller.scene.goal))}")
         report = clients.read()
         _wait_copies_settle(probes, report)
+        cpu = (time.process_time() - cpu0[0], _cpu_s(worker_pids(app)) - cpu0[1])
         rss_after = rss_mb()
         return _summary(
             watchers=watchers,
@@ -327,6 +344,7 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
             recorders=recorders,
             memory=(rss_before, rss_after),
             connect_s=connect_s,
+            cpu=cpu,
             steal=steal.stop(),
         )
     finally:
@@ -406,6 +424,8 @@ def _summary(**m: Any) -> dict[str, Any]:
         "client_cpu_s": m["report"]["cpu_s"],
         "messages": m["report"]["messages"],
         "connect_s": m["connect_s"],
+        "server_cpu_s": m["cpu"][0],
+        "workers_cpu_s": m["cpu"][1],
         "steal": m["steal"],
     }
 
@@ -456,7 +476,7 @@ def print_header() -> None:
     print(
         f"{'watchers':>8s} {'copies':>6s} | {'presenter fast':>15s} {'presenter +DSB':>15s} "
         f"{'to watchers':>15s} | {'copies fast':>15s} {'copies +DSB':>15s} | "
-        f"{'server MB':>13s} {'workers MB':>10s} | {'end ok':>9s} {'clients CPU':>11s} {'steal':>5s}"
+        f"{'server MB':>13s} {'workers MB':>10s} | {'CPU s: server workers clients':>29s} | {'end ok':>11s} {'frames':>7s} {'steal':>5s}"
     )
     print("-" * 170)
 
@@ -468,7 +488,8 @@ def print_row(s: dict[str, Any]) -> None:
         f"{s['watchers']:8d} {s['copies']:6d} | {pair(s['fast']):>15s} {pair(s['full']):>15s} "
         f"{pair(s['wire']):>15s} | {pair(s['copy_fast']):>15s} {pair(s['copy_full']):>15s} | "
         f"{before:5.0f} -> {after:4.0f} {s['rss_workers']:7.0f} ({s['workers']}) | "
-        f"{ok:>9s} {s['client_cpu_s']:9.1f} s {s['steal']:4.0%}",
+        f"{s['server_cpu_s']:14.1f} {s['workers_cpu_s']:7.1f} {s['client_cpu_s']:7.1f} | "
+        f"{ok:>11s} {s['frames']:7d} {s['steal']:4.0%}",
         flush=True,
     )
 

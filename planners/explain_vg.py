@@ -187,9 +187,13 @@ def _entry_edges(
     pts = segs[:, None, 0] + t[None, :, None] * (segs[:, 1] - segs[:, 0])[:, None, :]
     inside = cspace.contains_blocked(pts.reshape(-1, 2)).reshape(len(segs), -1)
     entry = pts[np.arange(len(segs)), np.argmax(inside, axis=1)]  # (f, 2)
-    lines = shapely.linestrings(segs)
-    edges = shapely.linestrings(np.stack([start, end], axis=1))
-    touching = shapely.dwithin(lines[:, None], edges[None, :], 10.0 * cspace.eps)
+    lines = np.asarray(shapely.linestrings(segs), dtype=object)
+    edges = np.asarray(
+        shapely.linestrings(np.stack([start, end], axis=1)), dtype=object
+    )
+    touching = np.asarray(
+        shapely.dwithin(lines[:, None], edges[None, :], 10.0 * cspace.eps), dtype=bool
+    )
     gap = _point_edge_distances(entry, start, end)  # (f, m)
     # A blocked segment touches the border; should none be found, the nearest edge.
     gap = np.where(touching | ~touching.any(axis=1, keepdims=True), gap, np.inf)

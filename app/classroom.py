@@ -33,7 +33,14 @@ Data flow::
 
 from __future__ import annotations
 
-__all__ = ["Audience", "Classroom", "Seat", "connection_path", "presenter_url"]
+__all__ = [
+    "Audience",
+    "Classroom",
+    "PresenterTools",
+    "Seat",
+    "connection_path",
+    "presenter_url",
+]
 
 import dataclasses
 import functools
@@ -211,11 +218,30 @@ class Seat:
     """Its client-scoped, hidden ``/shared`` (while it has an own view)."""
     private: Controller | None = None
     """Its own session (a private copy), else None: it follows the presenter."""
+    tools: PresenterTools | None = None
+    """The presenter's own folders (Explain, Live), on a presenter's browser only."""
+    shadows: tuple[Any, ...] = ()
+    """Client-scoped hidden nodes over the presenter's broadcast drawings (a copy)."""
 
     @property
     def client_id(self) -> int:
         """The browser's client id."""
         return self.client.client_id
+
+
+@dataclasses.dataclass(frozen=True)
+class PresenterTools:
+    """Folders only a presenter's browser has, drawing for everyone (Explain, Live DSB).
+
+    ``views`` follow the presenter's session (through the :class:`Audience`); ``close``
+    runs when that browser leaves. What they draw goes to every browser, under roots a
+    private copy's browser hides (``Classroom(broadcast_roots=...)``).
+    """
+
+    views: tuple[View, ...]
+    """Views of the presenter's session (e.g. the Explain panel)."""
+    close: Callable[[], None]
+    """Called when the presenter's browser leaves."""
 
 
 class Classroom:
@@ -249,6 +275,8 @@ class Classroom:
         *,
         folder: ScenesFolder | None = None,
         copy_workers: int = 1,
+        tools: Callable[[viser.ClientHandle], PresenterTools] | None = None,
+        broadcast_roots: tuple[str, ...] = (),
     ) -> None:
         self.server = server
         self.controller = controller
@@ -258,6 +286,8 @@ class Classroom:
         self._titles = dict(titles)
         self._scenarios = dict(scenarios)
         self._folder = folder
+        self._tools = tools
+        self._roots = broadcast_roots
         self._lock = threading.RLock()
         self._seats: dict[int, Seat] = {}
         self._open = False
@@ -328,6 +358,9 @@ class Classroom:
         seat.buttons = (
             self._presenter_switch(client) if presenter else self._copy_buttons(client)
         )
+        if presenter and self._tools is not None:
+            seat.tools = self._tools(client)
+            self.audience.add(*seat.tools.views)
         if client.client_id not in self.server.get_clients():
             # viser runs connect and disconnect callbacks in a thread pool: a browser
             # that left while its seat was being built would otherwise keep it.
@@ -342,6 +375,9 @@ class Classroom:
             if seat is None:
                 return
             self._leave_audience(seat)
+            if seat.tools is not None:
+                self.audience.remove(*seat.tools.views)
+                seat.tools.close()
             if seat.private is not None:
                 seat.private.close()
                 seat.private = None
@@ -367,6 +403,10 @@ class Classroom:
             snapshot = self.controller.frame
             scenario = snapshot.scenario if snapshot is not None else ""
             own = self._own_view(seat, self._private_drag(seat))
+            seat.shadows = tuple(
+                seat.client.scene.add_frame(root, show_axes=False, visible=False)
+                for root in self._roots
+            )
             panels = _panels(seat)
             seat.private = Controller(
                 [own, panels],
@@ -400,6 +440,9 @@ class Classroom:
             private, seat.private = seat.private, None
             private.close()
             self._drop_own_view(seat)
+            for shadow in seat.shadows:
+                shadow.remove()
+            seat.shadows = ()
             self._follow(seat)
         self._refresh_banners()
         return True
@@ -412,6 +455,8 @@ class Classroom:
         for seat in seats:
             if seat.private is not None:
                 seat.private.close()
+            if seat.tools is not None:
+                seat.tools.close()
         self.pool.close()
 
     # ------------------------------------------------------------------ wiring

@@ -295,10 +295,17 @@ class ExplainPanel:
 
     A view of the controller (``render``, ``render_robot``); each callback calls one
     method of its :class:`Explainer` (choosing a method also hides the plans' layers,
-    restored when Explain goes off).
+    restored when Explain goes off). It draws on ``server.scene``; its folder goes to
+    ``gui`` when given (a classroom's presenter: one browser's panel), else ``server.gui``.
     """
 
-    def __init__(self, server: viser.ViserServer, controller: Any) -> None:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        controller: Any,
+        *,
+        gui: viser.GuiApi | None = None,
+    ) -> None:
         self._controller = controller
         self._view = ExplainView(server.scene)
         self._saved_layers: dict[str, bool] | None = None
@@ -307,7 +314,7 @@ class ExplainPanel:
         self.caption_bounds: tuple[float, float, float, float] | None = None
         """Where the caption goes: the top-left of these bounds (xmin, ymin, xmax, ymax)
         [m] when set (a picture that frames part of the scene), else the scene's."""
-        gui = server.gui
+        gui = server.gui if gui is None else gui
         with gui.add_folder("Explain", expand_by_default=False):
             self.method = gui.add_dropdown("Method", list(METHOD_TITLES.values()))
             self.obstacle = gui.add_number("Obstacle", 1, min=1, max=99, step=1)

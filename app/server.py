@@ -16,6 +16,7 @@ __all__ = [
 
 import contextlib
 import dataclasses
+import functools
 import io
 import ipaddress
 import math
@@ -28,7 +29,7 @@ import viser
 
 import planners
 from app import robot as robot_model
-from app.classroom import Classroom, new_token, presenter_url
+from app.classroom import Classroom, PresenterTools, new_token, presenter_url
 from app.controller import Controller
 from app.explain_panel import ExplainPanel
 from app.files import ScenesFolder
@@ -319,6 +320,8 @@ def _wire_classroom(
         scenario=key,
         folder=folder,
     )
+    live = LiveRun(lambda: controller.scene, server, [controller.views])
+    controller.add_view(MotionPaths(server))
     classroom = Classroom(
         server,
         controller,
@@ -327,6 +330,8 @@ def _wire_classroom(
         scenarios,
         folder=folder,
         copy_workers=workers,
+        tools=functools.partial(_presenter_tools, server, controller, live),
+        broadcast_roots=("/explain", "/live"),
     )
     return PlannerApp(
         server=server,
@@ -335,7 +340,26 @@ def _wire_classroom(
         panels=None,
         host=host,
         classroom=classroom,
+        live=live,
     )
+
+
+def _presenter_tools(
+    server: viser.ViserServer,
+    controller: Controller,
+    live: LiveRun,
+    client: viser.ClientHandle,
+) -> PresenterTools:
+    """Explain and Live DSB on a presenter's panel, drawn for the whole class."""
+    explain = ExplainPanel(server, controller, gui=client.gui)
+    panel = add_live_panel(client, live)
+
+    def close() -> None:
+        if live.on_change is panel:
+            live.on_change = None
+        explain.close()
+
+    return PresenterTools(views=(explain,), close=close)
 
 
 def _is_loopback(host: str) -> bool:

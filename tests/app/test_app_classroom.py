@@ -497,3 +497,41 @@ def test_watchers_see_the_goal_move_during_the_presenters_drag(planner):
         assert planner.controller.frame.dragging == frozenset({("goal",)})
         pres.drag("/own" + GOAL, (8.0, 1.5), "end", owner)
         assert wait_until(lambda: planner.controller.frame.dragging == frozenset(), 20)
+
+
+def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
+    """The presenter's panel has Explain and Live DSB; the class sees what they draw."""
+    room = planner.classroom
+    with client(planner, presenter=True) as pres, client(planner) as watch:
+        assert pres.wait_for(lambda: _has(pres, "Step no.") and _has(pres, "Live"))
+        # A watcher has neither folder: nothing to step, nothing to start.
+        assert not _has(watch, "Step no.") and not _has(watch, "Live")
+        assert planner.explain is None and planner.live is not None
+        # The presenter chooses the SVG: every browser sees the explanation's nodes.
+        pres.set_gui(pres.uuid("Method"), "Simplified VG (9.5)")
+        assert planner.wait_idle(30)
+        assert wait_until(
+            lambda: any(
+                owner == "" and name.startswith("/explain/") and node["visible"]
+                for (owner, name), node in watch.nodes.items()
+            ),
+            30,
+        ), {k: v for k, v in watch.nodes.items() if "/explain" in k[1]}
+        # A student's own copy hides the presenter's explanation and live robot.
+        sid = watch.client_id
+        watch.set_gui(watch.uuid("Make my own copy"), True)
+        assert wait_until(lambda: room.mode(sid) == "private", 20)
+        for root in ("/explain", "/live"):
+            assert watch.wait_for(
+                lambda root=root: (
+                    (watch.nodes.get((str(sid), root)) or {}).get("visible") is False
+                ),
+                20,
+            ), root
+        # Back to following: the shadows go, the explanation shows again.
+        watch.set_gui(watch.uuid("Follow the presenter again"), True)
+        assert wait_until(lambda: room.mode(sid) == "watching", 20)
+        assert watch.wait_for(lambda: (str(sid), "/explain") not in watch.nodes, 20)
+        pres.set_gui(pres.uuid("Method"), "Off")
+    # The presenter's browser left: its Explain closed and left the audience.
+    assert wait_until(lambda: len(room.audience) == 0, 20)

@@ -133,7 +133,7 @@ def test_an_obstacle_reaching_the_robot_stops_it_in_words_then_it_goes_on():
         assert s.velocity == (0.0, 0.0, 0.0)
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(speed=st.floats(0.05, 5.0), dx=st.floats(-2.0, 2.0))
 def test_moving_obstacles_never_raise(speed, dx):
     scene = _slider(speed)

@@ -185,6 +185,7 @@ def test_the_app_hides_the_plans_layers_and_restores_them():
     try:
         layers = _layers(app)
         assert all(layers[k] for k in HIDDEN_LAYERS if k in layers)
+        assert app.explain is not None  # one person at a laptop: the app's own panel
         app.explain.choose("dsb")
         assert app.wait_idle(30) and app.explain.explainer.wait_ready(30)
         assert app.wait_idle(30)

@@ -198,6 +198,7 @@ def bench(
         controller.add_view(probe)
         assert app.wait_idle(60)
         if explain != "off":  # Explain mode on while dragging (issue 13)
+            assert app.explain is not None
             app.explain.choose(explain)
             assert app.explain.explainer.wait_ready(120) and app.wait_idle(60)
         scene = controller.scene

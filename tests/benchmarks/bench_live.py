@@ -48,7 +48,7 @@ def time_run(path: Path) -> tuple[int, float, float, float, str]:
 
 def main(argv: list[str] | None = None) -> int:
     """Time every scenario and print one line each."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--scenario", nargs="*", default=None)
     args = parser.parse_args(argv)

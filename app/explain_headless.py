@@ -182,6 +182,7 @@ def _prepare(
     if sensor_range is not None:
         planner_app.controller.edits.set_sensor_range(float(sensor_range))
     planner_app.set_robot_time(0.0)
+    planner_app.view.present()  # a picture: start and goal without editing gizmos
     planner_app.wait_idle(timeout)
     panel = planner_app.explain
     panel.choose(method, obstacle)

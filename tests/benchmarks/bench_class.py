@@ -515,6 +515,12 @@ def run_fresh(watchers: int, copies: int, args: argparse.Namespace) -> dict[str,
     return json.loads(out.strip().splitlines()[-1])
 
 
+def _config(text: str) -> tuple[int, int]:
+    """``"30:10"`` -> (30 watchers, 10 copies)."""
+    watchers, _, copies = text.partition(":")
+    return int(watchers), int(copies or 0)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--watchers", type=int, default=30)
@@ -532,6 +538,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--port", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--token", help=argparse.SUPPRESS)
     parser.add_argument("--duration", type=float, default=5.0, help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--configs",
+        default="",
+        help="classes to run instead, WATCHERS:COPIES comma-separated (e.g. 0:0,10:0,0:2)",
+    )
     parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.clients:
@@ -541,7 +552,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     configs = [(0, 0), (args.watchers, args.copies)]
-    if args.sweep:
+    if args.configs:
+        configs = [_config(text) for text in args.configs.split(",")]
+    elif args.sweep:
         configs = [
             (0, 0),
             (10, 0),

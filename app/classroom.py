@@ -47,6 +47,7 @@ import functools
 import logging
 import secrets
 import threading
+import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, cast
@@ -145,16 +146,40 @@ class Audience:
 
     Members change while frames are drawn (browsers come and go); a member is added with
     the last frame drawn, so it is never blank, and removed only between two frames.
+
+    *Deferred* members (the panels of browsers that watch) are drawn by a thread of their
+    own with the newest frame, at most once per ``period`` seconds: a class of watchers
+    costs the presenter's drawing thread nothing, and their panels a bounded rate (their
+    3-D scene is the shared view, drawn once for everyone, at once).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, period: float = 0.1) -> None:
         self._lock = threading.Lock()
         self._members: tuple[View, ...] = ()
         self._frame: Frame | None = None
         self._pose: RobotPose | None = None
+        self._period = period
+        self._cond = threading.Condition()  # guards _due and _closed
+        self._draw_lock = threading.Lock()  # guards _deferred and drawing on them
+        self._deferred: tuple[View, ...] = ()
+        self._due: tuple[bool, bool] = (False, False)  # (frame, robot) to draw
+        self._closed = False
+        self._thread = threading.Thread(target=self._run, name="audience", daemon=True)
+        self._thread.start()
 
-    def add(self, *views: View, first: bool = False) -> None:
-        """Draw on ``views`` from now on (``first``: before the others)."""
+    def add(self, *views: View, first: bool = False, deferred: bool = False) -> None:
+        """Draw on ``views`` from now on (``first``: before the others).
+
+        ``deferred`` views are drawn at most once per period with the newest frame.
+        """
+        with self._lock:
+            frame, pose = self._frame, self._pose
+        if deferred:
+            with self._draw_lock:
+                for view in views:
+                    _draw(view, frame, pose)
+                self._deferred = (*self._deferred, *views)
+            return
         with self._lock:
             for view in views:
                 _draw(view, self._frame, self._pose)
@@ -166,23 +191,56 @@ class Audience:
         """Stop drawing on ``views`` (waits for a frame being drawn to finish)."""
         with self._lock:
             self._members = tuple(v for v in self._members if v not in views)
+        with self._draw_lock:
+            self._deferred = tuple(v for v in self._deferred if v not in views)
 
     def __len__(self) -> int:
-        return len(self._members)
+        return len(self._members) + len(self._deferred)
 
     def render(self, frame: Frame) -> None:
-        """Draw ``frame`` on every member."""
+        """Draw ``frame`` on every member (the deferred ones soon after)."""
         with self._lock:
             self._frame = frame
             for view in self._members:
                 _draw(view, frame, None)
+        self._wake(frame=True)
 
     def render_robot(self, pose: RobotPose | None) -> None:
-        """Draw the robot on every member."""
+        """Draw the robot on every member (the deferred ones soon after)."""
         with self._lock:
             self._pose = pose
             for view in self._members:
                 _draw(view, None, pose, robot=True)
+        self._wake(robot=True)
+
+    def close(self) -> None:
+        """Stop the deferred members' thread."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self._thread.join(timeout=5.0)
+
+    def _wake(self, frame: bool = False, robot: bool = False) -> None:
+        with self._cond:
+            self._due = (self._due[0] or frame, self._due[1] or robot)
+            self._cond.notify_all()
+
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                while not self._closed and not any(self._due):
+                    self._cond.wait()
+                if self._closed:
+                    return
+                (frame_due, robot_due), self._due = self._due, (False, False)
+            with self._lock:
+                frame, pose = self._frame, self._pose
+            # Under the drawing lock: a removed member is never drawn after remove()
+            # returned (a copy's panel must not get the presenter's frame).
+            with self._draw_lock:
+                for view in self._deferred:
+                    _draw(view, frame if frame_due else None, pose, robot=robot_due)
+            time.sleep(self._period)
 
 
 def _draw(
@@ -457,6 +515,7 @@ class Classroom:
                 seat.private.close()
             if seat.tools is not None:
                 seat.tools.close()
+        self.audience.close()
         self.pool.close()
 
     # ------------------------------------------------------------------ wiring
@@ -476,8 +535,10 @@ class Classroom:
             seat.own = self._own_view(seat, self._shared_drag(cid))
         if not editable:
             self._drop_own_view(seat)
-        views: tuple[View, ...] = (panels,) if seat.own is None else (seat.own, panels)
-        self.audience.add(*views, first=seat.presenter)
+        if seat.own is not None:
+            self.audience.add(seat.own, first=seat.presenter)
+        # A follower's panel is drawn at a bounded rate; the presenter's at once.
+        self.audience.add(panels, first=seat.presenter, deferred=not seat.presenter)
 
     def _leave_audience(self, seat: Seat) -> None:
         self.audience.remove(*(v for v in (seat.own, seat.panels) if v is not None))

@@ -17,7 +17,7 @@ from shapely import LineString
 
 from app import start_app
 from app.controller import TOOLS
-from tests.app.app_helpers import TopCamera, launch_chromium, wait_until
+from tests.app.app_helpers import TopCamera, wait_until
 
 WIDTH, HEIGHT = 1280, 800
 # Straight down at the floor of 01_two_convex (10 m x 8 m), left of the panel.
@@ -26,25 +26,6 @@ CAMERA = TopCamera(
 )
 GIZMO_SCALE = 0.9  # app.view: start/goal transform controls
 PLANE_OFFSET = 0.24 * GIZMO_SCALE  # where the XY-plane square of the gizmo sits [m]
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    from playwright.sync_api import sync_playwright
-
-    manager = sync_playwright()
-    playwright = manager.start()
-    try:
-        browser = launch_chromium(playwright)
-    except Exception as error:
-        playwright.stop()
-        pytest.fail(
-            f"headless Chromium could not start ({error}); install it with tools/ensure-chromium.sh",
-            pytrace=False,
-        )
-    yield browser
-    browser.close()
-    playwright.stop()
 
 
 @pytest.fixture

@@ -15,7 +15,7 @@ from numpy.testing import assert_allclose
 
 from app import start_app
 from app.explain_panel import METHOD_TITLES
-from tests.app.app_helpers import launch_chromium, wait_until
+from tests.app.app_helpers import wait_until
 from tests.app.test_app_browser import (
     CAMERA,
     HEIGHT,
@@ -25,25 +25,6 @@ from tests.app.test_app_browser import (
     mouse_drag,
     settle,
 )
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    from playwright.sync_api import sync_playwright
-
-    manager = sync_playwright()
-    playwright = manager.start()
-    try:
-        browser = launch_chromium(playwright)
-    except Exception as error:
-        playwright.stop()
-        pytest.fail(
-            f"headless Chromium could not start ({error}); install it with tools/ensure-chromium.sh",
-            pytrace=False,
-        )
-    yield browser
-    browser.close()
-    playwright.stop()
 
 
 @pytest.fixture

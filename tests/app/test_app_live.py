@@ -19,7 +19,7 @@ from app import start_app
 from app.controller import TOOLS
 from app.live import LivePanel
 from planners.scene import Robot, Scene, load_scene
-from tests.app.app_helpers import TopCamera, launch_chromium, wait_until
+from tests.app.app_helpers import TopCamera, wait_until
 from tests.app.test_app_browser import choose, click
 
 WIDTH, HEIGHT = 1280, 800
@@ -39,22 +39,6 @@ def _hall() -> Scene:
         sensor_range=2.0,
         name="hall",
     )
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    from playwright.sync_api import sync_playwright
-
-    manager = sync_playwright()
-    playwright = manager.start()
-    try:
-        browser = launch_chromium(playwright)
-    except Exception as error:
-        playwright.stop()
-        pytest.fail(f"headless Chromium could not start ({error})", pytrace=False)
-    yield browser
-    browser.close()
-    playwright.stop()
 
 
 @pytest.fixture

@@ -391,8 +391,14 @@ class ExplainPanel:
         """Nothing: the explanation does not move with the robot."""
 
     def close(self) -> None:
-        """Stop the explanation thread."""
+        """Give the plans' layers back, stop the explanation thread and hide its drawing.
+
+        A classroom closes a presenter's panel when that browser leaves: the session (and
+        the class) must not keep the layers Explain hid, nor its last step.
+        """
+        self._restore_layers()
         self.explainer.close()
+        self._view.show(None)
 
     # ---------------------------------------------------------------- drawing
 

@@ -517,6 +517,7 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
             ),
             30,
         ), {k: v for k, v in watch.nodes.items() if "/explain" in k[1]}
+        assert not planner.controller.frame.layers["svg_edges"]  # Explain hid it
         # A student's own copy hides the presenter's explanation and live robot.
         sid = watch.client_id
         watch.set_gui(watch.uuid("Make my own copy"), True)
@@ -532,6 +533,18 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
         watch.set_gui(watch.uuid("Follow the presenter again"), True)
         assert wait_until(lambda: room.mode(sid) == "watching", 20)
         assert watch.wait_for(lambda: (str(sid), "/explain") not in watch.nodes, 20)
-        pres.set_gui(pres.uuid("Method"), "Off")
-    # The presenter's browser left: its Explain closed and left the audience.
+    # The presenter's browser left while explaining: its Explain closed, left the
+    # audience, gave the plans' layers back and hid its drawing.
     assert wait_until(lambda: len(room.audience) == 0, 20)
+    assert planner.wait_idle(30)
+    frame = planner.controller.frame
+    assert frame is not None and frame.layers["svg_edges"]
+    with client(planner) as late:
+        shown = [
+            name
+            for (owner, name), node in late.nodes.items()
+            if owner == "" and name.startswith("/explain/") and node["visible"]
+        ]
+        # The label pools' roots are plain frames; what they hold is hidden.
+        shown = [n for n in shown if n not in ("/explain/labels", "/explain/caption")]
+        assert not shown, shown

@@ -172,10 +172,12 @@ class Audience:
 
         ``deferred`` views are drawn at most once per period with the newest frame.
         """
-        with self._lock:
-            frame, pose = self._frame, self._pose
         if deferred:
+            # The frame is read inside the drawing lock: a frame rendered meanwhile is
+            # then drawn by the thread on these views too, never left behind.
             with self._draw_lock:
+                with self._lock:
+                    frame, pose = self._frame, self._pose
                 for view in views:
                     _draw(view, frame, pose)
                 self._deferred = (*self._deferred, *views)
@@ -417,8 +419,15 @@ class Classroom:
             self._presenter_switch(client) if presenter else self._copy_buttons(client)
         )
         if presenter and self._tools is not None:
-            seat.tools = self._tools(client)
-            self.audience.add(*seat.tools.views)
+            tools = self._tools(client)
+            with self._lock:
+                seated = self._seats.get(client.client_id) is seat
+                if seated:
+                    seat.tools = tools
+                    self.audience.add(*tools.views)
+            if not seated:  # it left while its tools were built: nothing else has them
+                tools.close()
+                return
         if client.client_id not in self.server.get_clients():
             # viser runs connect and disconnect callbacks in a thread pool: a browser
             # that left while its seat was being built would otherwise keep it.
@@ -433,12 +442,16 @@ class Classroom:
             if seat is None:
                 return
             self._leave_audience(seat)
-            if seat.tools is not None:
-                self.audience.remove(*seat.tools.views)
-                seat.tools.close()
+            tools, seat.tools = seat.tools, None
+            if tools is not None:
+                self.audience.remove(*tools.views)
             if seat.private is not None:
                 seat.private.close()
                 seat.private = None
+        # Outside the lock: closing waits for the tools' threads, and every edit asks
+        # the classroom (may_edit) meanwhile.
+        if tools is not None:
+            tools.close()
         self._refresh_banners()
 
     def set_open(self, value: bool) -> None:

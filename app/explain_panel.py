@@ -267,6 +267,8 @@ class Explainer:
                 # The same step number on the new scene, where it still exists.
                 self._step = self._clamp(self._step)
         with self._cond:
+            if self._closed:  # closed while computing: the panel hid its drawing
+                return
             explanation, n = self._explanation, self._step
         self._draw(
             explanation.step(n) if explanation is not None else None, explanation

@@ -228,6 +228,7 @@ def start_app(
     # viser prints its own banner with rich; ours (below) is one line with the real URL.
     with contextlib.redirect_stdout(io.StringIO()):
         server = viser.ViserServer(host=host, port=port, verbose=False)
+    app: PlannerApp | None = None
     try:
         _configure(server, scene)
 
@@ -242,7 +243,11 @@ def start_app(
         if not app.wait_idle(60.0):
             raise RuntimeError("the first frame was not drawn within 60 s")
     except BaseException:
-        server.stop()
+        # Once wired, stopping the app also stops its threads and worker processes.
+        if app is not None:
+            app.stop()
+        else:
+            server.stop()
         raise
     if print_url:
         _say_where(app, host)

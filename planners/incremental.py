@@ -25,6 +25,7 @@ from __future__ import annotations
 
 __all__ = ["carry_visibility"]
 
+import dataclasses
 from collections.abc import Iterator
 
 import numpy as np
@@ -33,10 +34,13 @@ import shapely
 
 from planners.expansion import ConfigurationSpace
 from planners.visibility import (
+    _ANGLE_TOL,
     _Border,
     _build_border,
+    _free_from,
+    _into_wedge,
     _leaves_blocked,
-    _segments_free,
+    _point_sights,
     _Sight,
     _vertex_visibility,
 )
@@ -47,6 +51,8 @@ BoolArray = npt.NDArray[np.bool_]
 
 _BLOCK = 1 << 20
 """Vertex pairs checked against the changed box at once."""
+_MOSTLY = 0.5
+"""Carry only when at least this share of the vertices is stable (else build afresh)."""
 
 
 def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
@@ -72,35 +78,111 @@ def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
     before = old.known(_vertex_visibility)
     if before is None or old.eps != new.eps:
         return False
-    new.adopt(_vertex_visibility, _carried(new, old, before))
+    change = _change(old, new)
+    if np.count_nonzero(change.stable) < _MOSTLY * len(change.stable):
+        return False  # most of the border changed: a build from scratch is cheaper
+    sight, points = _carried(new, old, before, change)
+    new.adopt(_vertex_visibility, sight)
+    store = new.derive(_point_sights)
+    for point, rows in points:
+        store.put(point, rows)
     return True
 
 
-def _carried(
-    new: ConfigurationSpace, old: ConfigurationSpace, before: _Sight
-) -> _Sight:
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Change:
+    """How the border after an edit relates to the one before it."""
+
+    to_new: IntArray
+    """Per old vertex, the new vertex at the same place, or -1."""
+    stable: BoolArray
+    """Per new vertex, whether it was a vertex before with the same wedge."""
+    box: FloatArray | None
+    """(x0, y0, x1, y1) bounding everything that differs, or None if nothing does."""
+
+
+def _change(old: ConfigurationSpace, new: ConfigurationSpace) -> _Change:
     old_b, new_b = old.derive(_build_border), new.derive(_build_border)
     match = _match(old_b.points, new_b.points)
     stable = _stable(old_b, new_b, match)
     box = _changed_box(old, new, match, stable)
-    # Old visible pairs of stable vertices clear of the box, in the new numbering.
     to_new = np.full(len(old_b.points), -1, dtype=np.intp)
     to_new[match[match >= 0]] = np.flatnonzero(match >= 0)
-    i, j = to_new[before.i], to_new[before.j]
+    return _Change(to_new, stable, box)
+
+
+def _carried(
+    new: ConfigurationSpace, old: ConfigurationSpace, before: _Sight, change: _Change
+) -> tuple[_Sight, list[tuple[tuple[float, float], IntArray]]]:
+    """Return the vertex visibility in ``new`` and what each point ``old`` kept sees.
+
+    Every pair to test again -- between vertices, and between a vertex and a kept
+    point (start, goal) -- goes through one exact test (one march of the edge grid).
+    """
+    new_b = new.derive(_build_border)
+    kept_i, kept_j = _kept_pairs(new_b, change, before)
+    # Every other pair again: at an unstable vertex, or crossing the box.
+    tests = [*_pairs_to_test(new_b, change.stable, change.box)]
+    ti = np.concatenate([np.zeros(0, dtype=np.intp), *(t[0] for t in tests)])
+    tj = np.concatenate([np.zeros(0, dtype=np.intp), *(t[1] for t in tests)])
+    a, b = [new_b.points[ti]], [new_b.points[tj]]
+    from_j = [np.zeros(0, dtype=bool), *(t[2] for t in tests)]
+    # The points old kept: rows of stable vertices clear of the box stay.
+    kept = old.known(_point_sights)
+    carried = []
+    for point, rows in kept.items() if kept is not None else []:
+        stay, again = _point_change(new_b, change, point, rows)
+        carried.append((point, stay, again))
+        a.append(new_b.points[again])
+        b.append(np.broadcast_to(np.asarray(point), (len(again), 2)))
+        from_j.append(np.ones(len(again), dtype=bool))
+    ok = _free_from(new, new_b, np.vstack(a), np.vstack(b), np.concatenate(from_j))
+    i = np.concatenate([kept_i, ti[ok[: len(ti)]]])
+    j = np.concatenate([kept_j, tj[ok[: len(ti)]]])
+    order = np.lexsort((j, i))
+    at, points = len(ti), []
+    for point, stay, again in carried:
+        seen = again[ok[at : at + len(again)]]
+        at += len(again)
+        points.append((point, np.sort(np.concatenate([stay, seen]))))
+    return _Sight(len(new_b.points), i[order], j[order]), points
+
+
+def _kept_pairs(
+    new_b: _Border, change: _Change, before: _Sight
+) -> tuple[IntArray, IntArray]:
+    """Old visible pairs of stable vertices clear of the box, in the new numbering."""
+    i, j = change.to_new[before.i], change.to_new[before.j]
     keep = (i >= 0) & (j >= 0)
     i, j = i[keep], j[keep]
-    keep = stable[i] & stable[j]
+    keep = change.stable[i] & change.stable[j]
     i, j = i[keep], j[keep]
-    keep = ~_meets_box(new_b.points[i], new_b.points[j], box)
-    found_i, found_j = [np.minimum(i, j)[keep]], [np.maximum(i, j)[keep]]
-    # Every other pair again: at an unstable vertex, or crossing the box.
-    for ti, tj in _pairs_to_test(new_b, stable, box):
-        ok = _segments_free(new, new_b, new_b.points[ti], new_b.points[tj])
-        found_i.append(ti[ok])
-        found_j.append(tj[ok])
-    i, j = np.concatenate(found_i), np.concatenate(found_j)
-    order = np.lexsort((j, i))
-    return _Sight(len(new_b.points), i[order], j[order])
+    keep = ~_meets_box(new_b.points[i], new_b.points[j], change.box)
+    return np.minimum(i, j)[keep], np.maximum(i, j)[keep]
+
+
+def _point_change(
+    new_b: _Border, change: _Change, point: tuple[float, float], rows: IntArray
+) -> tuple[IntArray, IntArray]:
+    """Split a kept point's vertices: those that still see it, those to test again.
+
+    Again: the vertices not stable, and those whose segment to the point meets the
+    box, less the ones the screen rules out.
+    """
+    n = len(new_b.points)
+    p = np.asarray(point, dtype=np.float64)
+    v = change.to_new[rows]
+    v = v[v >= 0]
+    v = v[change.stable[v]]
+    stay = v[~_meets_box(new_b.points[v], np.broadcast_to(p, (len(v), 2)), change.box)]
+    again = ~change.stable
+    if change.box is not None:
+        again |= _meets_box(new_b.points, np.broadcast_to(p, (n, 2)), change.box)
+    again = np.flatnonzero(again)
+    d = p - new_b.points[again]
+    ends = np.full(len(again), n, dtype=np.intp)  # the point: no wedge
+    keep = ~_leaves_blocked(new_b.wedges.extended(1), again, ends, d[:, 0], d[:, 1])
+    return stay, again[keep]
 
 
 def _match(old_points: FloatArray, new_points: FloatArray) -> IntArray:
@@ -173,36 +255,112 @@ def _meets_box(a: FloatArray, b: FloatArray, box: FloatArray | None) -> BoolArra
 
 def _pairs_to_test(
     new_b: _Border, stable: BoolArray, box: FloatArray | None
-) -> Iterator[tuple[IntArray, IntArray]]:
-    """Yield, block by block, the pairs whose visibility must be tested again.
+) -> Iterator[tuple[IntArray, IntArray, BoolArray]]:
+    """Yield the pairs (i < j) whose visibility must be tested again, in batches.
 
-    Those at a vertex that is not stable and those whose segment meets the box, less
-    the ones that leave an end into its wedge (the screening of a full build).
+    The rows of the vertices that are not stable (each against every vertex), then the
+    stable pairs whose segment meets the box; less, in both, the pairs that leave an end
+    into its wedge (the screening of a full build). Work is about k n for k vertices
+    that are not stable, plus the stable pairs the box's outcodes cannot rule out.
+    With each pair comes the end the occlusion filter best looks from (True: j).
+    """
+    n = len(new_b.points)
+    moved = np.flatnonzero(~stable)
+    per_block = max(1, _BLOCK // max(n, 1))
+    for k in range(0, len(moved), per_block):
+        rows = np.repeat(moved[k : k + per_block], n)
+        cols = np.tile(np.arange(n, dtype=np.intp), len(moved[k : k + per_block]))
+        # A pair of two such vertices once, from its lower end.
+        once = (cols != rows) & (stable[cols] | (cols > rows))
+        i, j = np.minimum(rows, cols)[once], np.maximum(rows, cols)[once]
+        i, j = _screened(new_b, i, j)
+        yield i, j, ~stable[j]  # the filter looks from the vertex that changed
+    if box is not None:
+        yield from _crossing_box(new_b, stable, box)
+
+
+def _crossing_box(
+    new_b: _Border, stable: BoolArray, box: FloatArray
+) -> Iterator[tuple[IntArray, IntArray, BoolArray]]:
+    """Yield, block by block, the screened stable pairs whose segment meets the box.
+
+    Only vertices that face the box can be ends of such a pair (:func:`_facing`).
     """
     points = new_b.points
-    n = len(points)
+    nodes = np.flatnonzero(stable & _facing(new_b, box))
+    code = _outcodes(points[nodes], box)
+    k = len(nodes)
     r0 = 0
-    while r0 < n - 1:
-        r1 = min(n - 1, r0 + max(1, _BLOCK // (n - r0)))
-        rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, n)[None, :]
-        again = ~(stable[rows] & stable[cols])
-        if box is not None:
-            again |= _may_meet_box(points[rows], points[cols], box)
-        r, c = np.nonzero(again & (cols > rows))
-        i, j = r0 + r, r0 + 1 + c
-        near = ~(stable[i] & stable[j])
-        near |= _meets_box(points[i], points[j], box)
-        i, j = i[near], j[near]
-        d = points[j] - points[i]
-        keep = ~_leaves_blocked(new_b.wedges, i, j, d[:, 0], d[:, 1])
-        yield i[keep], j[keep]
+    while r0 < k - 1:
+        r1 = min(k - 1, r0 + max(1, _BLOCK // (k - r0)))
+        rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, k)[None, :]
+        # Both ends on one outer side of the box: the segment cannot meet it.
+        maybe = ((code[rows] & code[cols]) == 0) & (cols > rows)
+        r, c = np.nonzero(maybe)
+        i, j = nodes[r0 + r], nodes[r0 + 1 + c]
+        meets = _line_meets_box(points[i], points[j], box)
+        i, j = _screened(new_b, i[meets], j[meets])
+        yield i, j, np.zeros(len(i), dtype=bool)
         r0 = r1
 
 
-def _may_meet_box(a: FloatArray, b: FloatArray, box: FloatArray) -> BoolArray:
-    """Rule out the segments with both ends on one outer side of the box (broadcast)."""
-    away = (a[..., 0] < box[0]) & (b[..., 0] < box[0])
-    away |= (a[..., 0] > box[2]) & (b[..., 0] > box[2])
-    away |= (a[..., 1] < box[1]) & (b[..., 1] < box[1])
-    away |= (a[..., 1] > box[3]) & (b[..., 1] > box[3])
-    return ~away
+def _facing(new_b: _Border, box: FloatArray) -> BoolArray:
+    """Tell the vertices from which a segment may leave towards the box unscreened.
+
+    A vertex outside the box whose blocked wedge is narrower than pi (a convex cone)
+    and holds the directions to all four corners strictly holds the direction to every
+    point of the box, with the screen's tolerance (it grows with the direction's
+    length, which the triangle inequality bounds): every segment from it that meets
+    the box leaves into its wedge and is screened out.
+    """
+    points = new_b.points
+    wedges = new_b.wedges
+    behind = wedges.narrow & (_outcodes(points, box) != 0)
+    for cx, cy in ((0, 1), (2, 1), (0, 3), (2, 3)):
+        dx, dy = box[cx] - points[:, 0], box[cy] - points[:, 1]
+        tol = _ANGLE_TOL * np.hypot(dx, dy)
+        behind &= _into_wedge(wedges.nxt, wedges.prv, wedges.narrow, dx, dy, tol)
+    return ~behind
+
+
+def _line_meets_box(a: FloatArray, b: FloatArray, box: FloatArray) -> BoolArray:
+    """Tell which lines through a[k] and b[k] may meet the box.
+
+    Not all four corners strictly on one side: the separating axis test; with the
+    outcodes' test of the bounding boxes it tells the segments that meet the box.
+
+    Corners closer to a line than a relative 1e-9 of the scale count as on it: a few
+    more pairs are tested again, never fewer.
+    """
+    d = b - a
+    scale = np.abs(d[:, 0]) + np.abs(d[:, 1])
+    scale *= 1e-9 * (1.0 + np.abs(box).max())
+    above = np.ones(len(a), dtype=bool)
+    below = np.ones(len(a), dtype=bool)
+    for cx, cy in (
+        (box[0], box[1]),
+        (box[2], box[1]),
+        (box[0], box[3]),
+        (box[2], box[3]),
+    ):
+        side = d[:, 0] * (cy - a[:, 1]) - d[:, 1] * (cx - a[:, 0])
+        above &= side > scale
+        below &= side < -scale
+    return ~(above | below)
+
+
+def _outcodes(points: FloatArray, box: FloatArray) -> npt.NDArray[np.uint8]:
+    """Per point, a bit for each side of the box it lies strictly beyond (Cohen-Sutherland)."""
+    x, y = points[:, 0], points[:, 1]
+    code = (x < box[0]).astype(np.uint8)
+    code |= (x > box[2]).astype(np.uint8) << 1
+    code |= (y < box[1]).astype(np.uint8) << 2
+    code |= (y > box[3]).astype(np.uint8) << 3
+    return code
+
+
+def _screened(new_b: _Border, i: IntArray, j: IntArray) -> tuple[IntArray, IntArray]:
+    """Leave out the pairs whose segment leaves an end into its blocked wedge."""
+    d = new_b.points[j] - new_b.points[i]
+    keep = ~_leaves_blocked(new_b.wedges, i, j, d[:, 0], d[:, 1])
+    return i[keep], j[keep]

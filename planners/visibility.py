@@ -54,6 +54,8 @@ import functools
 import heapq
 import itertools
 import math
+import threading
+from collections import OrderedDict
 from collections.abc import Iterator
 
 import networkx as nx
@@ -738,14 +740,130 @@ def _visibility(
     n, total = base.n, len(q.points)
     if total == n:
         return base.i, base.j
-    # The new nodes' rows: each against every node before it.
-    new = np.arange(n, total)
-    i = np.concatenate([np.arange(a) for a in new.tolist()])
-    j = np.repeat(new, new)
-    ok = _visible(cspace, border, q, i, j)
-    i, j = np.concatenate([base.i, i[ok]]), np.concatenate([base.j, j[ok]])
+    # The new nodes' rows: each against every border vertex (kept per point on the
+    # configuration space), then start against goal when both are new.
+    found_i, found_j = [base.i], [base.j]
+    for node in range(n, total):
+        rows = _point_rows(cspace, border, q, node)
+        found_i.append(rows)
+        found_j.append(np.full(len(rows), node, dtype=np.intp))
+    if total == n + 2:
+        pair = np.array([n]), np.array([n + 1])
+        if _visible(cspace, border, q, *pair)[0]:
+            found_i.append(pair[0])
+            found_j.append(pair[1])
+    i, j = np.concatenate(found_i), np.concatenate(found_j)
     order = np.lexsort((j, i))
     return i[order], j[order]
+
+
+class _PointSights:
+    """Which border vertices each of the last few query points sees, on one space.
+
+    Start and goal are no border vertices; the vertices each sees depend on the point
+    and the configuration space alone (the exact segment test decides), so they are
+    kept on the configuration space (:meth:`ConfigurationSpace.derive`) for the next
+    query with the same point -- the SVG after the VG, the next obstacle drag, which
+    carries them over (:mod:`planners.incremental`). Only the last
+    :attr:`KEPT` points are kept, so dragging the start does not fill memory.
+    """
+
+    KEPT = 8
+
+    def __init__(self) -> None:
+        self._rows: OrderedDict[tuple[float, float], IntArray] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, point: tuple[float, float]) -> IntArray | None:
+        """Return the vertices ``point`` sees (ascending), or None if not kept."""
+        with self._lock:
+            rows = self._rows.get(point)
+            if rows is not None:
+                self._rows.move_to_end(point)
+            return rows
+
+    def put(self, point: tuple[float, float], rows: IntArray) -> None:
+        """Keep ``rows`` (ascending border vertex ids) as what ``point`` sees."""
+        rows.flags.writeable = False
+        with self._lock:
+            self._rows[point] = rows
+            self._rows.move_to_end(point)
+            while len(self._rows) > self.KEPT:
+                self._rows.popitem(last=False)
+
+    def items(self) -> list[tuple[tuple[float, float], IntArray]]:
+        """Return every kept (point, rows), oldest first."""
+        with self._lock:
+            return list(self._rows.items())
+
+
+def _point_sights(_cspace: ConfigurationSpace) -> _PointSights:
+    """Make the configuration space's store of what query points see (empty)."""
+    return _PointSights()
+
+
+def _point_rows(
+    cspace: ConfigurationSpace, border: _Border, q: _Query, node: int
+) -> IntArray:
+    """Return the border vertices that the query's new node ``node`` sees, ascending.
+
+    Kept per point on the configuration space when no start or goal sits on a border
+    vertex (then the wedges screened are the border's own, as the store assumes).
+    """
+    n = len(border.points)
+    point = (float(q.points[node, 0]), float(q.points[node, 1]))
+    plain = bool(np.all(q.node[:n] >= 0))
+    store = cspace.derive(_point_sights)
+    rows = store.get(point) if plain else None
+    if rows is None:
+        vertices = np.arange(n, dtype=np.intp)
+        ends = np.full(n, node, dtype=np.intp)
+        d = q.points[ends] - q.points[vertices]
+        keep = ~_leaves_blocked(
+            _query_wedges(border, q), vertices, ends, d[:, 0], d[:, 1]
+        )
+        vertices = vertices[keep]
+        ok = _free_from(
+            cspace,
+            border,
+            q.points[vertices],
+            np.broadcast_to(q.points[node], (len(vertices), 2)),
+            np.ones(len(vertices), dtype=bool),
+        )
+        rows = vertices[ok]
+        if plain:
+            store.put(point, rows)
+    return rows
+
+
+def _free_from(
+    cspace: ConfigurationSpace,
+    border: _Border,
+    a: FloatArray,
+    b: FloatArray,
+    from_b: BoolArray,
+) -> BoolArray:
+    """Tell which segments a[k] -> b[k] are free, as :func:`_segments_free` does.
+
+    The same exact test, with the cheap filter of the disks that certainly block
+    (:func:`planners.sightlines.occluded`) looking from the end the caller names
+    (``b`` where ``from_b``): many segments from one point (a moved vertex, the start)
+    share the filter's table even when their lower ends differ. The filter only rules
+    out blocked segments, so the answer is the exact test's.
+    """
+    if not len(border.edge_a):
+        return np.ones(len(a), dtype=bool)
+    src = np.where(from_b[:, None], b, a)
+    dst = np.where(from_b[:, None], a, b)
+    order = np.lexsort((src[:, 1], src[:, 0]))
+    src, dst = src[order], dst[order]
+    free = np.ones(len(a), dtype=bool)
+    free[order] = ~occluded(
+        cspace.derive(_inner_disks), src, dst, _runs_of_equal_starts(src)
+    )
+    test = np.flatnonzero(free)
+    free[test] = _exact_free(cspace, border, a[test], b[test])
+    return free
 
 
 def _pairs_visible(
@@ -754,7 +872,9 @@ def _pairs_visible(
     """Tell which node pairs (i, j) see each other, reusing what is already known.
 
     Pairs of border vertices are read from the vertex visibility when this configuration
-    space already has it (the VG was built on it); the rest are tested.
+    space already has it (the VG was built on it), pairs of a vertex and the start or
+    goal from what that point sees when it is kept (:class:`_PointSights`); the rest are
+    tested.
     """
     base = cspace.known(_vertex_visibility)
     if base is None:
@@ -763,9 +883,30 @@ def _pairs_visible(
     read = (i < n) & (j < n)
     ok = np.empty(len(i), dtype=bool)
     ok[read] = base.sees(i[read], j[read])
+    for node in range(n, len(q.points)):
+        rows = _known_rows(cspace, q, node, n)
+        if rows is not None:
+            at = (j == node) & (i < n)
+            ok[at] = rows[i[at]]
+            read |= at
     test = np.flatnonzero(~read)
     ok[test] = _visible(cspace, border, q, i[test], j[test])
     return ok
+
+
+def _known_rows(
+    cspace: ConfigurationSpace, q: _Query, node: int, n: int
+) -> BoolArray | None:
+    """Per border vertex, whether the new node ``node`` sees it, if that is kept."""
+    store = cspace.known(_point_sights)
+    if store is None or not np.all(q.node[:n] >= 0):
+        return None
+    rows = store.get((float(q.points[node, 0]), float(q.points[node, 1])))
+    if rows is None:
+        return None
+    sees = np.zeros(n, dtype=bool)
+    sees[rows] = True
+    return sees
 
 
 def simplified_visibility_graph(

@@ -27,7 +27,13 @@ from planners.scene import (
     move_obstacle,
     move_vertex,
 )
-from planners.visibility import _vertex_visibility, plan_visibility
+from planners.visibility import (
+    _point_rows,
+    _point_sights,
+    _query,
+    _vertex_visibility,
+    plan_visibility,
+)
 from tests.conftest import SCENARIOS, random_scenes
 
 HALVES = st.integers(-2, 22).map(lambda k: k / 2.0)  # a lattice: collinear, touching
@@ -85,6 +91,18 @@ def _same_as_cold(scene, memo):
         fresh = cold["cspace"].derive(_vertex_visibility)
         np.testing.assert_array_equal(mine.i, fresh.i)
         np.testing.assert_array_equal(mine.j, fresh.j)
+        _same_point_rows(warm["cspace"], cold["cspace"])
+
+
+def _same_point_rows(warm_space, cold_space):
+    """What the warm space keeps per point (start, goal; carried) is a fresh answer."""
+    store = warm_space.known(_point_sights)
+    for point, rows in store.items() if store is not None else []:
+        border, q = _query(cold_space, point, point)
+        if len(q.points) == len(border.points):
+            continue  # the point sits on a vertex: it has no rows of its own
+        fresh = _point_rows(cold_space, border, q, len(border.points))
+        np.testing.assert_array_equal(rows, fresh)
 
 
 @settings(max_examples=60, deadline=None)

@@ -31,6 +31,7 @@ from collections.abc import Iterator
 import numpy as np
 import numpy.typing as npt
 import shapely
+from shapely.geometry.base import BaseGeometry as Geometry
 
 from planners.expansion import ConfigurationSpace
 from planners.visibility import (
@@ -215,13 +216,11 @@ def _changed_box(
 ) -> FloatArray | None:
     """Bound all that differs between the two spaces, widened by 8 eps; None if nothing."""
     old_b, new_b = old.derive(_build_border), new.derive(_build_border)
-    before = old.free if old.free is not None else old.merged
-    after = new.free if new.free is not None else new.merged
     parts = []
     if (old.free is None) != (new.free is None):
         parts.append(np.vstack([old_b.points, new_b.points]))
     else:
-        diff = shapely.symmetric_difference(before, after)
+        diff = _blocked_difference(old, new)
         if not diff.is_empty:
             x0, y0, x1, y1 = diff.bounds
             parts.append(np.array([[x0, y0], [x1, y1]]))
@@ -233,6 +232,31 @@ def _changed_box(
         return None
     margin = 8.0 * new.eps
     return np.concatenate([points.min(axis=0) - margin, points.max(axis=0) + margin])
+
+
+def _blocked_difference(old: ConfigurationSpace, new: ConfigurationSpace) -> Geometry:
+    """Return a region that holds every point blocked in one space and free in the other.
+
+    With the same walls, that is within the symmetric difference of the expanded
+    obstacles that differ (a point of one union only lies in a changed obstacle of that
+    side and outside every obstacle of the other): a few small polygons, not the union of
+    all. Else the symmetric difference of the free spaces (or of the merged obstacles).
+    """
+    same_walls = old.boundary is new.boundary or (
+        old.boundary is not None
+        and new.boundary is not None
+        and shapely.equals_exact(old.boundary, new.boundary, 0.0)
+    )
+    if not same_walls:
+        before = old.free if old.free is not None else old.merged
+        after = new.free if new.free is not None else new.merged
+        return shapely.symmetric_difference(before, after)
+    kept = {id(e) for e in new.expanded} & {id(e) for e in old.expanded}
+    gone = [e for e in old.expanded if id(e) not in kept]
+    added = [e for e in new.expanded if id(e) not in kept]
+    return shapely.symmetric_difference(
+        shapely.union_all(gone), shapely.union_all(added)
+    )
 
 
 def _meets_box(a: FloatArray, b: FloatArray, box: FloatArray | None) -> BoolArray:

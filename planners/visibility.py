@@ -155,19 +155,22 @@ class GraphArrays:
         )
         return graph
 
-    def _adjacency(self) -> tuple[list[int], list[int], list[float]]:
+    def _adjacency(self) -> tuple[list[int], IntArray, FloatArray]:
         """Neighbours of each node in ascending order, as compressed rows.
 
         Node u's neighbours are ``other[first[u]:first[u + 1]]`` with the edges'
         lengths in ``weight``: the order of networkx's adjacency, whose edges are added
-        in row-major order.
+        in row-major order. With u as the larger end first, a stable sort by u alone
+        lists each node's smaller neighbours, then its larger ones, each ascending
+        (the edges are in row-major order).
         """
-        u = np.concatenate([self.i, self.j])
-        v = np.concatenate([self.j, self.i])
-        order = np.lexsort((v, u))
-        first = np.searchsorted(u[order], np.arange(len(self.points) + 1))
+        u = np.concatenate([self.j, self.i])
+        v = np.concatenate([self.i, self.j])
+        order = np.argsort(u, kind="stable")
+        first = np.zeros(len(self.points) + 1, dtype=np.intp)
+        np.cumsum(np.bincount(u, minlength=len(self.points)), out=first[1:])
         weight = np.concatenate([self.weight, self.weight])[order]
-        return first.tolist(), v[order].tolist(), weight.tolist()
+        return first.tolist(), v[order], weight
 
     def shortest_path(
         self, settled: list[tuple[int, int, float]] | None = None
@@ -212,8 +215,11 @@ class GraphArrays:
                     continue
             explored[node] = parent
             record((node, parent, cost))
-            for k in range(first[node], first[node + 1]):
-                other, new = other_of[k], cost + weight_of[k]
+            rows = slice(first[node], first[node + 1])
+            for other, w in zip(
+                other_of[rows].tolist(), weight_of[rows].tolist(), strict=True
+            ):
+                new = cost + w
                 if other in enqueued:
                     known, h = enqueued[other]
                     if known <= new:

@@ -19,7 +19,9 @@ The app's fast lane carries the vertex visibility over from the previous edit
 builds the visibility graph from scratch), for the scaling against vertex count.
 
 Run: ``python tests/benchmarks/bench_student.py [--events 300] [--obstacles 8,16,24,32]
-[--drag vertex,move] [--full] [--no-dsb]``. A report: exit 0 unless ``--strict``.
+[--drag vertex,move] [--full] [--no-dsb] [--plan-only]``. ``--plan-only`` times
+``plan_all`` alone on the same drags (no app, no drawing): the planning's share of the
+budget. A report: exit 0 unless ``--strict``.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ import io
 import math
 import os
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +49,7 @@ from clock import StealMeter  # noqa: E402
 
 import planners  # noqa: E402
 import planners.api  # noqa: E402
+import planners.scene  # noqa: E402
 from app import start_app  # noqa: E402
 
 FAST_BUDGET_MS = 16.0
@@ -149,6 +153,38 @@ def bench(obstacles: int, drag: str, events: int, dsb: bool) -> dict[str, Any]:
             app.stop()
 
 
+def bench_plan(obstacles: int, drag: str, events: int) -> dict[str, Any]:
+    """The same drag without the app: ``plan_all`` (expansion + VG + SVG) per event.
+
+    One memo across the drag, as the app's fast lane keeps; each event's scene is made
+    with :mod:`planners.scene`'s edits (the vertex set, or the obstacle translated so
+    its centroid follows the handle), outside the timing.
+    """
+    scene = planners.load_scene(student_layout(obstacles))
+    handle, points = drag_points(scene, drag, events)
+    i = handle[1]
+    centre = np.asarray(scene.obstacles[i].centroid.coords[0], dtype=np.float64)
+    memo = planners.Memo()
+    times, plans = [], {}
+    for k, xy in enumerate(points):
+        if drag == "vertex":
+            edited = planners.scene.move_vertex(scene, i, 0, xy)
+        else:
+            edited = planners.scene.move_obstacle(scene, i, xy - centre)
+        t0 = time.perf_counter()
+        plans = planners.plan_all(edited, ("vg", "svg"), memo=memo)
+        if k >= max(1, events // 10):  # the first ones warm up, not recorded
+            times.append((time.perf_counter() - t0) * 1e3)
+    cspace = plans.get("cspace")
+    return {
+        "vertices": sum(len(r) for r in cspace.rings) if cspace else 0,
+        "vg_edges": plans["vg"].edges if "vg" in plans else 0,
+        "fast": times,
+        "full": [],
+        "steal": None,
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run every layout size and drag; print p50/p95 per row and the verdict."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
@@ -157,10 +193,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--drag", default="vertex,move")
     parser.add_argument("--full", action="store_true", help="no incremental visibility")
     parser.add_argument("--no-dsb", action="store_true", help="leave DSB switched off")
+    parser.add_argument(
+        "--plan-only",
+        action="store_true",
+        help="time plan_all (expansion + VG + SVG) alone, without the app (no DSB)",
+    )
     parser.add_argument("--strict", action="store_true")
     args = parser.parse_args(argv)
-    dsb = not args.no_dsb and "dsb" in planners.REGISTRY
+    dsb = not args.no_dsb and not args.plan_only and "dsb" in planners.REGISTRY
     mode = "full builds" if args.full else "incremental visibility"
+    mode += ", plan_all only" if args.plan_only else ""
     print(
         f"student layouts, {mode}, {args.events} events a drag, DSB {'on' if dsb else 'off'}"
     )
@@ -175,7 +217,10 @@ def main(argv: list[str] | None = None) -> int:
     with full_builds(args.full):
         for count in (int(k) for k in args.obstacles.split(",")):
             for drag in args.drag.split(","):
-                s = bench(count, drag, args.events, dsb)
+                if args.plan_only:
+                    s = bench_plan(count, drag, args.events)
+                else:
+                    s = bench(count, drag, args.events, dsb)
                 fast95 = percentile(s["fast"], 95)
                 full95 = percentile(s["full"], 95) if s["full"] else math.nan
                 missed |= fast95 > FAST_BUDGET_MS or (dsb and full95 > FULL_BUDGET_MS)

@@ -53,7 +53,9 @@ BoolArray = npt.NDArray[np.bool_]
 _BLOCK = 1 << 20
 """Vertex pairs checked against the changed box at once."""
 _MOSTLY = 0.5
-"""Carry only when at least this share of the vertices is stable (else build afresh)."""
+"""Carry only when at least this share of the vertices is stable (else build afresh)..."""
+_SMALL = 256
+"""... unless there are at most this many vertices (then the carry is cheap anyway)."""
 
 
 def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
@@ -80,8 +82,9 @@ def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
     if before is None or old.eps != new.eps:
         return False
     change = _change(old, new)
-    if np.count_nonzero(change.stable) < _MOSTLY * len(change.stable):
-        return False  # most of the border changed: a build from scratch is cheaper
+    n = len(change.stable)
+    if n > _SMALL and np.count_nonzero(change.stable) < _MOSTLY * n:
+        return False  # most of a big border changed: a build from scratch is cheaper
     sight, points = _carried(new, old, before, change)
     new.adopt(_vertex_visibility, sight)
     store = new.derive(_point_sights)

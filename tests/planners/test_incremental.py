@@ -6,17 +6,28 @@ run through ``plan_all`` with one memo, as the app's fast lane does; after every
 graphs must equal a cold build's edge for edge and the paths must have equal length.
 """
 
+import contextlib
 import dataclasses
+import itertools
 
 import numpy as np
 import pytest
+import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
 
+import planners.api
 from planners import Memo, plan_all
 from planners.expansion import configuration_space
-from planners.incremental import carry_visibility
+from planners.incremental import (
+    _change,
+    _line_meets_box,
+    _meets_box,
+    _outcodes,
+    _pairs_to_test,
+    carry_visibility,
+)
 from planners.scene import (
     ScenarioError,
     add_obstacle,
@@ -26,15 +37,18 @@ from planners.scene import (
     load_scene,
     move_obstacle,
     move_vertex,
+    scene_problems,
 )
 from planners.visibility import (
+    _build_border,
+    _leaves_blocked,
     _point_rows,
     _point_sights,
     _query,
     _vertex_visibility,
     plan_visibility,
 )
-from tests.conftest import SCENARIOS, random_scenes
+from tests.conftest import SCENARIOS, random_scenes, scene_dict
 
 HALVES = st.integers(-2, 22).map(lambda k: k / 2.0)  # a lattice: collinear, touching
 
@@ -191,3 +205,158 @@ def test_every_shipped_scenario_under_vertex_drags(path):
             except (ValueError, ScenarioError):
                 continue
             _same_as_cold(scene, memo)
+
+
+# --------------------------------------------------------------------------- degenerate geometry
+
+
+def _sq(x0, y0, x1, y1):
+    return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+
+
+SPIRAL = [(0, 0), (5, 0), (5, 4), (0, 4), (0, 3), (1.8, 3), (1.8, 2), (2.2, 2)]
+SPIRAL += [(2.2, 3), (4, 3), (4, 1), (0, 1)]
+DEGENERATE = {
+    # name: (obstacles, start, goal, extra scene fields); the cases of
+    # tests/planners/test_visibility.py's "degenerate geometry" section.
+    "collinear row": ([_sq(x, 0, x + 1, 1) for x in (0, 2, 4)], (-1, 0), (6, 0), {}),
+    "collinear in one polygon": (
+        [[(0, 0), (1, 0), (2, 0), (3, 0), (3, 1), (0, 1)]],
+        (-1, -1),
+        (4, 2),
+        {},
+    ),
+    "grazing a vertex": ([_sq(0, 0, 1, 1)], (-1, 1), (1, -1), {}),
+    "through two vertices": ([_sq(0, 0, 1, 1)], (-1, 2), (2, -1), {}),
+    "start on a vertex": ([_sq(0, 0, 1, 1)], (0, 0), (-1, -1), {}),
+    "start and goal on one edge": ([_sq(0, 0, 1, 1)], (0, 0.5), (0, 1), {}),
+    "opposite corners": ([_sq(0, 0, 1, 1)], (0, 0), (1, 1), {}),
+    "start on the shrunk walls": (
+        [_sq(1.5, 1.5, 2.5, 2.5)],
+        (0.5, 2),
+        (3.5, 2),
+        {"radius": 0.5, "boundary": _sq(0, 0, 4, 4)},
+    ),
+    "touching at a corner": ([_sq(0, 0, 1, 1), _sq(1, 1, 2, 2)], (0, 2), (2, 0), {}),
+    "sharing an edge": ([_sq(0, 0, 1, 1), _sq(1, 0, 2, 1)], (-1, 0.5), (3, 0.5), {}),
+    "overlapping": ([_sq(0, 0, 2, 2), _sq(1, 1, 3, 3)], (-1, 3), (4, 0), {}),
+    "pocket": (
+        [[(5, 2), (8, 2), (8, 6), (5, 6), (5, 5), (7, 5), (7, 3), (5, 3)]],
+        (6, 4),
+        (9, 4),
+        {},
+    ),
+    "spiral pocket": ([SPIRAL], (3.0, 2.8), (-1, 3.5), {}),
+    "hole touching the outside": (
+        [
+            [(0, 5), (4, 5), (4, 6), (1, 6), (1, 7), (0, 7)],
+            _sq(5, 4, 6, 7),
+            _sq(4, 2, 5, 5),
+            _sq(2, 6, 5, 7),
+        ],
+        (0, 0),
+        (3, 8),
+        {},
+    ),
+    "bending at a pinch": (
+        [[(0, 1), (1, 1), (0, 2)], [(1, 0), (2, 0), (2, 1), (1, 1)]],
+        (1, 0),
+        (0, 3),
+        {},
+    ),
+}
+
+
+@pytest.mark.parametrize("name", DEGENERATE)
+def test_degenerate_scenes_reached_by_edits_are_carried_exactly(name, monkeypatch):
+    """Each degenerate scene built by an edit from a neighbour, and left again.
+
+    Its last obstacle arrives (added, or moved in from 3 m away), each of its vertices
+    is dragged away and back, and it leaves: every step through the carry, every step
+    equal to a cold build edge for edge.
+    """
+    carried = []
+
+    def counting(new, old):
+        carried.append(carry_visibility(new, old))
+        return carried[-1]
+
+    monkeypatch.setattr(planners.api, "carry_visibility", counting)
+    obstacles, start, goal, extra = DEGENERATE[name]
+    scene = load_scene(scene_dict(obstacles, start, goal, **extra))
+    last = len(scene.obstacles) - 1
+    apart = move_obstacle(scene, last, (3.0, 0.0))
+    without = delete_obstacle(scene, last)
+    coords = scene.obstacles[last].exterior.coords[:-1]
+    for before in (without, apart):
+        memo = Memo()
+        _same_as_cold(before, memo)
+        _same_as_cold(scene, memo)
+        for j, (x, y) in enumerate(coords):
+            for xy in ((x + 0.37, y + 0.21), (x, y)):
+                with contextlib.suppress(ValueError, ScenarioError):
+                    _same_as_cold(move_vertex(scene, last, j, xy), memo)
+        _same_as_cold(before, memo)
+    assert sum(carried) >= 2 * len(coords)  # the edits went through the carry
+
+
+# --------------------------------------------------------------------------- the screening
+
+
+@settings(max_examples=40, deadline=None)
+@given(scene=random_scenes(grid=True), edit=edits(), radius=st.sampled_from([0, 0.25]))
+def test_the_pairs_tested_again_hold_every_pair_a_slow_screen_names(
+    scene, edit, radius
+):
+    """Every pair that may change (at a vertex that is not stable, or whose segment
+    meets the changed box, shapely's intersects) and that the wedges do not rule out
+    is among the pairs the carry tests again."""
+    try:
+        edited = _apply(scene, edit)
+    except (ValueError, ScenarioError):
+        return
+    if scene_problems(edited):
+        return  # a self-intersecting obstacle: the app plans nothing
+    old, new = (
+        configuration_space(s.obstacles, radius, boundary=s.boundary)
+        for s in (scene, edited)
+    )
+    if old.eps != new.eps:
+        return
+    change = _change(old, new)
+    border = new.derive(_build_border)
+    tested = {
+        (i, j)
+        for ti, tj, _ in _pairs_to_test(border, change.stable, change.box)
+        for i, j in zip(ti.tolist(), tj.tolist(), strict=True)
+    }
+    n = len(border.points)
+    box = shapely.box(*change.box) if change.box is not None else None
+    for i, j in itertools.combinations(range(n), 2):
+        a, b = border.points[i], border.points[j]
+        may_change = not (change.stable[i] and change.stable[j]) or (
+            box is not None and shapely.LineString([a, b]).intersects(box)
+        )
+        d = b - a
+        screened = _leaves_blocked(
+            border.wedges, np.array([i]), np.array([j]), d[:1], d[1:]
+        )[0]
+        if may_change and not screened:
+            assert (i, j) in tested
+
+
+@given(
+    a=st.tuples(*[st.integers(-8, 8)] * 2),
+    b=st.tuples(*[st.integers(-8, 8)] * 2),
+    box=st.tuples(*[st.integers(-4, 4)] * 4),
+)
+def test_segments_meet_a_box_as_shapely_says(a, b, box):
+    x0, x1 = sorted(box[::2])
+    y0, y1 = sorted(box[1::2])
+    corners = np.array([x0, y0, x1, y1], dtype=np.float64)
+    pa, pb = np.array([a], dtype=np.float64), np.array([b], dtype=np.float64)
+    outside = (_outcodes(pa, corners) & _outcodes(pb, corners))[0] != 0
+    mine = not outside and _line_meets_box(pa, pb, corners)[0]
+    assert mine == _meets_box(pa, pb, corners)[0]
+    segment = shapely.LineString([a, b]) if a != b else shapely.Point(a)
+    assert mine == segment.intersects(shapely.box(x0, y0, x1, y1))

@@ -758,9 +758,13 @@ def _visibility(
         if _visible(cspace, border, q, *pair)[0]:
             found_i.append(pair[0])
             found_j.append(pair[1])
-    i, j = np.concatenate(found_i), np.concatenate(found_j)
+    # The border pairs are in row-major order already: merge the few new ones in.
+    i, j = np.concatenate(found_i[1:]), np.concatenate(found_j[1:])
     order = np.lexsort((j, i))
-    return i[order], j[order]
+    i, j = i[order], j[order]
+    base_key = base.i.astype(np.int64) * total + base.j
+    at = np.searchsorted(base_key, i.astype(np.int64) * total + j)
+    return np.insert(base.i, at, i), np.insert(base.j, at, j)
 
 
 class _PointSights:

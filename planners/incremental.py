@@ -90,6 +90,11 @@ def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
     store = new.derive(_point_sights)
     for point, rows in points:
         store.put(point, rows)
+    kept = old.known(_point_sights)
+    for (a, b), free in kept.pair_items() if kept is not None else []:
+        ends = np.array([a]), np.array([b])
+        if not _meets_box(*ends, change.box)[0]:
+            store.put_pair(a, b, free)  # the changes are away from the segment
     return True
 
 

@@ -753,11 +753,9 @@ def _visibility(
         rows = _point_rows(cspace, border, q, node)
         found_i.append(rows)
         found_j.append(np.full(len(rows), node, dtype=np.intp))
-    if total == n + 2:
-        pair = np.array([n]), np.array([n + 1])
-        if _visible(cspace, border, q, *pair)[0]:
-            found_i.append(pair[0])
-            found_j.append(pair[1])
+    if total == n + 2 and _ends_see_each_other(cspace, border, q):
+        found_i.append(np.array([n]))
+        found_j.append(np.array([n + 1]))
     # The border pairs are in row-major order already: merge the few new ones in.
     i, j = np.concatenate(found_i[1:]), np.concatenate(found_j[1:])
     order = np.lexsort((j, i))
@@ -782,6 +780,7 @@ class _PointSights:
 
     def __init__(self) -> None:
         self._rows: OrderedDict[tuple[float, float], IntArray] = OrderedDict()
+        self._pairs: OrderedDict[tuple[tuple[float, float], ...], bool] = OrderedDict()
         self._lock = threading.Lock()
 
     def get(self, point: tuple[float, float]) -> IntArray | None:
@@ -805,6 +804,26 @@ class _PointSights:
         """Return every kept (point, rows), oldest first."""
         with self._lock:
             return list(self._rows.items())
+
+    def pair(self, a: tuple[float, float], b: tuple[float, float]) -> bool | None:
+        """Return whether the segment a -> b (start to goal) is free, or None."""
+        with self._lock:
+            return self._pairs.get((a, b))
+
+    def put_pair(
+        self, a: tuple[float, float], b: tuple[float, float], free: bool
+    ) -> None:
+        """Keep whether the segment a -> b is free."""
+        with self._lock:
+            self._pairs[a, b] = free
+            self._pairs.move_to_end((a, b))
+            while len(self._pairs) > self.KEPT:
+                self._pairs.popitem(last=False)
+
+    def pair_items(self) -> list[tuple[tuple[tuple[float, float], ...], bool]]:
+        """Return every kept ((a, b), free), oldest first."""
+        with self._lock:
+            return list(self._pairs.items())
 
 
 def _point_sights(_cspace: ConfigurationSpace) -> _PointSights:
@@ -844,6 +863,24 @@ def _point_rows(
         if plain:
             store.put(point, rows)
     return rows
+
+
+def _ends_see_each_other(
+    cspace: ConfigurationSpace, border: _Border, q: _Query
+) -> bool:
+    """Tell if the start and the goal see each other, both new nodes (n and n + 1).
+
+    Kept on the configuration space like the points' rows (:class:`_PointSights`).
+    """
+    n = len(border.points)
+    a = (float(q.points[n, 0]), float(q.points[n, 1]))
+    b = (float(q.points[n + 1, 0]), float(q.points[n + 1, 1]))
+    store = cspace.derive(_point_sights)
+    free = store.pair(a, b)
+    if free is None:
+        free = bool(_visible(cspace, border, q, np.array([n]), np.array([n + 1]))[0])
+        store.put_pair(a, b, free)
+    return free
 
 
 def _free_from(
@@ -899,6 +936,10 @@ def _pairs_visible(
             at = (j == node) & (i < n)
             ok[at] = rows[i[at]]
             read |= at
+    ends = (i == n) & (j == n + 1)
+    if ends.any() and len(q.points) == n + 2:
+        ok[ends] = _ends_see_each_other(cspace, border, q)
+        read |= ends
     test = np.flatnonzero(~read)
     ok[test] = _visible(cspace, border, q, i[test], j[test])
     return ok

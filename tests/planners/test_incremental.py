@@ -47,6 +47,7 @@ from planners.visibility import (
     _query,
     _vertex_visibility,
     plan_visibility,
+    segments_free,
 )
 from tests.conftest import SCENARIOS, random_scenes, scene_dict
 
@@ -109,7 +110,8 @@ def _same_as_cold(scene, memo):
 
 
 def _same_point_rows(warm_space, cold_space):
-    """What the warm space keeps per point (start, goal; carried) is a fresh answer."""
+    """What the warm space keeps per point (start, goal; carried), and whether start
+    and goal see each other, are a fresh build's answers."""
     store = warm_space.known(_point_sights)
     for point, rows in store.items() if store is not None else []:
         border, q = _query(cold_space, point, point)
@@ -117,6 +119,8 @@ def _same_point_rows(warm_space, cold_space):
             continue  # the point sits on a vertex: it has no rows of its own
         fresh = _point_rows(cold_space, border, q, len(border.points))
         np.testing.assert_array_equal(rows, fresh)
+    for (a, b), free in store.pair_items() if store is not None else []:
+        assert free == segments_free(cold_space, [a], [b])[0]
 
 
 @settings(max_examples=60, deadline=None)

@@ -16,6 +16,12 @@ space before an edit and the one after it:
   not see) as before; every other pair -- at a vertex that is not stable, or crossing
   the box -- is tested again, exactly as a build from scratch would.
 
+The same holds for a query point (start, goal: no wedge) and a vertex, and for start and
+goal: what they see is kept on the configuration space (``visibility._PointSights``) and
+carried the same way. The pairs tested again are found without screening all n^2 / 2
+pairs against the box (:func:`_pairs_to_test`), and all of them go through one exact
+test. An edit that changes most of a big border is left to a build from scratch.
+
 The result is the same list of pairs a build from scratch gives, edge for edge (property-
 tested with random edit sequences in ``tests/planners/test_incremental.py``). The SVG and
 both paths follow from it (:func:`planners.visibility.plan_visibility`).

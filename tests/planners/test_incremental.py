@@ -364,3 +364,45 @@ def test_segments_meet_a_box_as_shapely_says(a, b, box):
     assert mine == _meets_box(pa, pb, corners)[0]
     segment = shapely.LineString([a, b]) if a != b else shapely.Point(a)
     assert mine == segment.intersects(shapely.box(x0, y0, x1, y1))
+
+
+# --------------------------------------------------------------------------- a student layout
+
+
+def _student_room(obstacles, seed):
+    """Convex obstacles jittered on circles in a 20 m room, a disk robot (as bench_student)."""
+    rng = np.random.default_rng(seed)
+    rings = []
+    for _ in range(obstacles):
+        centre = rng.uniform(3.0, 17.0, 2)
+        k = int(rng.integers(4, 9))
+        angles = rng.uniform(0, 2 * np.pi) + 2 * np.pi / k * np.arange(k)
+        ring = centre + rng.uniform(0.5, 1.3) * np.column_stack(
+            [np.cos(angles), np.sin(angles)]
+        )
+        rings.append(np.round(ring, 3).tolist())
+    room = [(0, 0), (20, 0), (20, 20), (0, 20)]
+    return load_scene(scene_dict(rings, (1, 1), (19, 19), radius=0.3, boundary=room))
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_drags_in_a_student_layout_are_carried_exactly(seed):
+    """Disk-expanded obstacles (arcs of many vertices) merging and parting under random
+    vertex drags and obstacle moves, at the size the benchmark drags."""
+    scene = _student_room(10, seed)
+    rng = np.random.default_rng(seed)
+    memo = Memo()
+    _same_as_cold(scene, memo)
+    for _ in range(12):
+        i = int(rng.integers(len(scene.obstacles)))
+        if rng.random() < 0.5:
+            j = int(rng.integers(len(scene.obstacles[i].exterior.coords) - 1))
+            x, y = scene.obstacles[i].exterior.coords[j]
+            edited = move_vertex(
+                scene, i, j, (x + rng.normal(0, 0.5), y + rng.normal(0, 0.5))
+            )
+        else:
+            edited = move_obstacle(scene, i, tuple(rng.normal(0, 1.0, 2)))
+        if not scene_problems(edited):
+            scene = edited
+            _same_as_cold(scene, memo)

@@ -349,14 +349,15 @@ def _facing(new_b: _Border, box: FloatArray) -> BoolArray:
     and holds the directions to all four corners strictly holds the direction to every
     point of the box, with the screen's tolerance (it grows with the direction's
     length, which the triangle inequality bounds): every segment from it that meets
-    the box leaves into its wedge and is screened out.
+    the box leaves into its wedge and is screened out. The corners are held to twice
+    the tolerance, so rounding never makes a vertex look behind that is not.
     """
     points = new_b.points
     wedges = new_b.wedges
     behind = wedges.narrow & (_outcodes(points, box) != 0)
     for cx, cy in ((0, 1), (2, 1), (0, 3), (2, 3)):
         dx, dy = box[cx] - points[:, 0], box[cy] - points[:, 1]
-        tol = _ANGLE_TOL * np.hypot(dx, dy)
+        tol = 2.0 * _ANGLE_TOL * np.hypot(dx, dy)
         behind &= _into_wedge(wedges.nxt, wedges.prv, wedges.narrow, dx, dy, tol)
     return ~behind
 

@@ -137,7 +137,7 @@ def _decide(ctx: _Context, x: FloatArray, prefer: _Key | None = None) -> _Seek:
         return _Seek("reached", _REACHED, -1, None)
     u = (g - x) / dg
     # Two questions from x: the goal ray, then (if blocked within R) the full view.
-    near = measure_border(ctx.geo, x)
+    near = measure_border(ctx.geo, x, ctx.radius)
     extent, ring = free_extent(ctx.geo, x, u, dg, near=near)
     if extent >= dg - ctx.tol:
         return _Seek("goal", _GOAL, -1, None)

@@ -54,6 +54,9 @@ class EdgeIndex:
     """Every query is widened by this [m]."""
     wide: IntArray
     """Sorted edges of the corners whose touching rhombus reaches beyond the pad."""
+    packed: FloatArray
+    """(6, m) per edge: start x, start y, step x, step y, squared length, eps times the
+    length (what the sensor measures, gathered at once for the edges a query names)."""
 
     def near_disk(self, x: FloatArray, r: float) -> IntArray:
         """Return, sorted, a superset of the edges with a point within ``r`` of ``x``."""
@@ -100,4 +103,14 @@ def edge_index(geo: RingGeometry) -> EdgeIndex:
     corner = np.flatnonzero(4.0 * geo.eps >= pad * sin_phi)
     # The corner at edge e's start joins e and the edge before it.
     wide = np.union1d(corner, geo.prev_edge[corner]).astype(np.intp)
-    return EdgeIndex(tree, pad, wide)
+    packed = np.stack(
+        [
+            geo.start[:, 0],
+            geo.start[:, 1],
+            geo.step_x,
+            geo.step_y,
+            geo.len2,
+            geo.eps_length,
+        ]
+    )
+    return EdgeIndex(tree, pad, wide, packed)

@@ -45,6 +45,7 @@ __all__ = [
     "disk_span",
     "free_extent",
     "measure_border",
+    "nearby",
     "ring_geometry",
     "sense",
     "visible_pieces",
@@ -193,8 +194,24 @@ class Near(NamedTuple):
         return e if self.edges is None else int(np.searchsorted(self.edges, e))
 
 
+def nearby(geo: RingGeometry, center: npt.ArrayLike, reach: float) -> IntArray | None:
+    """Return the edges that may lie within ``reach`` of ``center``, or None for all.
+
+    None when the border is measured whole anyway (small, or ``reach`` unlimited). For
+    several questions asked near one place: :func:`measure_border` at a position p
+    with ``among`` this set is exact when |p - center| + R <= ``reach``, R its reach.
+    """
+    if len(geo.start) < _INDEX_MIN_EDGES or not math.isfinite(reach):
+        return None
+    return geo.index.near_disk(np.asarray(center, dtype=np.float64).reshape(2), reach)
+
+
 def measure_border(
-    geo: RingGeometry, position: npt.ArrayLike, reach: float = math.inf
+    geo: RingGeometry,
+    position: npt.ArrayLike,
+    reach: float = math.inf,
+    *,
+    among: IntArray | None = None,
 ) -> Near:
     """Measure the border from ``position``, for several questions asked from there.
 
@@ -202,8 +219,9 @@ def measure_border(
     :func:`free_extent`, then the full view with :func:`sense` or
     :func:`visible_pieces`); passing them this measurement as ``near`` spares the second
     one the work. ``reach`` is the farthest the questions look around (the sensing range
-    R; a ray may go farther): on a big border only the edges that near are measured. The
-    value is read only, never changed by the functions it is passed to.
+    R; a ray may go farther): on a big border only the edges that near are measured,
+    among the edges of :func:`nearby` if given (a superset found once for several
+    positions). The value is read only, never changed by the functions it is passed to.
 
     Examples
     --------
@@ -215,11 +233,16 @@ def measure_border(
     (1.0, 0)
     """
     x = np.asarray(position, dtype=np.float64).reshape(2)
-    return _measure(geo, x, float(reach))
+    return _measure(geo, x, float(reach), among=among)
 
 
 def _measure(
-    geo: RingGeometry, x: FloatArray, reach: float, *, indexed: bool | None = None
+    geo: RingGeometry,
+    x: FloatArray,
+    reach: float,
+    *,
+    indexed: bool | None = None,
+    among: IntArray | None = None,
 ) -> Near:
     """Measure the border from ``x`` and find the blocked wedges at the robot's feet.
 
@@ -238,28 +261,33 @@ def _measure(
       inside the edge's line, to the ray through the vertex.
 
     ``indexed`` (default: by the border's size, :data:`_INDEX_MIN_EDGES`) measures only
-    the edges :meth:`EdgeIndex.near_disk` names within ``reach`` (at least eps); every
-    test below is per edge, so the answer is the same.
+    the edges :meth:`EdgeIndex.near_disk` names within ``reach`` (at least eps), or
+    ``among``, a superset of those; every test below is per edge, so the answer is the
+    same.
     """
     if indexed is None:
         indexed = len(geo.start) >= _INDEX_MIN_EDGES
-    edges = (
-        geo.index.near_disk(x, max(reach, geo.eps))
-        if indexed and math.isfinite(reach)
-        else None
-    )
-    sub = slice(None) if edges is None else edges
-    a = geo.start[sub] - x
-    ax, ay = a[:, 0], a[:, 1]
-    dx, dy = geo.step_x[sub], geo.step_y[sub]
-    along = -(ax * dx + ay * dy) / geo.len2[sub]  # foot of x on each edge's line
+    edges = among
+    if edges is None and indexed and math.isfinite(reach):
+        edges = geo.index.near_disk(x, max(reach, geo.eps))
+    if edges is None:
+        a = geo.start - x
+        ax, ay = a[:, 0], a[:, 1]
+        dx, dy, len2, eps_length = geo.step_x, geo.step_y, geo.len2, geo.eps_length
+    else:  # one gather of the packed rows, the same numbers
+        sx, sy, dx, dy, len2, eps_length = geo.index.packed[:, edges]
+        a = np.empty((len(edges), 2))
+        ax, ay = a[:, 0], a[:, 1]
+        np.subtract(sx, x[0], out=ax)
+        np.subtract(sy, x[1], out=ay)
+    along = -(ax * dx + ay * dy) / len2  # foot of x on each edge's line
     t = np.minimum(np.maximum(along, 0.0), 1.0)
     dist = np.hypot(ax + t * dx, ay + t * dy)
     cr = ax * dy - ay * dx
     occ: list[_Occurrence] = []
     # Edges whose line passes within eps of x (few), then the corners (at an edge's
     # start) whose two lines do, x not beyond the far end of either edge.
-    where = np.flatnonzero(np.abs(cr) <= geo.eps_length[sub])
+    where = np.flatnonzero(np.abs(cr) <= eps_length)
     if not len(where):
         return Near(edges, reach, a, dist, cr, occ)
     lined = (where if edges is None else edges[where]).tolist()

@@ -179,3 +179,31 @@ def test_tangent_bug_through_the_index_takes_the_same_path(scene, sensor_range, 
     assert_array_equal(local.path, full.path)
     assert local.events == full.events and local.modes == full.modes
     assert local.decisions == full.decisions
+
+
+@given(
+    case=scenes_and_points(),
+    offset=st.tuples(st.floats(-1, 1), st.floats(-1, 1)),
+)
+def test_edges_found_once_for_a_move_measure_every_position_on_it(case, offset):
+    # TangentBug finds the edges near a short move once (planners.sensor.nearby) and
+    # measures every probe on the move among them: the same as measuring each alone.
+    space, x, sensor_range = case
+    assume(math.isfinite(sensor_range))
+    geo = ring_geometry(space)
+    assume(len(geo.start) > 0)
+    center = x + np.array(offset)
+    among = geo.index.near_disk(center, sensor_range + float(np.hypot(*offset)))
+    full = _measure(geo, x, sensor_range, indexed=False)
+    local = sensor_module.measure_border(geo, x, sensor_range, among=among)
+    assert full.occ == local.occ
+    assert local.edges is not None
+    for name in ("a", "dist", "cr"):
+        assert_array_equal(getattr(local, name), getattr(full, name)[local.edges])
+    _same_sensing(
+        sense(geo, x, sensor_range, near=full), sense(geo, x, sensor_range, near=local)
+    )
+    u = np.array([1.0, 0.0])
+    assert free_extent(geo, x, u, 7.0, near=full) == free_extent(
+        geo, x, u, 7.0, near=local
+    )

@@ -23,6 +23,10 @@ fast for the few hundred edges of a lecture scene. A robot standing on the borde
 touch it) cannot look into the blocked wedge at its feet; the two edges along the wedge's
 sides are seen edge-on and are added as pieces running straight away from the robot.
 
+On a big border (:data:`_INDEX_MIN_EDGES` edges or more) only the edges that a spatial
+index (:mod:`planners.edge_index`) names near the robot, or near a ray, are measured:
+every test here is per edge, so the answers are the same as over every edge.
+
 Touching is up to eps (the configuration space's tolerance): a ray is blocked where it
 goes more than eps deep into blocked space. Far from the robot that changes nothing
 visible, but a vertex a few eps away does matter: the wedge at the robot's feet follows
@@ -219,9 +223,9 @@ def measure_border(
     :func:`free_extent`, then the full view with :func:`sense` or
     :func:`visible_pieces`); passing them this measurement as ``near`` spares the second
     one the work. ``reach`` is the farthest the questions look around (the sensing range
-    R; a ray may go farther): on a big border only the edges that near are measured,
-    among the edges of :func:`nearby` if given (a superset found once for several
-    positions). The value is read only, never changed by the functions it is passed to.
+    R; a ray may go farther): on a big border only the edges that close are measured,
+    looked for among the edges of :func:`nearby` if given (a superset found once for
+    several positions). The value is read only, never changed by the functions it is passed to.
 
     Examples
     --------

@@ -595,11 +595,11 @@ def _leaves_blocked(
     columns for a block of pairs).
     """
     tol = _ANGLE_TOL * np.hypot(dx, dy)
-    into = _into_wedge(wedges.nxt[i], wedges.prv[i], wedges.narrow[i], dx, dy, tol)
-    into |= _into_wedge(
+    return _into_wedge(
+        wedges.nxt[i], wedges.prv[i], wedges.narrow[i], dx, dy, tol
+    ) | _into_wedge(
         wedges.nxt[j], wedges.prv[j], wedges.narrow[j], dx, dy, tol, backward=True
     )
-    return into
 
 
 def _not_tangent(

@@ -26,6 +26,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from planners.edge_index import EdgeIndex, edge_index
 from planners.expansion import ConfigurationSpace
 from planners.geometry import cross
 
@@ -128,6 +129,11 @@ class RingGeometry:
     def step_y(self) -> FloatArray:
         """(m,) y component of each edge's step."""
         return np.ascontiguousarray(self.step[:, 1])
+
+    @functools.cached_property
+    def index(self) -> EdgeIndex:
+        """A spatial index of the edges, for questions asked near a point (built on first use)."""
+        return edge_index(self)
 
     @functools.cached_property
     def next_edge(self) -> IntArray:

@@ -51,7 +51,7 @@ def _reach(ctx: _Context, y: FloatArray, ring: int) -> tuple[float, FloatArray]:
     dg = float(math.hypot(*(g - y)))
     if dg <= ctx.tol:
         return 0.0, g.copy()
-    near = measure_border(ctx.geo, y)
+    near = measure_border(ctx.geo, y, ctx.radius)
     if dg <= ctx.radius:
         extent, _ = free_extent(ctx.geo, y, (g - y) / dg, dg, near=near)
         if extent >= dg - ctx.tol:

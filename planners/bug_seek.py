@@ -49,10 +49,12 @@ from planners.sensor import (
     Sensing,
     free_extent,
     measure_border,
+    nearby,
     sense,
 )
 
 BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.intp]
 
 # --------------------------------------------------------------------------- decisions
 
@@ -124,8 +126,16 @@ class _Seek:
     direction: FloatArray | None = None  # the sliding direction
 
 
-def _decide(ctx: _Context, x: FloatArray, prefer: _Key | None = None) -> _Seek:
+def _decide(
+    ctx: _Context,
+    x: FloatArray,
+    prefer: _Key | None = None,
+    among: IntArray | None = None,
+) -> _Seek:
     """Take the goal-seeking decision at ``x`` (pure; ``prefer``: the current decision).
+
+    ``among``: :func:`planners.sensor.nearby` for a disk that holds the sensing disk at
+    ``x`` (the same decision, found sooner on a big border).
 
     "Obstacle in the way?" is the goal ray: free to the goal, free within R (move on
     toward the goal until the obstacle beyond comes into range), or blocked within R,
@@ -137,7 +147,7 @@ def _decide(ctx: _Context, x: FloatArray, prefer: _Key | None = None) -> _Seek:
         return _Seek("reached", _REACHED, -1, None)
     u = (g - x) / dg
     # Two questions from x: the goal ray, then (if blocked within R) the full view.
-    near = measure_border(ctx.geo, x)
+    near = measure_border(ctx.geo, x, ctx.radius, among=among)
     extent, ring = free_extent(ctx.geo, x, u, dg, near=near)
     if extent >= dg - ctx.tol:
         return _Seek("goal", _GOAL, -1, None)
@@ -536,24 +546,30 @@ def _switch_point(
     when the decision does not change.
     """
     y = x + s * w
-    nxt = _decide(ctx, y, dec.key)
+    # Every probe lies on the move: the edges near it are found once (a short move).
+    among = (
+        nearby(ctx.geo, x + 0.5 * s * w, ctx.radius + 0.5 * s)
+        if s <= ctx.radius
+        else None
+    )
+    nxt = _decide(ctx, y, dec.key, among)
     if nxt.key == dec.key:
         return y, nxt
     gap = max(100.0 * ctx.tol, 1e-6 * s)
     before = s - gap
-    if not (before > 0 and _decide(ctx, x + before * w, dec.key).key != dec.key):
+    if not (before > 0 and _decide(ctx, x + before * w, dec.key, among).key != dec.key):
         return y, nxt
-    lo, hi, at_hi = _corner_probe(ctx, x, w, dec, gap=gap, before=before)
+    lo, hi, at_hi = _corner_probe(ctx, x, w, dec, gap=gap, before=before, among=among)
     resolution = before / 2.0**ctx.refine
     while hi - lo > resolution:
         mid = 0.5 * (lo + hi)
-        d_mid = _decide(ctx, x + mid * w, dec.key)
+        d_mid = _decide(ctx, x + mid * w, dec.key, among)
         if d_mid.key == dec.key:
             lo = mid
         else:
             hi, at_hi = mid, d_mid
     y = x + hi * w
-    return y, at_hi if at_hi is not None else _decide(ctx, y, dec.key)
+    return y, at_hi if at_hi is not None else _decide(ctx, y, dec.key, among)
 
 
 def _corner_probe(
@@ -564,6 +580,7 @@ def _corner_probe(
     *,
     gap: float,
     before: float,
+    among: IntArray | None = None,
 ) -> tuple[float, float, _Seek | None]:
     """Bracket the switch in [0, ``before``] around the guess of :func:`_corner_in_range`.
 
@@ -573,10 +590,10 @@ def _corner_probe(
     guess = _corner_in_range(ctx, x, w, dec, before)
     if guess is None or not (lo < guess - gap and guess + gap < hi):
         return lo, hi, None
-    d_lo = _decide(ctx, x + (guess - gap) * w, dec.key)
+    d_lo = _decide(ctx, x + (guess - gap) * w, dec.key, among)
     if d_lo.key != dec.key:
         return lo, guess - gap, d_lo
-    d_hi = _decide(ctx, x + (guess + gap) * w, dec.key)
+    d_hi = _decide(ctx, x + (guess + gap) * w, dec.key, among)
     if d_hi.key != dec.key:
         return guess - gap, guess + gap, d_hi
     return guess + gap, hi, None

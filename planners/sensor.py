@@ -23,6 +23,10 @@ fast for the few hundred edges of a lecture scene. A robot standing on the borde
 touch it) cannot look into the blocked wedge at its feet; the two edges along the wedge's
 sides are seen edge-on and are added as pieces running straight away from the robot.
 
+On a big border (:data:`_INDEX_MIN_EDGES` edges or more) only the edges that a spatial
+index (:mod:`planners.edge_index`) names near the robot, or near a ray, are measured:
+every test here is per edge, so the answers are the same as over every edge.
+
 Touching is up to eps (the configuration space's tolerance): a ray is blocked where it
 goes more than eps deep into blocked space. Far from the robot that changes nothing
 visible, but a vertex a few eps away does matter: the wedge at the robot's feet follows
@@ -45,6 +49,7 @@ __all__ = [
     "disk_span",
     "free_extent",
     "measure_border",
+    "nearby",
     "ring_geometry",
     "sense",
     "visible_pieces",
@@ -166,37 +171,88 @@ class _Occurrence:
         return self.n[0] * self.q[1] - self.n[1] * self.q[0] > 0
 
 
-Near = tuple[FloatArray, FloatArray, FloatArray, list["_Occurrence"]]
-"""The border measured from one position (:func:`measure_border`): edge starts relative to
-it, distance to each edge, cross(a, b) per edge, and the blocked wedges at its feet."""
+_INDEX_MIN_EDGES = 512
+"""Borders with at least this many edges are measured through their spatial index
+(:mod:`planners.edge_index`): only the edges near the question. Below, numpy over every
+edge costs less than the index query. Either way the answer is the same."""
 
 
-def measure_border(geo: RingGeometry, position: npt.ArrayLike) -> Near:
+class Near(NamedTuple):
+    """The border measured from one position (:func:`measure_border`).
+
+    Per measured edge: its start relative to the position, its distance, and cross(a, b);
+    then the blocked wedges at the robot's feet. Either every edge is measured
+    (``edges`` None) or, on a big border, the edges near the position (``edges``, sorted
+    flat indices): every edge within ``reach`` of it and every edge that can touch it.
+    """
+
+    edges: IntArray | None
+    reach: float
+    a: FloatArray
+    dist: FloatArray
+    cr: FloatArray
+    occ: list[_Occurrence]
+
+    def local(self, e: int) -> int:
+        """Position of flat edge ``e`` in the measured arrays (``e`` is measured)."""
+        return e if self.edges is None else int(np.searchsorted(self.edges, e))
+
+
+def nearby(geo: RingGeometry, center: npt.ArrayLike, reach: float) -> IntArray | None:
+    """Return the edges that may lie within ``reach`` of ``center``, or None for all.
+
+    None when the border is measured whole anyway (small, or ``reach`` unlimited). For
+    several questions asked near one place: :func:`measure_border` at a position p
+    with ``among`` this set is exact when |p - center| + R <= ``reach``, R its reach.
+    """
+    if len(geo.start) < _INDEX_MIN_EDGES or not math.isfinite(reach):
+        return None
+    return geo.index.near_disk(np.asarray(center, dtype=np.float64).reshape(2), reach)
+
+
+def measure_border(
+    geo: RingGeometry,
+    position: npt.ArrayLike,
+    reach: float = math.inf,
+    *,
+    among: IntArray | None = None,
+) -> Near:
     """Measure the border from ``position``, for several questions asked from there.
 
     A planner often asks two questions from the same position (one ray with
     :func:`free_extent`, then the full view with :func:`sense` or
     :func:`visible_pieces`); passing them this measurement as ``near`` spares the second
-    one the work. The value is read only, never changed by the functions it is passed to.
+    one the work. ``reach`` is the farthest the questions look around (the sensing range
+    R; a ray may go farther): on a big border only the edges that close are measured,
+    looked for among the edges of :func:`nearby` if given (a superset found once for
+    several positions). The value is read only, never changed by the functions it is passed to.
 
     Examples
     --------
     >>> from shapely import Polygon
     >>> from planners.expansion import configuration_space
     >>> geo = ring_geometry(configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0))
-    >>> near = measure_border(geo, (-1.0, 0.5))
+    >>> near = measure_border(geo, (-1.0, 0.5), 2.0)
     >>> free_extent(geo, (-1.0, 0.5), (1.0, 0.0), 5.0, near=near)
     (1.0, 0)
     """
-    return _measure(geo, np.asarray(position, dtype=np.float64).reshape(2))
+    x = np.asarray(position, dtype=np.float64).reshape(2)
+    return _measure(geo, x, float(reach), among=among)
 
 
-def _measure(geo: RingGeometry, x: FloatArray) -> Near:
+def _measure(
+    geo: RingGeometry,
+    x: FloatArray,
+    reach: float,
+    *,
+    indexed: bool | None = None,
+    among: IntArray | None = None,
+) -> Near:
     """Measure the border from ``x`` and find the blocked wedges at the robot's feet.
 
-    Within eps of the border the robot touches it, and a ray is blocked only where it goes
-    deeper than eps into blocked space. At the scale of eps the polygons' corners matter,
-    so the wedges follow the corners near the robot:
+    Within eps of the border the robot touches it, and a ray is blocked only where it
+    goes deeper than eps into blocked space. At the scale of eps the polygons' corners
+    matter, so the wedges follow the corners near the robot:
 
     - a corner is touched when the robot lies within eps of both its edges' lines (for
       instance within eps of the vertex, or on one edge a few eps from a vertex where the
@@ -207,28 +263,51 @@ def _measure(geo: RingGeometry, x: FloatArray) -> Near:
       a convex corner, past which the robot sees through the corner's tip where blocked
       space is thinner than eps; widened toward a reflex corner when the robot stands
       inside the edge's line, to the ray through the vertex.
+
+    ``indexed`` (default: by the border's size, :data:`_INDEX_MIN_EDGES`) measures only
+    the edges :meth:`EdgeIndex.near_disk` names within ``reach`` (at least eps), or
+    ``among``, a superset of those; every test below is per edge, so the answer is the
+    same.
     """
-    a = geo.start - x
-    ax, ay = a[:, 0], a[:, 1]
-    dx, dy = geo.step_x, geo.step_y
-    along = -(ax * dx + ay * dy) / geo.len2  # foot of x on each edge's line
+    if indexed is None:
+        indexed = len(geo.start) >= _INDEX_MIN_EDGES
+    edges = among
+    if edges is None and indexed and math.isfinite(reach):
+        edges = geo.index.near_disk(x, max(reach, geo.eps))
+    if edges is None:
+        a = geo.start - x
+        ax, ay = a[:, 0], a[:, 1]
+        dx, dy, len2, eps_length = geo.step_x, geo.step_y, geo.len2, geo.eps_length
+    else:  # one gather of the packed rows, the same numbers
+        sx, sy, dx, dy, len2, eps_length = geo.index.packed[:, edges]
+        a = np.empty((len(edges), 2))
+        ax, ay = a[:, 0], a[:, 1]
+        np.subtract(sx, x[0], out=ax)
+        np.subtract(sy, x[1], out=ay)
+    along = -(ax * dx + ay * dy) / len2  # foot of x on each edge's line
     t = np.minimum(np.maximum(along, 0.0), 1.0)
     dist = np.hypot(ax + t * dx, ay + t * dy)
     cr = ax * dy - ay * dx
     occ: list[_Occurrence] = []
     # Edges whose line passes within eps of x (few), then the corners (at an edge's
     # start) whose two lines do, x not beyond the far end of either edge.
-    lined = np.flatnonzero(np.abs(cr) <= geo.eps_length).tolist()
-    if not lined:
-        return a, dist, cr, occ
+    where = np.flatnonzero(np.abs(cr) <= eps_length)
+    if not len(where):
+        return Near(edges, reach, a, dist, cr, occ)
+    lined = (where if edges is None else edges[where]).tolist()
+    along_of = dict(zip(lined, along[where].tolist(), strict=True))
+    t_of = dict(zip(lined, t[where].tolist(), strict=True))
     prev, nxt = geo.prev_edge, geo.next_edge
-    on_line = set(lined)
     corner = {
         e
         for e in lined
-        if int(prev[e]) in on_line and along[e] < 1.0 and along[prev[e]] > 0.0
+        if int(prev[e]) in along_of
+        and along_of[e] < 1.0
+        and along_of[int(prev[e])] > 0.0
     }
-    touching = {e for e in lined if dist[e] <= geo.eps}
+    touching = {
+        e for e, d in zip(lined, dist[where].tolist(), strict=True) if d <= geo.eps
+    }
     for e in sorted(touching | corner):
         if e in corner:
             n = (float(geo.unit[e, 0]), float(geo.unit[e, 1]))
@@ -240,9 +319,9 @@ def _measure(geo: RingGeometry, x: FloatArray) -> Near:
         n, q = (ux, uy), (-ux, -uy)
         n = _side_toward(geo, x, int(nxt[e]), n, -1.0)
         q = _side_toward(geo, x, e, q, 1.0)
-        tt = float(t[e])
+        tt = t_of[e]
         occ.append(_Occurrence(n, q, e, e, tt, tt))
-    return a, dist, cr, occ
+    return Near(edges, reach, a, dist, cr, occ)
 
 
 def _side_toward(
@@ -394,17 +473,18 @@ def _sweep(  # noqa: PLR0912, PLR0915
     finite = math.isfinite(radius)
     if len(geo.start) == 0:
         return []
-    a, dist, cr, occ = near if near is not None else _measure(geo, x)
+    if near is None or (near.edges is not None and near.reach < radius):
+        near = _measure(geo, x, radius)
+    dist, cr, occ = near.dist, near.cr, near.occ
     # Every edge that faces the robot, however obliquely (an edge whose line passes within
     # eps of the robot still hides what lies behind it), except the edges of the wedges at
     # its feet, which include every edge it touches.
     front = cr < 0
     for o in occ:
-        front[o.edge_n] = front[o.edge_q] = False
+        front[near.local(o.edge_n)] = front[near.local(o.edge_q)] = False
     if finite:
         front &= dist < radius
-    facing = _facing_parts(geo, a, cr, np.flatnonzero(front), radius)
-    f_l = [p.edge for p in facing]
+    facing = _facing_parts(geo, near, np.flatnonzero(front), radius)
     # The critical points: where each facing part begins, then where each ends.
     px = [p.inx for p in facing] + [p.outx for p in facing]
     py = [p.iny for p in facing] + [p.outy for p in facing]
@@ -427,7 +507,7 @@ def _sweep(  # noqa: PLR0912, PLR0915
             (np.hypot(np.array(px), np.array(py)), np.full(2 * len(occ), np.nan))
         )
 
-    nearest = min(float(dist[e]) for e in f_l) if f_l else math.inf
+    nearest = min(p.dist for p in facing) if facing else math.inf
     lo_l = _merge_close_angles(theta, reach, nearest, geo.eps).tolist()
     hi_l = [*lo_l[1:], lo_l[0] + TAU]
     mid = 0.5 * (np.array(lo_l) + np.array(hi_l))
@@ -442,7 +522,7 @@ def _sweep(  # noqa: PLR0912, PLR0915
         else:
             # The ray through the middle of the interval against every facing edge.
             e, best = -1, math.inf
-            for edge, _, _, dx, dy, cross, _, _, inx, iny, outx, outy in facing:
+            for edge, _, _, dx, dy, cross, _, _, inx, iny, outx, outy, _ in facing:
                 if outx * uy - outy * ux > 0 and ux * iny - uy * inx > 0:
                     denom = ux * dy - uy * dx
                     s = cross / denom if denom != 0 else math.inf
@@ -492,18 +572,29 @@ class _Part(NamedTuple):
     iny: float
     outx: float  # its last point - robot
     outy: float
+    dist: float  # distance from the robot to the whole edge
 
 
 def _facing_parts(
-    geo: RingGeometry, a: FloatArray, cr: FloatArray, f: IntArray, radius: float
+    geo: RingGeometry, near: Near, f: IntArray, radius: float
 ) -> list[_Part]:
-    """Clip the facing edges ``f`` to the sensing disk; drop parts shorter than eps."""
+    """Clip the facing edges ``f`` (positions in ``near``) to the sensing disk.
+
+    Parts shorter than eps are dropped.
+    """
     out: list[_Part] = []
     finite = math.isfinite(radius)
     r2 = radius * radius
     eps = geo.eps
     steps, len2, lengths = geo.step_list, geo.len2_list, geo.length_list
-    for e, (ax, ay), c in zip(f.tolist(), a[f].tolist(), cr[f].tolist(), strict=True):
+    ids = f if near.edges is None else near.edges[f]
+    for e, (ax, ay), c, d in zip(
+        ids.tolist(),
+        near.a[f].tolist(),
+        near.cr[f].tolist(),
+        near.dist[f].tolist(),
+        strict=True,
+    ):
         dx, dy = steps[e]
         qa, length = len2[e], lengths[e]
         t_in, t_out = 0.0, 1.0
@@ -525,6 +616,7 @@ def _facing_parts(
                 iny=ay + t_in * dy,
                 outx=ax + t_out * dx,
                 outy=ay + t_out * dy,
+                dist=d,
             )
         )
     return out
@@ -879,15 +971,23 @@ def free_extent(
     if len(geo.start) == 0 or limit <= 0:
         return max(float(limit), 0.0), -1
     tol = geo.eps
-    a, _, _, occ = near if near is not None else _measure(geo, x)
+    if near is None:
+        near = _measure(geo, x, 0.0 if math.isfinite(limit) else math.inf)
     # At the robot's feet: touching the border, it may look straight into blocked space.
     ux, uy = float(u[0]), float(u[1])
-    for o in occ:
+    for o in near.occ:
         if _in_any_wedge([o], ux, uy):
             return 0.0, int(geo.ring[o.edge_n])
+    # The edges that may stop the ray: all, those measured (when the ray stays within
+    # their reach), or those near the ray (the same answer: the tests are per edge).
+    cand, a = near.edges, near.a
+    if cand is not None and not limit <= near.reach:
+        cand = geo.index.near_segment(x, x + limit * u)
+        a = geo.start[cand] - x
+    sub = slice(None) if cand is None else cand
     best, ring = float(limit), -1
     # Proper crossings of the segment x -> x + limit * u with an edge.
-    dx, dy = geo.step[:, 0], geo.step[:, 1]
+    dx, dy = geo.step_x[sub], geo.step_y[sub]
     ax, ay = a[:, 0], a[:, 1]
     yx, yy = limit * ux, limit * uy
     oa = yx * ay - yy * ax
@@ -895,7 +995,7 @@ def free_extent(
     ox = -(dx * ay - dy * ax)
     oy = dx * (yy - ay) - dy * (yx - ax)
     tol_y = tol * limit
-    tol_d = tol * geo.length
+    tol_d = tol * geo.length[sub]
     proper = (((oa > tol_y) & (ob < -tol_y)) | ((oa < -tol_y) & (ob > tol_y))) & (
         ((ox > tol_d) & (oy < -tol_d)) | ((ox < -tol_d) & (oy > tol_d))
     )
@@ -904,15 +1004,16 @@ def free_extent(
         s = (ax[idx] * dy[idx] - ay[idx] * dx[idx]) / (ux * dy[idx] - uy * dx[idx])
         k = int(np.argmin(s))
         if s[k] < best:
-            best, ring = float(s[k]), int(geo.ring[idx[k]])
+            best, ring = float(s[k]), int(geo.ring[sub][idx[k]])
     # Vertices on the segment where it would turn into blocked space.
     along = ax * ux + ay * uy
     off = np.abs(ux * ay - uy * ax)
     on = (off <= tol) & (along > tol) & (along < best + tol)
     if on.any():
         idx = np.flatnonzero(on)
-        nxt = geo.unit[idx]
-        prv = geo.prev_dir[idx]
+        glob = idx if cand is None else cand[idx]
+        nxt = geo.unit[glob]
+        prv = geo.prev_dir[glob]
         narrow = cross(nxt, prv) > 0
         uu = np.broadcast_to(u, nxt.shape)
         inside = np.where(
@@ -921,8 +1022,8 @@ def free_extent(
             ~((cross(prv, uu) >= -1e-12) & (cross(uu, nxt) >= -1e-12)),
         )
         if inside.any():
-            cand = idx[inside]
-            k = int(np.argmin(along[cand]))
-            if along[cand][k] < best:
-                best, ring = float(along[cand][k]), int(geo.ring[cand[k]])
+            hit = idx[inside]
+            k = int(np.argmin(along[hit]))
+            if along[hit][k] < best:
+                best, ring = float(along[hit][k]), int(geo.ring[sub][hit[k]])
     return best, ring

@@ -484,8 +484,12 @@ def _nearest_cover(disks: Disks, sources: FloatArray, sectors: int) -> FloatArra
     sector = (
         np.repeat(first[row, disk].astype(np.intp), count) + _ramp(count)
     ) % sectors
-    near = np.full((len(sources), sectors), np.inf)
+    near = np.full(len(sources) * sectors, np.inf)
+    # On flat indices: numpy's fast path for ufunc.at (a 2-D index is several times
+    # slower). The minimum does not depend on the order.
     np.minimum.at(
-        near, (np.repeat(row, count), sector), np.repeat(dist[row, disk], count)
+        near,
+        np.repeat(row * sectors, count) + sector,
+        np.repeat(dist[row, disk], count),
     )
-    return near
+    return near.reshape(len(sources), sectors)

@@ -82,8 +82,11 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.intp]
 
-# Node pairs screened at once (a block of rows against the columns after them).
-_BLOCK_PAIRS = 1 << 20
+# Node pairs screened at once (a block of rows against the columns after them): small
+# enough for the screen's temporaries to stay in the processor's cache.
+_SCREEN_PAIRS = 1 << 17
+# Pairs handed on at once, at most (plus one screened block's).
+_BLOCK_PAIRS = 1 << 18
 # Below this many segment x edge pairs, a bounding-box matrix beats the edge grid.
 _DENSE_LIMIT = 100_000
 # Directions closer than this (as a sine) to an edge count as running along it.
@@ -370,17 +373,29 @@ def _into_wedge(  # noqa: PLR0917 - a numeric kernel on broadcast arrays
     dx: FloatArray,
     dy: FloatArray,
     tol: FloatArray,
+    *,
+    backward: bool = False,
 ) -> BoolArray:
     """Tell if direction (dx, dy) leaves a vertex strictly into its blocked wedge.
 
     ``nxt`` and ``prv`` are (..., 2) unit vectors, broadcast against ``dx`` and ``dy``;
     strictly means by more than ``tol`` (``_ANGLE_TOL`` times the direction's length,
-    an angle). A wedge narrower than pi is
-    entered between its two sides; a wider one everywhere but the closed free wedge
-    from ``prv`` to ``nxt``.
+    an angle). A wedge narrower than pi is entered between its two sides; a wider one
+    everywhere but the closed free wedge from ``prv`` to ``nxt``. ``backward`` tests
+    the direction (-dx, -dy) instead: the same booleans as negating dx and dy (IEEE
+    products and differences change sign exactly), without the two negated copies.
     """
-    after_next = nxt[..., 0] * dy - nxt[..., 1] * dx > tol  # cross(nxt, d)
-    before_prev = dx * prv[..., 1] - dy * prv[..., 0] > tol  # cross(d, prv)
+    after_next = nxt[..., 0] * dy - nxt[..., 1] * dx  # cross(nxt, d)
+    before_prev = dx * prv[..., 1] - dy * prv[..., 0]  # cross(d, prv)
+    if backward:
+        low = -tol
+        after_next, before_prev = after_next < low, before_prev < low
+    else:
+        after_next, before_prev = after_next > tol, before_prev > tol
+    if narrow.all():
+        return after_next & before_prev
+    if not narrow.any():
+        return after_next | before_prev
     return np.where(narrow, after_next & before_prev, after_next | before_prev)
 
 
@@ -590,7 +605,9 @@ def _leaves_blocked(
     tol = _ANGLE_TOL * np.hypot(dx, dy)
     return _into_wedge(
         wedges.nxt[i], wedges.prv[i], wedges.narrow[i], dx, dy, tol
-    ) | _into_wedge(wedges.nxt[j], wedges.prv[j], wedges.narrow[j], -dx, -dy, tol)
+    ) | _into_wedge(
+        wedges.nxt[j], wedges.prv[j], wedges.narrow[j], dx, dy, tol, backward=True
+    )
 
 
 def _not_tangent(
@@ -637,22 +654,32 @@ def _candidate_pairs(
     A pair (nodes[r], nodes[c]), r < c, is left out when the segment leaves either end
     strictly into its blocked wedge; with ``tangent``, also when its extension beyond
     either end does (the line enters the obstacle there: not a tangent, section 9.5).
-    Blocks hold about ``_BLOCK_PAIRS`` pairs, so memory does not grow with n^2; pairs
-    come in row-major order of ``nodes`` (which must be ascending).
+    Pairs are screened ``_SCREEN_PAIRS`` at a time and handed on in blocks of about
+    ``_BLOCK_PAIRS``, so memory does not grow with n^2; pairs come in row-major order of
+    ``nodes`` (which must be ascending).
     """
     k = len(nodes)
     x, y = points[nodes, 0], points[nodes, 1]
+    screen = _not_tangent if tangent else _leaves_blocked
+    found: list[tuple[IntArray, IntArray]] = []
+    count = 0
     r0 = 0
     while r0 < k - 1:
-        r1 = min(k - 1, r0 + max(1, _BLOCK_PAIRS // (k - r0)))
+        r1 = min(k - 1, r0 + max(1, _SCREEN_PAIRS // (k - r0)))
         rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, k)[None, :]
         dx, dy = x[cols] - x[rows], y[cols] - y[rows]
-        out = cols <= rows
-        screen = _not_tangent if tangent else _leaves_blocked
-        out |= screen(wedges, nodes[rows], nodes[cols], dx, dy)
+        out = screen(wedges, nodes[rows], nodes[cols], dx, dy)
+        out |= cols <= rows
         r, c = np.nonzero(~out)
-        yield nodes[r0 + r], nodes[r0 + 1 + c]
+        found.append((nodes[r0 + r], nodes[r0 + 1 + c]))
+        count += len(r)
         r0 = r1
+        if count >= _BLOCK_PAIRS or r0 >= k - 1:
+            yield (
+                np.concatenate([f[0] for f in found]),
+                np.concatenate([f[1] for f in found]),
+            )
+            found, count = [], 0
 
 
 def visibility_graph(

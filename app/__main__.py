@@ -18,12 +18,12 @@ from __future__ import annotations
 __all__ = ["main"]
 
 import argparse
+import dataclasses
 import sys
 from collections.abc import Sequence
 
-from app.files import FolderError
-from app.server import DEFAULT_SCENARIO, resolve_scenario, start_app
-from planners.scene import ScenarioError
+# The app (viser, the planners) is imported in main() once the command line is read:
+# --snapshot launches the browser first and imports the app while it starts.
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -128,6 +128,12 @@ def _media_arguments(parser: argparse.ArgumentParser) -> None:
         help="the planner whose path the robot follows (vg, svg, dsb, bug2)",
     )
     group.add_argument(
+        "--time-stamp",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="--record: the trajectory time in each frame's top right corner (default: on)",
+    )
+    group.add_argument(
         "--until",
         type=float,
         default=None,
@@ -146,7 +152,8 @@ def _media(args: argparse.Namespace) -> int | None:
     if args.snapshot_dir is None and args.record is None and args.export_html is None:
         return None
     # Lazily: these need playwright (and imageio for videos), the server does not.
-    from app.slides import SlideOptions  # noqa: PLC0415
+    from app.server import DEFAULT_SCENARIO  # noqa: PLC0415
+    from app.slide_options import SlideOptions  # noqa: PLC0415
 
     options = SlideOptions(legend=not args.no_legend, title=args.title)
     names = [n for n in (args.scenario or "").split(",") if n]
@@ -175,7 +182,7 @@ def _media(args: argparse.Namespace) -> int | None:
             fps=args.fps,
             follow=args.follow,
             until=args.until,
-            options=options,
+            options=dataclasses.replace(options, time_stamp=args.time_stamp),
         )
     if args.export_html is not None:
         from app import export_html  # noqa: PLC0415
@@ -218,12 +225,41 @@ def _explain_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _snapshot(args: argparse.Namespace) -> int:
+    """``--snapshot``: one slide picture; a bad scenario is one line and exit code 2.
+
+    Only the light modules are imported here: :func:`app.headless.snapshot` launches
+    Chromium first and imports the app (viser, the planners) while it starts.
+    """
+    from app import headless  # noqa: PLC0415 - needs playwright; the server does not
+    from app.slide_options import SlideOptions  # noqa: PLC0415
+
+    return int(
+        headless.snapshot(
+            scenario=args.scenario,
+            out=args.snapshot,
+            width=args.width,
+            height=args.height,
+            view=args.view,
+            robot_time=args.robot_time,
+            options=SlideOptions(legend=not args.no_legend, title=args.title),
+        )
+    )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code."""
     args = _parser().parse_args(argv)
     media = _media(args)
     if media is not None:
         return media
+    if args.snapshot is not None and args.explain is None:
+        return _snapshot(args)
+
+    from app.files import FolderError  # noqa: PLC0415
+    from app.server import DEFAULT_SCENARIO, resolve_scenario, start_app  # noqa: PLC0415
+    from planners.scene import ScenarioError  # noqa: PLC0415
+
     scenario = args.scenario or DEFAULT_SCENARIO
     try:
         resolve_scenario(scenario)
@@ -231,7 +267,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {error}", file=sys.stderr)
         return 2
 
-    if args.snapshot is not None and args.explain is not None:
+    if args.snapshot is not None:
         from app import explain_headless  # noqa: PLC0415 - needs playwright
 
         return explain_headless.explain_snapshots(
@@ -244,23 +280,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             width=args.width,
             height=args.height,
             view=args.view,
-        )
-
-    if args.snapshot is not None:
-        # Lazily: the snapshot tool needs playwright, the interactive server does not.
-        from app import headless  # noqa: PLC0415
-        from app.slides import SlideOptions  # noqa: PLC0415
-
-        return int(
-            headless.snapshot(
-                scenario=scenario,
-                out=args.snapshot,
-                width=args.width,
-                height=args.height,
-                view=args.view,
-                robot_time=args.robot_time,
-                options=SlideOptions(legend=not args.no_legend, title=args.title),
-            )
         )
 
     try:

@@ -41,13 +41,17 @@ def legend_html(planner_app: Any, title: str) -> str:
     controller = planner_app.controller
     frame = controller.frame
     rows = legend_rows(
-        controller.plans, frame.layers if frame else {}, controller.registry
+        controller.plans,
+        frame.layers if frame else {},
+        controller.registry,
+        moving=bool(controller.scene.motions),
     )
     items = []
     for row in rows:
         swatches = "".join(
-            f'<span style="display:inline-block;width:{"0.9em" if kind == "disk" else "1.4em"};'
-            f"height:{_SWATCH_HEIGHT[kind]};background:{color};margin-right:0.2em;"
+            f'<span style="display:inline-block;width:{_SWATCH_WIDTH.get(kind, "1.4em")};'
+            f"height:{_SWATCH_HEIGHT[kind]};background:{_swatch_paint(color, kind)};"
+            "margin-right:0.2em;"
             f"{'border-radius:50%;' if kind == 'disk' else ''}"
             f'{"opacity:0.45;" if kind == "fill" else ""}vertical-align:middle"></span>'
             for color, kind in row.swatches
@@ -68,7 +72,18 @@ def legend_html(planner_app: Any, title: str) -> str:
     )
 
 
+_SWATCH_WIDTH = {"disk": "0.9em", "dashed": "3em"}
+
+
+def _swatch_paint(color: str, kind: str) -> str:
+    """CSS background of a legend swatch: the colour, or dashes of it."""
+    if kind != "dashed":
+        return color
+    return f"repeating-linear-gradient(90deg,{color} 0 0.3em,transparent 0.3em 0.6em)"
+
+
 _SWATCH_HEIGHT = {
+    "dashed": "0.16em",
     "line": "0.3em",
     "thin": "0.12em",
     "box": "0.9em",

@@ -30,16 +30,22 @@ __all__ = [
     "CHROMIUM_ARGS",
     "CHROMIUM_ENV",
     "CHROMIUM_HINT",
+    "SLIDE_CSS",
     "VIEWS",
     "AppPage",
     "CameraPose",
     "SnapshotError",
+    "attach_page",
     "capture",
     "check_chromium",
     "chromium_path",
     "frame_camera",
+    "free_port",
     "launch_browser",
+    "loading_size",
+    "open_early",
     "open_page",
+    "run_with_browser",
     "scene_bounds",
     "snapshot",
 ]
@@ -47,14 +53,16 @@ __all__ = [
 import contextlib
 import dataclasses
 import io
+import json
 import math
 import os
+import socket
 import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -112,6 +120,24 @@ body * { visibility: hidden !important; }
 canvas { visibility: visible !important; }
 """
 
+SLIDE_CSS = (
+    _HIDE_GUI_CSS
+    + "\n#planner-slide, #planner-slide * { visibility: visible !important; }\n"
+)
+"""The style sheet of a slide picture's page (:mod:`app.pictures`): only the canvas and
+the slide's overlay (title, legend, labels) are drawn."""
+
+_LOAD_VIEWPORT = (480, 300)
+"""Viewport [px] while viser's client loads the scene: the software renderer draws every
+frame of the loading at this size, which takes about a second less than at 1920 x 1080.
+The page is then resized to the picture's size (the canvas follows)."""
+
+
+def loading_size(width: int, height: int) -> tuple[int, int]:
+    """Viewport [px] of a ``width`` x ``height`` picture's page while the scene loads."""
+    return min(width, _LOAD_VIEWPORT[0]), min(height, _LOAD_VIEWPORT[1])
+
+
 # viser 1.1.1's line layers do not recompile their shader when a layer switches from one
 # colour to per-segment colours (three.js needs `material.needsUpdate` when `vertexColors`
 # changes): depending on message timing, such a layer is then drawn white. Recompiling
@@ -128,6 +154,16 @@ _RECOMPILE_MATERIALS_JS = """() => {
     if (m.requestRender) m.requestRender();
     return n;
 }"""
+
+# Adds a style sheet (%s: its text as a JSON string) as soon as the document has a head.
+_STYLE_SCRIPT = """(() => {
+    const add = () => {
+        const style = document.createElement("style");
+        style.textContent = %s;
+        document.head.appendChild(style);
+    };
+    if (document.head) add(); else document.addEventListener("DOMContentLoaded", add);
+})();"""
 
 _SETTLE_INTERVAL = 0.15  # s between screenshots while waiting for the picture to settle
 _SETTLE_MATCHES = 2  # identical consecutive screenshots needed after the first
@@ -517,6 +553,7 @@ def open_page(
     height: int = 800,
     timeout: float = 60.0,
     url: str | None = None,
+    css: str | None = None,
 ) -> Iterator[AppPage]:
     """Open a running app in a fresh browser context; wait until its scene is loaded.
 
@@ -535,6 +572,9 @@ def open_page(
         Longest time [s] to wait for the connection and the scene.
     url
         Address to open instead of the app's own (a classroom's presenter URL).
+    css
+        A style sheet the page has from its first paint (e.g. :data:`_HIDE_GUI_CSS`),
+        so that what it hides is never drawn.
 
     Yields
     ------
@@ -554,27 +594,102 @@ def open_page(
     try:
         page = context.new_page()
         page.set_default_timeout(timeout * 1e3)
+        if css is not None:
+            page.add_init_script(_STYLE_SCRIPT % json.dumps(css))
         try:
-            address = url or f"{planner_app.url.rstrip('/')}/"
-            page.goto(address + ("&" if "?" in address else "?") + "fixedDpr=1")
-            client = _wait_client(server, known, deadline)
-            page.wait_for_function(
-                """names => {
-                    const m = window.__viserMutable;
-                    if (!m || !m.nodeRefFromName) return false;
-                    const have = Object.keys(m.nodeRefFromName);
-                    return names.length ? names.every(n => have.includes(n)) : have.length > 1;
-                }""",
-                arg=_node_names(server),
-                polling=100,
-                timeout=max(0.1, deadline - time.monotonic()) * 1e3,
-            )
+            page.goto(_page_address(url or planner_app.url))
+            client = _wait_loaded(server, page, known, deadline)
         except PlaywrightError as error:
             raise SnapshotError(f"the browser failed: {_first_line(error)}") from None
         yield AppPage(page, client)
     finally:
         with contextlib.suppress(Exception):
             context.close()
+
+
+def _page_address(url: str) -> str:
+    address = f"{url.rstrip('/')}/" if "?" not in url else url
+    return address + ("&" if "?" in address else "?") + "fixedDpr=1"
+
+
+_LOADED_JS = """names => {
+    const m = window.__viserMutable;
+    if (!m || !m.nodeRefFromName) return false;
+    const have = Object.keys(m.nodeRefFromName);
+    return names.length ? names.every(n => have.includes(n)) : have.length > 1;
+}"""
+
+
+def _wait_loaded(server: Any, page: Page, known: set[int], deadline: float) -> Any:
+    """Wait until a client other than ``known`` has every scene node; return its handle."""
+    client = _wait_client(server, known, deadline)
+    page.wait_for_function(
+        _LOADED_JS,
+        arg=_node_names(server),
+        polling=100,
+        timeout=max(0.1, deadline - time.monotonic()) * 1e3,
+    )
+    return client
+
+
+def open_early(
+    browser: Browser,
+    port: int,
+    started: threading.Event,
+    *,
+    width: int,
+    height: int,
+    css: str | None = None,
+    timeout: float = 60.0,
+) -> Page:
+    """Open a page on ``http://127.0.0.1:port/`` before the app listens there.
+
+    The address is tried every 50 ms until it answers or ``started`` is set (the app
+    is up, or failed): viser's client (a few MB of JavaScript, about a second in a
+    loaded machine's browser) then loads while Python imports and plans. Hand the page
+    to :func:`attach_page` once the app is up. The page's context lives as long as
+    ``browser``.
+    """
+    context = browser.new_context(
+        viewport={"width": width, "height": height}, device_scale_factor=1
+    )
+    page = context.new_page()
+    page.set_default_timeout(timeout * 1e3)
+    if css is not None:
+        page.add_init_script(_STYLE_SCRIPT % json.dumps(css))
+    address = _page_address(f"http://127.0.0.1:{port}")
+    deadline = time.monotonic() + timeout
+    while not started.is_set() and time.monotonic() < deadline:
+        try:
+            page.goto(address, wait_until="commit")
+            break
+        except PlaywrightError:  # not listening yet
+            started.wait(0.05)
+    return page
+
+
+def attach_page(planner_app: Any, page: Page, timeout: float = 60.0) -> AppPage:
+    """Wait until a page of :func:`open_early` has the app's scene; return it.
+
+    The page is the app's only browser (the app is a private one on a free port). If
+    the app is not where the page went (viser moved to the next port, or the page
+    never reached it), the page goes to the app's address now.
+    """
+    deadline = time.monotonic() + timeout
+    try:
+        if not page.url.startswith(f"http://127.0.0.1:{planner_app.port}/"):
+            page.goto(_page_address(planner_app.url))
+        client = _wait_loaded(planner_app.server, page, set(), deadline)
+    except PlaywrightError as error:
+        raise SnapshotError(f"the browser failed: {_first_line(error)}") from None
+    return AppPage(page, client)
+
+
+def free_port() -> int:
+    """Return a loopback TCP port that is free now (the OS picks it)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
 
 
 def _wait_idle(planner_app: Any, deadline: float) -> None:
@@ -672,6 +787,72 @@ def _in_own_thread(fn: Callable[[], bytes]) -> bytes:
     if "error" in box:
         raise box["error"]
     return box["result"]
+
+
+T = TypeVar("T")
+
+
+def run_with_browser(
+    start: Callable[[], Any],
+    work: Callable[[Any, Browser], T],
+    *,
+    chromium: str | None = None,
+    prepare: Callable[[Browser, threading.Event], None] | None = None,
+) -> T:
+    """Start the app with ``start()`` while Chromium launches; return ``work(app, browser)``.
+
+    The browser is launched (and used) in a thread of its own, as playwright's sync API
+    needs; the app starts in the calling thread at the same time, so the two slow starts
+    overlap. Both are stopped on return, also on errors, which are raised here.
+
+    Call it before importing the app (``start`` may import it): the browser then
+    launches while Python imports viser and the planners, too. ``prepare(browser,
+    started)``, if given, runs in the browser's thread as soon as the browser is up,
+    while the app still starts (``started`` is set once ``start()`` returned or
+    failed): :func:`open_early`.
+    """
+    ready = threading.Event()
+    box: dict[str, Any] = {}
+
+    def browse() -> T:
+        with launch_browser(chromium) as browser:
+            if prepare is not None:
+                prepare(browser, ready)
+            ready.wait()
+            if "app" not in box:
+                raise _Cancelled
+            return work(box["app"], browser)
+
+    result: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            result["value"] = browse()
+        except BaseException as error:  # handed to the caller below
+            result["error"] = error
+
+    worker = threading.Thread(target=run, name="pictures-browser", daemon=True)
+    worker.start()
+    planner_app = None
+    try:
+        planner_app = start()
+        box["app"] = planner_app
+    finally:
+        ready.set()
+        worker.join()
+        if planner_app is not None:
+            with _quiet_stdout(), contextlib.suppress(Exception):
+                planner_app.stop()
+    if "error" in result:
+        raise result["error"]
+    return result["value"]
+
+
+class _Cancelled(Exception):
+    """The app did not start: the browser thread stops without working.
+
+    Never raised to the caller: ``start()``'s own error is.
+    """
 
 
 def _fail(message: str, code: int) -> int:
@@ -802,21 +983,41 @@ def _take_snapshot(
             raise PermissionError(13, "folder not writable")
     except OSError as error:
         raise _Failure(f"cannot write {path}: {error.strerror or error}", 1) from None
-    # Imported here: app/__init__ imports the server, and this module must stay importable
-    # on its own (the app's __main__ imports it only for --snapshot).
-    from app import pictures, start_app  # noqa: PLC0415
-    from app.slides import SlideOptions  # noqa: PLC0415
+    # The app (viser, the planners) is imported in start(), while Chromium launches:
+    # this module stays light so that the browser starts first.
+
+    port = free_port()  # known before the app starts, so the page can go there first
+    early: dict[str, Page] = {}
+
+    def prepare(browser: Browser, started: threading.Event) -> None:
+        small_w, small_h = loading_size(width, height)
+        early["page"] = open_early(
+            browser,
+            port,
+            started,
+            width=small_w,
+            height=small_h,
+            css=SLIDE_CSS,
+            timeout=timeout,
+        )
 
     def start() -> Any:
+        import app  # noqa: PLC0415
+
         try:
             with _quiet_stdout():
-                return start_app(scenario, host="127.0.0.1", port=0, print_url=False)
+                return app.start_app(
+                    scenario, host="127.0.0.1", port=port, print_url=False
+                )
         except (ValueError, LookupError, FileNotFoundError) as error:
             # planners.ScenarioError is a ValueError; an unknown name a LookupError.
             raise _Failure(f"cannot load scenario: {_first_line(error)}", 2) from None
 
     def take(planner_app: Any, browser: Browser) -> bytes:
         # The slide picture (app.pictures): sized labels, legend and title.
+        from app import pictures  # noqa: PLC0415
+        from app.slides import SlideOptions  # noqa: PLC0415
+
         return pictures.shoot(
             planner_app,
             browser,
@@ -826,9 +1027,10 @@ def _take_snapshot(
             robot_time=robot_time,
             options=options or SlideOptions(),
             timeout=timeout,
+            page=early.get("page"),
         )
 
-    png = pictures.run_with_browser(start, take, chromium=chromium)
+    png = run_with_browser(start, take, chromium=chromium, prepare=prepare)
     try:
         partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
         partial.write_bytes(png)

@@ -19,6 +19,7 @@ once the browser shows it there (:data:`_ROBOT_AT_JS`), so two recordings are th
 from __future__ import annotations
 
 __all__ = [
+    "FirstPicture",
     "Studio",
     "batch",
     "open_studio",
@@ -26,31 +27,25 @@ __all__ = [
     "settle",
     "shoot",
     "snapshot_dir",
+    "time_stamp",
 ]
 
 import contextlib
 import dataclasses
 import os
-import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from app import headless
-from app.headless import PlaywrightError
+from app.headless import PlaywrightError, run_with_browser
 from app.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser, Page
-
-# A picture's page stays open across scenarios; a 3-D label of the view would show.
-_HIDE_CSS = (
-    headless._HIDE_GUI_CSS
-    + "\n#planner-slide, #planner-slide * { visibility: visible !important; }\n"
-)
 
 # True when the browser's robot frame and wheels are where the server put them.
 _ROBOT_AT_JS = """(want) => {
@@ -68,6 +63,24 @@ _ROBOT_AT_JS = """(want) => {
     return true;
 }"""
 
+_STAMP_JS = """(text) => {
+    const el = document.getElementById('planner-stamp');
+    if (el) el.textContent = text;
+    return !!el;
+}"""
+
+
+def time_stamp(t: float) -> str:
+    """Return the time stamp of a frame at trajectory time ``t`` [s].
+
+    Examples
+    --------
+    >>> time_stamp(3.249), time_stamp(0.0)
+    ('t = 3.2 s', 't = 0.0 s')
+    """
+    return f"t = {t:.1f} s"
+
+
 _TWO_FRAMES_JS = """() => new Promise(done => requestAnimationFrame(
     () => requestAnimationFrame(() => done(true))))"""
 
@@ -84,6 +97,8 @@ class Studio:
     timeout: float = 60.0
     slide: Slide | None = None
     """The layout of the last picture taken."""
+    presented: float | None = None
+    """The line scale the view is presented with (None: not yet, or a new scenario)."""
 
     # ------------------------------------------------------------------ scene
 
@@ -97,6 +112,7 @@ class Studio:
             files.load_scenario(key)
         else:
             files.load_text(Path(path).read_bytes(), Path(path).name)
+        self.presented = None  # the new scenario's layers and labels are drawn anew
         self._wait_idle()
 
     def follow(self, planner: str) -> None:
@@ -118,24 +134,15 @@ class Studio:
         options: SlideOptions = SlideOptions(),  # noqa: B008
     ) -> Slide:
         """Lay out the picture of what the app shows now and draw its overlay."""
-        controller = self.app.controller
-        frame = controller.frame
-        layers = frame.layers if frame is not None else {}
-        slide = layout(
-            controller.scene,
-            controller.plans,
-            layers,
-            self.width,
-            self.height,
-            view=view,
-            options=options,
-            registry=controller.registry,
-        )
+        slide = _layout(self.app, self.width, self.height, view, options)
         deadline = time.monotonic() + self.timeout
         # Camera, line widths and overlay first, the page's full size last: the software
-        # renderer draws the intermediate frames at the small loading size.
+        # renderer draws the intermediate frames at the small loading size. What
+        # :func:`_stage` put in place before the page opened is not sent again.
         headless._apply_camera(self.shown.client, slide.camera, deadline)
-        self.app.view.present(line_scale=slide.line_scale, labels=False)
+        if self.presented != slide.line_scale:
+            self.app.view.present(line_scale=slide.line_scale, labels=False)
+            self.presented = slide.line_scale
         self._wait_idle()
         page = self.shown.page
         page.evaluate(DRAW_OVERLAY_JS, slide.overlay_spec())
@@ -176,6 +183,8 @@ class Studio:
             ),
         ]
         page = self.shown.page
+        if self.slide is not None and self.slide.stamp is not None:
+            page.evaluate(_STAMP_JS, time_stamp(t))
         page.wait_for_function(
             _ROBOT_AT_JS, arg=want, polling=20, timeout=self.timeout * 1e3
         )
@@ -189,10 +198,67 @@ class Studio:
             )
 
 
-_LOAD_VIEWPORT = (480, 300)
-"""Viewport [px] while viser's client loads the scene: the software renderer draws every
-frame of the loading at this size, which takes about a second less than at 1920 x 1080.
-The page is then resized to the picture's size (the canvas follows)."""
+def _layout(
+    planner_app: Any, width: int, height: int, view: str, options: SlideOptions
+) -> Slide:
+    """Lay out (:func:`app.slides.layout`) a picture of what the app shows now."""
+    controller = planner_app.controller
+    frame = controller.frame
+    layers = frame.layers if frame is not None else {}
+    return layout(
+        controller.scene,
+        controller.plans,
+        layers,
+        width,
+        height,
+        view=view,
+        options=options,
+        registry=controller.registry,
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class FirstPicture:
+    """What the first picture of :func:`open_studio` shows.
+
+    It is put in place before the page opens (:func:`_stage`).
+    """
+
+    view: str = "top"
+    options: SlideOptions = SlideOptions()  # noqa: RUF009 - frozen, so shared safely
+    robot_time: float = 0.0
+
+
+def _stage(
+    planner_app: Any, width: int, height: int, first: FirstPicture, timeout: float
+) -> float:
+    """Put the first picture's robot, camera and looks in place; return its line scale.
+
+    Done before the browser opens the app, so that viser's client loads the final scene
+    once: its first camera is the picture's (``server.initial_camera``, which new
+    clients start from), the editing gizmos and the view's own 3-D labels are never
+    drawn, and nothing is re-sent once it is loaded. The picture is the same as when
+    all of this is changed after the page has loaded, only sooner.
+    """
+    planner_app.set_robot_time(first.robot_time)
+    if planner_app.wait_idle(timeout) is False:
+        raise headless.SnapshotError(
+            "the app did not finish planning and drawing in time"
+        )
+    slide = _layout(planner_app, width, height, first.view, first.options)
+    camera = planner_app.server.initial_camera
+    camera.up = slide.camera.up
+    camera.fov = slide.camera.fov
+    camera.near = slide.camera.near
+    camera.far = slide.camera.far
+    camera.position = slide.camera.position
+    camera.look_at = slide.camera.look_at
+    planner_app.view.present(line_scale=slide.line_scale, labels=False)
+    if planner_app.wait_idle(timeout) is False:
+        raise headless.SnapshotError(
+            "the app did not finish planning and drawing in time"
+        )
+    return slide.line_scale
 
 
 @contextlib.contextmanager
@@ -203,77 +269,53 @@ def open_studio(
     width: int,
     height: int,
     timeout: float = 60.0,
+    first: FirstPicture = FirstPicture(),
+    page: Page | None = None,
 ) -> Iterator[Studio]:
-    """Open a running app in ``browser`` for pictures of ``width`` x ``height``."""
-    small_w, small_h = (min(width, _LOAD_VIEWPORT[0]), min(height, _LOAD_VIEWPORT[1]))
-    with headless.open_page(
-        planner_app, browser, width=small_w, height=small_h, timeout=timeout
-    ) as shown:
+    """Open a running app in ``browser`` for pictures of ``width`` x ``height``.
+
+    ``first`` says what the first picture will show; it is put in place before the page
+    opens (:func:`_stage`), which makes that picture quicker. Any other picture is
+    right too, only slower. ``page``: a page :func:`app.headless.open_early` opened on
+    the app's port while it started (it is closed on exit, as a page opened here is).
+    """
+    presented = _stage(planner_app, width, height, first, timeout)
+    with _studio_page(planner_app, browser, (width, height), timeout, page) as shown:
         try:
-            shown.page.add_style_tag(content=_HIDE_CSS)
             shown.page.evaluate("() => document.fonts.ready.then(() => true)")
         except PlaywrightError as error:
             raise headless.SnapshotError(
                 f"the browser failed: {headless._first_line(error)}"
             ) from None
-        yield Studio(planner_app, shown, width, height, timeout)
+        yield Studio(planner_app, shown, width, height, timeout, presented=presented)
 
 
-T = TypeVar("T")
-
-
-def run_with_browser(
-    start: Callable[[], Any],
-    work: Callable[[Any, Browser], T],
-    *,
-    chromium: str | None = None,
-) -> T:
-    """Start the app with ``start()`` while Chromium launches; return ``work(app, browser)``.
-
-    The browser is launched (and used) in a thread of its own, as playwright's sync API
-    needs; the app starts in the calling thread at the same time, so the two slow starts
-    overlap. Both are stopped on return, also on errors, which are raised here.
-    """
-    ready = threading.Event()
-    box: dict[str, Any] = {}
-
-    def browse() -> T:
-        with headless.launch_browser(chromium) as browser:
-            ready.wait()
-            if "app" not in box:
-                raise _Cancelled
-            return work(box["app"], browser)
-
-    result: dict[str, Any] = {}
-
-    def run() -> None:
-        try:
-            result["value"] = browse()
-        except BaseException as error:  # handed to the caller below
-            result["error"] = error
-
-    worker = threading.Thread(target=run, name="pictures-browser", daemon=True)
-    worker.start()
-    planner_app = None
+@contextlib.contextmanager
+def _studio_page(
+    planner_app: Any,
+    browser: Browser,
+    size: tuple[int, int],
+    timeout: float,
+    page: Page | None,
+) -> Iterator[headless.AppPage]:
+    """Yield the app's page at the loading size: ``page`` once loaded, or a new one."""
+    if page is None:
+        small_w, small_h = headless.loading_size(*size)
+        with headless.open_page(
+            planner_app,
+            browser,
+            width=small_w,
+            height=small_h,
+            timeout=timeout,
+            css=headless.SLIDE_CSS,
+        ) as shown:
+            yield shown
+        return
     try:
-        planner_app = start()
-        box["app"] = planner_app
+        yield headless.attach_page(planner_app, page, timeout)
     finally:
-        ready.set()
-        worker.join()
-        if planner_app is not None:
-            with headless._quiet_stdout(), contextlib.suppress(Exception):
-                planner_app.stop()
-    if "error" in result:
-        raise result["error"]
-    return result["value"]
-
-
-class _Cancelled(Exception):
-    """The app did not start: the browser thread stops without working.
-
-    Never raised to the caller: ``start()``'s own error is.
-    """
+        with contextlib.suppress(Exception):
+            page.context.close()
 
 
 def settle(page: Page, deadline: float) -> bytes:
@@ -312,10 +354,21 @@ def shoot(
     robot_time: float | None = None,
     options: SlideOptions = SlideOptions(),  # noqa: B008
     timeout: float = 60.0,
+    page: Page | None = None,
 ) -> bytes:
-    """One slide picture (PNG bytes) of a running app: what ``--snapshot`` writes."""
+    """One slide picture (PNG bytes) of a running app: what ``--snapshot`` writes.
+
+    ``page``: see :func:`open_studio`.
+    """
+    first = FirstPicture(view, options, 0.0 if robot_time is None else robot_time)
     with open_studio(
-        planner_app, browser, width=width, height=height, timeout=timeout
+        planner_app,
+        browser,
+        width=width,
+        height=height,
+        timeout=timeout,
+        first=first,
+        page=page,
     ) as shot:
         try:
             return shot.picture(view, options, robot_time)
@@ -341,8 +394,9 @@ def batch(
     it when its turn comes (in order, so consecutive views of one scenario share it).
     """
     written: list[Path] = []
+    first = FirstPicture(jobs[0][1] if jobs else "top", options)
     with open_studio(
-        planner_app, browser, width=width, height=height, timeout=timeout
+        planner_app, browser, width=width, height=height, timeout=timeout, first=first
     ) as shot:
         current = jobs[0][0] if jobs else None
         for scenario, view, path in jobs:

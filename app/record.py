@@ -32,7 +32,7 @@ import numpy.typing as npt
 
 from app.headless import CameraPose, SnapshotError
 from app.jobs import run_job
-from app.pictures import open_studio
+from app.pictures import FirstPicture, open_studio
 from app.slides import SlideOptions
 
 if TYPE_CHECKING:
@@ -98,11 +98,16 @@ def record_video(
         fails.
     """
     path = Path(out)
+    if follow is not None:  # before the page opens: it loads the final scene once
+        planner_app.controller.playback.set_follow(follow)
     with open_studio(
-        planner_app, browser, width=width, height=height, timeout=timeout
+        planner_app,
+        browser,
+        width=width,
+        height=height,
+        timeout=timeout,
+        first=FirstPicture("top", options),
     ) as studio:
-        if follow is not None:
-            studio.follow(follow)
         studio.app.set_robot_time(0.0)
         studio._wait_idle()
         duration = studio.duration

@@ -46,11 +46,15 @@ import shapely
 import planners
 from app.headless import CameraPose, frame_camera, scene_bounds
 from app.labels import Box, LabelRequest, Placement, place_labels
-from app.style import COLORS, HEIGHTS, hex_color, planner_look
+from app.slide_options import SlideOptions
+from app.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
 from app.view import event_labels
 from planners.registry import PlannerSpec
 from planners.scene import Scene
 
+MOVING_ROUTE = PURPLE
+"""Colour of a moving obstacle's dashed route, as :mod:`app.live` draws it."""
+_MOVING_TEXT = "moving obstacle's route"
 _FONT_SHARE = 0.03
 """Label font size as a share of the picture's height (32 px at 1080, 15 px at 500)."""
 _MIN_FONT = 11.0
@@ -63,24 +67,13 @@ _MARKER_MIN = 0.12  # [m] smallest start/goal marker radius (app.view._marker_si
 
 
 @dataclasses.dataclass(frozen=True)
-class SlideOptions:
-    """What a slide picture shows besides the scene."""
-
-    legend: bool = True
-    """Draw the legend in the picture."""
-    title: str | None = None
-    """The title; None: the scenario's name; ``""``: no title."""
-    labels: bool = True
-    """Draw the labels (obstacle numbers, start and goal, events)."""
-
-
-@dataclasses.dataclass(frozen=True)
 class LegendRow:
     """One row of the legend: coloured swatches and what they stand for."""
 
     swatches: tuple[tuple[str, str], ...]
-    """(``#rrggbb``, ``"line"`` | ``"thin"`` | ``"box"`` | ``"fill"`` | ``"disk"``) pairs;
-    ``"fill"`` is a translucent box (the expanded obstacles are drawn at 40 % opacity)."""
+    """(``#rrggbb``, ``"line"`` | ``"thin"`` | ``"dashed"`` | ``"box"`` | ``"fill"`` |
+    ``"disk"``) pairs; ``"fill"`` is a translucent box (the expanded obstacles are drawn
+    at 40 % opacity), ``"dashed"`` a thin dashed line as wide as two swatches."""
     text: str
 
 
@@ -101,6 +94,8 @@ class Slide:
     title: tuple[str, Box] | None
     legend: tuple[tuple[LegendRow, ...], Box, int] | None
     """The rows, the box and the number of columns of the legend."""
+    stamp: Box | None = None
+    """Where a video frame's time goes (:attr:`SlideOptions.time_stamp`), else None."""
 
     def overlay_spec(self) -> dict[str, Any]:
         """Return the JSON object :data:`DRAW_OVERLAY_JS` draws."""
@@ -121,6 +116,7 @@ class Slide:
                 if self.title
                 else None
             ),
+            "stamp": _box_list(self.stamp) if self.stamp else None,
             "legend": (
                 {
                     "rows": [
@@ -241,15 +237,24 @@ def legend_rows(
     plans: Mapping[str, Any],
     layers: Mapping[str, bool],
     registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
+    *,
+    moving: bool = False,
 ) -> tuple[LegendRow, ...]:
     """Return the legend rows of what the picture shows: obstacles, planners with a path, markers.
+
+    ``moving``: the scene has moving obstacles, whose routes (each one's centroid's
+    cycle) :class:`app.live.MotionPaths` draws dashed in reddish purple.
 
     Examples
     --------
     >>> [row.text for row in legend_rows({}, {})]
     ['obstacle', 'expanded obstacle', 'start / goal']
+    >>> [row.text for row in legend_rows({}, {}, moving=True)][1]
+    "moving obstacle's route"
     """
     rows = [LegendRow(((hex_color(COLORS["obstacle"]), "box"),), "obstacle")]
+    if moving:
+        rows.append(LegendRow(((hex_color(MOVING_ROUTE), "dashed"),), _MOVING_TEXT))
     if layers.get("expanded", True):
         rows.append(
             LegendRow(((hex_color(COLORS["expanded"]), "fill"),), "expanded obstacle")
@@ -331,7 +336,7 @@ def layout(
     height: int,
     *,
     view: str = "top",
-    options: SlideOptions = SlideOptions(),
+    options: SlideOptions = SlideOptions(),  # noqa: B008 - frozen
     registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
 ) -> Slide:
     """Decide the camera, the title, the legend and the labels of a W x H picture.
@@ -357,21 +362,19 @@ def layout(
     font = font_px(height)
     margin = round(font / 2)
     title_text = scene.name or "" if options.title is None else options.title
-    title_box = None
-    top = margin
-    if title_text:
-        title_font = font * _TITLE_FONT
-        w = min(width - 2 * margin, len(title_text) * _TEXT_WIDTH * title_font)
-        title_box = Box(margin, margin, margin + w, margin + 1.3 * title_font)
-        top = math.ceil(title_box.y1 + margin)
-    rows = legend_rows(plans, layers, registry) if options.legend else ()
+    title_box, stamp_box, top = _title_strip(title_text, options, font, width, margin)
+    rows = (
+        legend_rows(plans, layers, registry, moving=bool(scene.motions))
+        if options.legend
+        else ()
+    )
     legend_font = font * _LEGEND_FONT
     bounds = scene_bounds(scene)
     full = Box(margin, top, width - margin, height - margin)
     legend_box, columns, area = _place_legend(
         rows, legend_font, bounds, full, margin=margin, view=view
     )
-    reserved = [b for b in (title_box, legend_box) if b is not None]
+    reserved = [b for b in (title_box, stamp_box, legend_box) if b is not None]
     if view == "top":
         camera = slide_camera(bounds, width, height, area)
     else:
@@ -403,7 +406,34 @@ def layout(
         ),
         title=(title_text, title_box) if title_box is not None else None,
         legend=(rows, legend_box, columns) if legend_box is not None else None,
+        stamp=stamp_box,
     )
+
+
+_STAMP_TEMPLATE = "t = 000.0 s"
+"""The widest time stamp the box is sized for (runs under 1000 s)."""
+
+
+def _title_strip(
+    title: str, options: SlideOptions, font: float, width: int, margin: int
+) -> tuple[Box | None, Box | None, int]:
+    """Place the title (left) and the time stamp (right) in the top strip.
+
+    Returns their boxes (None when absent) and the top [px] of what goes below.
+    """
+    strip = 1.3 * font * _TITLE_FONT  # the title's line height
+    stamp = None
+    right = width - margin
+    if options.time_stamp:
+        w = len(_STAMP_TEMPLATE) * _TEXT_WIDTH * font + font
+        stamp = Box(right - w, margin, right, margin + strip)
+        right = math.floor(stamp.x0 - margin)
+    box = None
+    if title:
+        w = min(right - margin, len(title) * _TEXT_WIDTH * font * _TITLE_FONT)
+        box = Box(margin, margin, margin + max(w, 0.0), margin + strip)
+    top = math.ceil(margin + strip + margin) if box or stamp else margin
+    return box, stamp, top
 
 
 def _place_legend(
@@ -621,6 +651,15 @@ DRAW_OVERLAY_JS = """(spec) => {
             'line-height:' + (1.3 * 1.2 * f) + 'px;';
         place(el, spec.title.box);
     }
+    if (spec.stamp) {
+        const el = document.createElement('div');
+        el.id = 'planner-stamp';
+        el.className = 'planner-stamp';
+        el.style.cssText = 'font-family:"DejaVu Sans Mono",monospace;text-align:right;' +
+            'white-space:nowrap;color:#111;font-size:' + f + 'px;line-height:' +
+            (1.3 * 1.2 * f) + 'px;';
+        place(el, spec.stamp);
+    }
     if (spec.legend) {
         const g = spec.legend, lf = g.font;
         const box = document.createElement('div');
@@ -645,9 +684,15 @@ DRAW_OVERLAY_JS = """(spec) => {
                 'px;width:' + (3.2 * lf) + 'px;margin-right:' + (0.5 * lf) + 'px;flex:none;';
             for (const [color, kind] of row.swatches) {
                 const s = document.createElement('span');
-                const h = {line: 0.32, thin: 0.12, box: 0.9, fill: 0.9, disk: 0.9}[kind] * lf;
-                s.style.cssText = 'display:inline-block;flex:none;background:' + color +
-                    ';width:' + (kind === 'disk' ? h : 1.4 * lf) + 'px;height:' + h + 'px;' +
+                const h = {line: 0.32, thin: 0.12, dashed: 0.16, box: 0.9, fill: 0.9,
+                           disk: 0.9}[kind] * lf;
+                const dash = (0.3 * lf) + 'px';
+                s.style.cssText = 'display:inline-block;flex:none;background:' +
+                    (kind === 'dashed' ? 'repeating-linear-gradient(90deg,' + color +
+                     ' 0 ' + dash + ',transparent ' + dash + ' calc(2 * ' + dash + '))'
+                     : color) +
+                    ';width:' + (kind === 'disk' ? h : (kind === 'dashed' ? 3 : 1.4) * lf) +
+                    'px;height:' + h + 'px;' +
                     (kind === 'disk' ? 'border-radius:50%;border:1px solid #222;' : '') +
                     (kind === 'fill' ? 'opacity:0.45;' : '');
                 sw.appendChild(s);

@@ -18,7 +18,7 @@ import pytest
 
 from app import start_app
 from app.record import frame_times, record, record_video
-from app.slides import SlideOptions, project
+from app.slides import SlideOptions, layout, project
 from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -120,6 +120,42 @@ def test_two_recordings_are_the_same_frame_for_frame(
     for k in range(len(a)):
         off = np.abs(a[k].astype(int) - b[k]).max(axis=2) > 16
         assert off.mean() <= 0.005, f"frame {k} differs in {off.mean():.2%} of pixels"
+
+
+def test_a_time_stamp_shows_each_frames_time_in_its_box(
+    browser, planner_app, tmp_path
+) -> None:
+    path = tmp_path / "stamped.mp4"
+    options = SlideOptions(legend=False, title="", labels=False, time_stamp=True)
+    recording = record_video(
+        planner_app, browser, path, width=W, height=H, fps=2.0, until=2.0,
+        options=options,
+    )  # fmt: skip
+    assert recording.times == (0.0, 0.5, 1.0, 1.5, 2.0)
+    video = frames(path)
+    slide = layout_of(planner_app, options)
+    assert slide.stamp is not None
+    b = slide.stamp
+    x0, y0, x1, y1 = (round(v) for v in (b.x0, b.y0, b.x1, b.y1))
+    inside = video[:, y0:y1, x0:x1].astype(int)
+    # Dark text in the box on every frame, as tall as the labels' capitals and digits
+    # (2 to 3 % of the picture's height, tests/app/test_slides.py) ...
+    for k in range(len(video)):
+        rows = np.flatnonzero((inside[k].max(axis=2) < 90).any(axis=1))
+        assert len(rows), f"frame {k}: no time stamp"
+        assert 0.02 * H <= rows[-1] - rows[0] + 1 <= 0.04 * H
+    # ... saying another time on each frame ("t = 0.0 s", "t = 0.5 s", ...).
+    for k in range(1, len(video)):
+        assert (np.abs(inside[k] - inside[k - 1]).max(axis=2) > 48).sum() > 5, k
+
+
+def layout_of(planner_app, options: SlideOptions):
+    """The slide layout a recording of ``planner_app`` at W x H uses."""
+    controller = planner_app.controller
+    return layout(
+        controller.scene, controller.plans, controller.frame.layers, W, H,
+        options=options, registry=controller.registry,
+    )  # fmt: skip
 
 
 def test_bad_arguments_are_one_line_and_exit_2(tmp_path, capsys) -> None:

@@ -20,11 +20,19 @@ import pytest
 from PIL import Image
 
 import planners
-from app import start_app
+from app import live, start_app
 from app.headless import frame_camera, scene_bounds
 from app.labels import Box
 from app.pictures import batch, open_studio, run_with_browser
-from app.slides import SlideOptions, font_px, layout, legend_rows, project, slide_camera
+from app.slides import (
+    MOVING_ROUTE,
+    SlideOptions,
+    font_px,
+    layout,
+    legend_rows,
+    project,
+    slide_camera,
+)
 from planners.scene import load_scene
 from tests.browser import use_browser
 
@@ -238,3 +246,40 @@ def test_snapshot_dir_bad_arguments_are_one_line(tmp_path, args, message) -> Non
     assert result.stderr.startswith("error: ") and message in result.stderr
     assert result.stderr.count("\n") == 1
     assert not (tmp_path / "x").exists()
+
+
+def test_the_legend_names_a_moving_obstacles_route_when_the_scene_has_one() -> None:
+    assert MOVING_ROUTE == live._MOVING  # the colour the route is drawn in
+    for path in SCENARIOS:
+        scene = load_scene(path)
+        plans = planners.plan_all(scene, ("vg", "svg", "dsb"))
+        slide = layout(scene, plans, {}, 1920, 1080)
+        assert slide.legend is not None
+        rows = {r.text: r for r in slide.legend[0]}
+        route = rows.get("moving obstacle's route")
+        assert (route is not None) == bool(scene.motions), path.stem
+        if route is not None:
+            assert route.swatches == (("#cc79a7", "dashed"),)
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
+def test_a_time_stamp_box_is_kept_clear_of_the_title_legend_and_labels(path) -> None:
+    scene = load_scene(path)
+    plans = planners.plan_all(scene, ("vg", "svg", "dsb"))
+    options = SlideOptions(time_stamp=True)
+    for width, height in ((1920, 1080), (640, 360)):
+        slide = layout(scene, plans, {}, width, height, options=options)
+        plain = layout(scene, plans, {}, width, height)
+        stamp = slide.stamp
+        assert stamp is not None and plain.stamp is None
+        assert stamp.inside(width, height)
+        # As tall as the title's line, wide enough for "t = 000.0 s" in the labels' font.
+        assert stamp.height == pytest.approx(1.3 * 1.2 * slide.font_px)
+        assert stamp.width >= 11 * 0.62 * slide.font_px
+        others = [p.box for p in slide.labels.placed]
+        if slide.title:
+            others.append(slide.title[1])
+        if slide.legend:
+            others.append(slide.legend[1])
+        assert not any(stamp.overlaps(o) for o in others)
+        assert not slide.labels.dropped

@@ -14,8 +14,9 @@ picture, stop), as a lecturer runs it:
 - ``record``: ``--record`` of 4 s of the run at 10 fps, 640 x 360 (41 frames), per frame;
 - ``export``: ``--export-html`` of the whole run at 15 fps.
 
-Runs interleave (snapshot, plain, snapshot, plain, ...) so that load from other processes
-on a shared machine falls on both alike. It prints medians; it asserts nothing.
+``--only snapshot,plain`` runs a subset. Runs interleave (snapshot, plain, snapshot,
+plain, ...) so that load from other processes on a shared machine falls on both alike. It
+prints medians; it asserts nothing.
 """
 
 from __future__ import annotations
@@ -55,7 +56,14 @@ def timed(args: list[str]) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    repeats = parser.parse_args().repeats
+    parser.add_argument(
+        "--only",
+        default=None,
+        help="comma-separated subset: snapshot,plain,batch,record,export",
+    )
+    parsed = parser.parse_args()
+    repeats = parsed.repeats
+    only = set(parsed.only.split(",")) if parsed.only else None
     py = sys.executable
     scenarios = sorted((ROOT / "static_scenarios").glob("*.json"))
     times: dict[str, list[float]] = {}
@@ -75,16 +83,19 @@ def main() -> None:
                 ("export", [py, "-m", "app", "--scenario", SCENARIO, "--export-html",
                             str(out / "e.html")]),
             ):  # fmt: skip
-                times.setdefault(name, []).append(timed(args))
+                if only is None or name.split()[0] in only:
+                    times.setdefault(name, []).append(timed(args))
     median = {k: statistics.median(v) for k, v in times.items()}
     for name, value in median.items():
         print(f"{name:>10}: {value:6.2f} s (median of {repeats}: "
               f"{', '.join(f'{t:.2f}' for t in times[name])})")  # fmt: skip
     n = len(scenarios)
-    extra = (median[f"batch {n}"] - median["snapshot"]) / (n - 1)
-    print(f"per extra picture in a batch: {extra:.2f} s")
-    print(f"record: {(median['record'] - median['snapshot']) / 41:.2f} s per frame "
-          "beyond one snapshot (41 frames, 640 x 360)")  # fmt: skip
+    if f"batch {n}" in median and "snapshot" in median:
+        extra = (median[f"batch {n}"] - median["snapshot"]) / (n - 1)
+        print(f"per extra picture in a batch: {extra:.2f} s")
+    if "record" in median and "snapshot" in median:
+        print(f"record: {(median['record'] - median['snapshot']) / 41:.2f} s per frame "
+              "beyond one snapshot (41 frames, 640 x 360)")  # fmt: skip
 
 
 if __name__ == "__main__":

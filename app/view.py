@@ -50,6 +50,7 @@ from app.controller import Frame, Handle, RobotPose
 from app.robot import RobotModel
 from app.scoped import ScopedTarget
 from app.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
+from app.thinning import edges_to_draw
 from planners.trace import FOLLOW
 
 FloatArray = npt.NDArray[np.float64]
@@ -483,12 +484,16 @@ class _GraphLayer:
             result, "status", ""
         ) in ("ok", "unreachable")
         show_path = frame.layers.get(f"{self.name}_path", True)
+        all_edges = frame.layers.get(f"{self.name}_edges_all", False)
         # The same result object drawn the same way: nothing to send (the frame that
         # brings the DSB result leaves VG and SVG as they are).
-        if not changed(self.name, (result, show_edges, show_path)):
+        if not changed(self.name, (result, show_edges, show_path, all_edges)):
             return
+        # A big graph is thinned unless its "edges: all" layer is on (app.thinning).
         self.edges.set(
-            lift_segments(result.arrays.segments(), self.look.edges_height)
+            lift_segments(
+                edges_to_draw(result, all_edges).segments, self.look.edges_height
+            )
             if show_edges and result is not None
             else _NO_SEGMENTS,
             show_edges,

@@ -568,6 +568,9 @@ def status_markdown(frame: Frame) -> str:
     - VG, SVG: the goal is inside obstacle 2
     """
     parts = []
+    progress = getattr(frame, "progress", None)
+    if progress:  # a big scene's worker computes (app.big)
+        parts.append(f"**{progress}**  \n*The last plans are shown grey until then.*")
     if frame.message:
         parts.append(f"**{frame.message}**")
     if frame.problems:

@@ -64,7 +64,11 @@ def path_nodes(arrays: Any, path: npt.ArrayLike) -> npt.NDArray[np.intp]:
     """
     points = np.asarray(arrays.points, dtype=np.float64).reshape(-1, 2)
     corners = np.asarray(path, dtype=np.float64).reshape(-1, 2)
-    on_path = (points[:, None, :] == corners[None, :, :]).all(axis=2).any(axis=1)
+    # Exact matches through sorting (x + iy as one number), not an n-by-m comparison: a
+    # path around a 10,000-vertex circle has thousands of corners.
+    on_path = np.isin(
+        points[:, 0] + 1j * points[:, 1], corners[:, 0] + 1j * corners[:, 1]
+    )
     on_path[[arrays.start, arrays.goal]] = True
     return np.flatnonzero(on_path)
 

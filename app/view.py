@@ -57,6 +57,12 @@ FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]
 Mesh = tuple[FloatArray, IndexArray]
 
+MAX_VERTEX_HANDLES = 600
+"""A scene with more obstacle vertices than this shows no vertex gizmos in the edit tool."""
+
+# The grey of an older scene's plans, kept while a big scene is computed (app.big).
+_STALE = (176, 176, 176)
+
 # One degenerate segment / triangle: viser nodes keep a valid shape while hidden.
 _NO_SEGMENTS = np.zeros((1, 2, 3))
 _NO_MESH: Mesh = (np.zeros((3, 3)), np.array([[0, 1, 2]], dtype=np.uint32))
@@ -487,8 +493,16 @@ class _GraphLayer:
         all_edges = frame.layers.get(f"{self.name}_edges_all", False)
         # The same result object drawn the same way: nothing to send (the frame that
         # brings the DSB result leaves VG and SVG as they are).
-        if not changed(self.name, (result, show_edges, show_path, all_edges)):
+        key = (result, show_edges, show_path, all_edges, frame.stale)
+        if not changed(self.name, key):
             return
+        # An older scene's plans, kept while a big scene is computed, are drawn grey.
+        for layer, color in (
+            (self.edges, self.look.edges),
+            (self.path, self.look.path),
+        ):
+            rgb = _STALE if frame.stale else (color or self.look.path)
+            layer.handle.colors = np.asarray(rgb, dtype=np.uint8)
         # A big graph is thinned unless its "edges: all" layer is on (app.thinning).
         self.edges.set(
             lift_segments(
@@ -536,17 +550,21 @@ class _TraceLayer:
         # the path and the crosses only on the result: a goal dragged while the DSB
         # result lags re-sends no path.
         key = (result, show, markers, marker_size)
+        stale = frame.stale
         if changed(f"{self.name}_labels", key):
             labels = clear_of_markers(merge_labels(events, 0.2), markers, marker_size)
             self.labels.set([(text, (*at, z + 0.05)) for text, at in labels], show)
-        if not changed(self.name, (result, show)):
+        if not changed(self.name, (result, show, stale)):
             return
         segments = (
             path_to_segments(result.path, z)
             if show and result is not None
             else _NO_SEGMENTS
         )
-        self.path.set(segments, show, self._colors(result, len(segments)))
+        colors = self._colors(result, len(segments))
+        if stale and colors is not None:  # an older scene's walk, kept while computing
+            colors[:] = _STALE
+        self.path.set(segments, show, colors)
         crosses = [_cross(at, 0.12, z + 0.004) for _, at in events]
         self.marks.set(
             np.concatenate(crosses) if crosses else _NO_SEGMENTS, show and bool(crosses)
@@ -875,7 +893,10 @@ class PlannerView:
             for j in range(len(o.exterior.coords) - 1)
         ]
         top = HEIGHTS["obstacle"] + 0.01
-        while len(self.vertex_handles) < len(slots):
+        # Gizmos are made when the edit tool first needs them; a scene of thousands of
+        # vertices (a CAD floor plan) gets none: its obstacles are moved whole.
+        wanted = len(slots) if editing and len(slots) <= MAX_VERTEX_HANDLES else 0
+        while len(self.vertex_handles) < wanted:
             k = len(self.vertex_handles)
             gizmo = self.scene.add_transform_controls(
                 f"/handles/vertex/{k}",
@@ -890,7 +911,7 @@ class PlannerView:
             self.vertex_handles.append(gizmo)
         self.vertex_slots = slots
         for k, gizmo in enumerate(self.vertex_handles):
-            shown = k < len(slots) and editing
+            shown = k < wanted
             if shown:
                 i, j = slots[k]
                 if ("vertex", i, j) not in dragging:
@@ -899,7 +920,7 @@ class PlannerView:
             if gizmo.visible != shown:
                 gizmo.visible = shown
         n = len(scene.obstacles)
-        while len(self.obstacle_handles) < n:
+        while len(self.obstacle_handles) < (n if editing else 0):
             k = len(self.obstacle_handles)
             gizmo = self.scene.add_transform_controls(
                 f"/handles/obstacle/{k}",

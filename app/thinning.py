@@ -109,10 +109,12 @@ def frame_note(plans: Mapping[str, Any], layers: Mapping[str, bool]) -> str | No
     status with edges to show count.
     """
     drawn = {
-        name: edges_to_draw(result, layers.get(f"{name}_edges_all", False))
+        name: edges_to_draw(result, all_edges=False)
         for name, result in plans.items()
         if hasattr(result, "arrays")
         and getattr(result, "status", "") in ("ok", "unreachable")
+        and len(result.arrays.i) > THIN_ABOVE  # else nothing is thinned: no work
+        and not layers.get(f"{name}_edges_all", False)
     }
     return thinning_note(drawn, layers)
 

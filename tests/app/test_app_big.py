@@ -89,7 +89,7 @@ def test_a_big_scene_shows_progress_and_edits_cancel_its_computation(app):
         controller.files.load_text(json.dumps(big), "circle.json")
         loaded = controller.version
         first = recorder.wait_for(lambda f: f.version == loaded and f.progress, 30)
-        assert first.stale
+        assert first.stale and first.progress is not None
         assert re.fullmatch(
             r"Computing VG, SVG\.\.\. \(10,004 vertices, \d+\.\d s\)", first.progress
         )

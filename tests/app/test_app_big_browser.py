@@ -56,7 +56,7 @@ def test_dragging_an_obstacle_of_a_student_room_in_the_browser(browser, tmp_path
         assert app.wait_idle(120)
         with open_page(app, browser, width=WIDTH, height=HEIGHT) as shown:
             page = shown.page
-            vg = controller.frame.plans["vg"]
+            vg = _frame(controller).plans["vg"]
             thinned = edges_to_draw(vg, all_edges=False)
             assert thinned.thinned
             note = page.get_by_text(f"of {vg.edges:,} drawn", exact=False)
@@ -75,7 +75,7 @@ def test_dragging_an_obstacle_of_a_student_room_in_the_browser(browser, tmp_path
             after = _shot(page, tmp_path / "h3_drag_after.png")
             # The obstacle moved between the two pictures; the graph followed it.
             assert np.abs(during - after).max() > 60
-            frame = controller.frame
+            frame = _frame(controller)
             assert frame.plans["vg"].status == "ok"
             drawn = controller_view_points(app)
             assert drawn == len(edges_to_draw(frame.plans["vg"], False).segments)
@@ -96,6 +96,12 @@ def test_dragging_an_obstacle_of_a_student_room_in_the_browser(browser, tmp_path
         app.stop()
 
 
+def _frame(controller: Any) -> Any:
+    frame = controller.frame
+    assert frame is not None
+    return frame
+
+
 def frame_layer(controller: Any, key: str) -> bool:
     frame = controller.frame
     return frame is not None and bool(frame.layers.get(key))
@@ -110,5 +116,5 @@ def controller_view_points(app: Any) -> int:
 def _blue(picture: np.ndarray) -> int:
     """Count the pixels of the room (left of the panel) that are VG-edge blue-ish."""
     room = picture[:, : int(WIDTH * 0.7)]
-    r, g, b = room[..., 0], room[..., 1], room[..., 2]
+    r, b = room[..., 0], room[..., 2]
     return int(np.count_nonzero((b - r > 40) & (b > 150)))

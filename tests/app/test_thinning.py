@@ -13,7 +13,7 @@ from app.thinning import THIN_ABOVE, edges_to_draw, frame_note, path_nodes
 from tests.benchmarks.bench_student import student_layout
 
 
-def _reference(arrays, path) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+def _reference(arrays, path) -> list[tuple[tuple[float, ...], tuple[float, ...]]]:
     """Slow and obvious: each edge with an end at the start, the goal or a path corner."""
     corners = {tuple(map(float, p)) for p in np.asarray(path).reshape(-1, 2)}
     ends = {tuple(map(float, arrays.points[k])) for k in (arrays.start, arrays.goal)}
@@ -26,7 +26,7 @@ def _reference(arrays, path) -> list[tuple[tuple[float, float], tuple[float, flo
     return out
 
 
-def _as_pairs(segments) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+def _as_pairs(segments) -> list[tuple[tuple[float, ...], tuple[float, ...]]]:
     return [
         (tuple(map(float, s[0])), tuple(map(float, s[1]))) for s in np.asarray(segments)
     ]
@@ -124,7 +124,9 @@ def test_the_view_draws_a_big_graph_thinned_and_all_on_request():
     )
     try:
         assert controller.wait_idle(60)
-        vg = controller.frame.plans["vg"]
+        frame = controller.frame
+        assert frame is not None
+        vg = frame.plans["vg"]
         edges = view.graphs["vg"].edges.handle
         thinned = edges_to_draw(vg, all_edges=False)
         assert len(edges.points) == len(thinned.segments) < vg.edges

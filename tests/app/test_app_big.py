@@ -98,10 +98,21 @@ def test_a_big_scene_shows_progress_and_edits_cancel_its_computation(app):
             lambda: any("Computing VG, SVG..." in t for t in _markdown(watcher)), 30
         )
 
-        # Edits while it computes: each gives the running computation up.
+        # Edits while it computes: each gives the running computation up. A drag of the
+        # goal: the planning waits for the mouse to rest.
+        controller.edits.drag_handle(("goal",), (37.0, 20.5), "start")
         for y in (21.0, 22.0, 23.0):
-            controller.edits.move_goal((37.0, y))
+            controller.edits.drag_handle(("goal",), (37.0, y), "update")
         last = controller.version
+        waiting = recorder.wait_for(
+            lambda f: (
+                f.version == last and "Waiting for the drag" in (f.progress or "")
+            ),
+            30,
+        )
+        assert waiting.stale
+        controller.edits.drag_handle(("goal",), (37.0, 23.0), "end")
+        assert controller.version == last  # the end of a drag changes no scene
         # The second browser still works meanwhile: it hides the obstacles, and a frame
         # shows that while the final scene is still being computed.
         watcher.set_gui(watcher.uuid("Obstacles", "Checkbox"), False)

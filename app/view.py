@@ -12,6 +12,7 @@ The functions at the top are pure (numpy and shapely only) and are tested as arr
 from __future__ import annotations
 
 __all__ = [
+    "STALE_RGB",
     "PlannerView",
     "SensingPicture",
     "circle_segments",
@@ -61,7 +62,7 @@ MAX_VERTEX_HANDLES = 600
 """A scene with more obstacle vertices than this shows no vertex gizmos in the edit tool."""
 
 # The grey of an older scene's plans, kept while a big scene is computed (app.big).
-_STALE = (176, 176, 176)
+STALE_RGB = (176, 176, 176)
 
 # One degenerate segment / triangle: viser nodes keep a valid shape while hidden.
 _NO_SEGMENTS = np.zeros((1, 2, 3))
@@ -482,6 +483,7 @@ class _GraphLayer:
             scene, f"/{name}/edges", look.edges or look.path, look.edges_px, "screen"
         )
         self.path = _Segments(scene, f"/{name}/path", look.path, look.path_width)
+        self.stale = False  # drawn grey (an older scene's result)
 
     def render(self, frame: Frame, changed: Callable[[str, Any], bool]) -> None:
         """Draw the frame's result of this planner (nothing is sent if it is unchanged)."""
@@ -496,13 +498,15 @@ class _GraphLayer:
         key = (result, show_edges, show_path, all_edges, frame.stale)
         if not changed(self.name, key):
             return
-        # An older scene's plans, kept while a big scene is computed, are drawn grey.
-        for layer, color in (
-            (self.edges, self.look.edges),
-            (self.path, self.look.path),
-        ):
-            rgb = _STALE if frame.stale else (color or self.look.path)
-            layer.handle.colors = np.asarray(rgb, dtype=np.uint8)
+        if frame.stale != self.stale:
+            # An older scene's plans, kept while a big scene is computed, are grey.
+            self.stale = frame.stale
+            for layer, color in (
+                (self.edges, self.look.edges),
+                (self.path, self.look.path),
+            ):
+                rgb = STALE_RGB if frame.stale else (color or self.look.path)
+                layer.handle.colors = np.asarray(rgb, dtype=np.uint8)
         # A big graph is thinned unless its "edges: all" layer is on (app.thinning).
         self.edges.set(
             lift_segments(
@@ -563,7 +567,7 @@ class _TraceLayer:
         )
         colors = self._colors(result, len(segments))
         if stale and colors is not None:  # an older scene's walk, kept while computing
-            colors[:] = _STALE
+            colors[:] = STALE_RGB
         self.path.set(segments, show, colors)
         crosses = [_cross(at, 0.12, z + 0.004) for _, at in events]
         self.marks.set(

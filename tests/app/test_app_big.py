@@ -16,12 +16,15 @@ import re
 import threading
 from typing import Any
 
+import numpy as np
 import pytest
 
 import planners
 from app import start_app
 from app.big import BIG_SCENE_VERTICES, scene_vertices
 from app.frames import Frame
+from app.style import planner_look
+from app.view import STALE_RGB
 from tests.benchmarks.bench_big import circle_scene
 from tests.viser_client import ViserClient
 
@@ -31,11 +34,16 @@ class Recorder:
 
     def __init__(self) -> None:
         self.frames: list[Frame] = []
+        self.seen: dict[int, Any] = {}  # id(frame) -> what ``look`` saw when it came
+        self.look: Any = None
         self.cond = threading.Condition()
 
     def render(self, frame: Frame) -> None:
+        # Views draw in order: the 3-D view has drawn this frame already.
+        seen = None if self.look is None else self.look()
         with self.cond:
             self.frames.append(frame)
+            self.seen[id(frame)] = seen
             self.cond.notify_all()
 
     def render_robot(self, pose: Any) -> None:
@@ -139,8 +147,27 @@ def test_a_big_scene_shows_progress_and_edits_cancel_its_computation(app):
         # DSB too, for the last edit (its worker gave the older scenes up).
         assert final.slow_version == last and "dsb" not in final.lagging
         assert final.plans["dsb"].status == "reached"
+
+        _check_the_last_picture_stays_grey(app, recorder, final)
     finally:
         watcher.close()
+
+
+def _check_the_last_picture_stays_grey(app, recorder: Recorder, final: Frame) -> None:
+    """One more edit: the big scene's plans stay on screen, grey, until the new ones."""
+    controller = app.controller
+    last = final.version
+    view = controller.views._views[0]
+    grey, blue = np.asarray(STALE_RGB), np.asarray(planner_look("vg").path)
+    recorder.look = lambda: np.array(view.graphs["vg"].path.handle.colors)
+    controller.edits.move_goal((37.0, 19.0))
+    kept = recorder.wait_for(lambda f: f.version == last + 1 and f.stale, 30)
+    assert kept.plans["vg"] is final.plans["vg"]  # the last picture, not a new one
+    assert (recorder.seen[id(kept)] == grey).all()
+    assert app.wait_idle(180)
+    again = controller.frame
+    assert again is not None and not again.stale and again.version == last + 1
+    assert (np.asarray(view.graphs["vg"].path.handle.colors) == blue).all()
 
 
 def _labels(client: ViserClient) -> set[str]:

@@ -100,6 +100,10 @@ class Frame:
     """Scene version the slow planners' results shown were computed for (-1: none)."""
     enabled: frozenset[str] = frozenset()
     """Planners switched on (their lanes run them); the others have no entry in ``plans``."""
+    progress: str | None = None
+    """What a big scene's worker computes now and for how long (:mod:`app.big`), or None."""
+    stale: bool = False
+    """The plans are an older scene's, kept (greyed) while the new ones are computed."""
 
 
 class View(Protocol):

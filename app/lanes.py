@@ -16,7 +16,7 @@ a process that runs threads (viser, the controller).
 
 from __future__ import annotations
 
-__all__ = ["ProcessLane", "picklable"]
+__all__ = ["Interrupted", "ProcessLane", "picklable"]
 
 import logging
 import os
@@ -31,6 +31,10 @@ from typing import IO, Any
 logger = logging.getLogger(__name__)
 
 _CHILD = "from app.lanes import _child_main; _child_main()"
+
+
+class Interrupted(RuntimeError):
+    """A call given up on: :meth:`ProcessLane.interrupt` stopped the worker computing it."""
 
 
 def picklable(fn: Callable[..., Any]) -> bool:
@@ -88,12 +92,14 @@ class ProcessLane:
         :class:`planners.Memo`, kept from call to call.
     """
 
-    def __init__(self, fn: Callable[..., Any]) -> None:
+    def __init__(self, fn: Callable[..., Any], *, start: bool = True) -> None:
         self._payload = pickle.dumps(fn)
         self._lock = threading.Lock()
+        self._start_lock = threading.Lock()
         self._proc: subprocess.Popen[bytes] | None = None
         self._closed = False
-        self._start()
+        if start:  # else on the first call (a worker few sessions need)
+            self._start()
 
     def _start(self) -> None:
         # The child finds the same modules as we do (the project, a test's helpers).
@@ -110,20 +116,40 @@ class ProcessLane:
         stdin.write(self._payload)
         stdin.flush()
 
+    def _ensure_started(self) -> None:
+        with self._start_lock:
+            if self._proc is None and not self._closed:
+                self._start()
+
     def _pipe(self, name: str) -> IO[bytes]:
-        assert self._proc is not None
-        pipe = getattr(self._proc, name)
-        assert pipe is not None
+        proc = self._proc
+        pipe = None if proc is None else getattr(proc, name)
+        if pipe is None:  # stopped by interrupt() or close() meanwhile
+            raise OSError("the planner process was stopped")
         return pipe
 
-    def __call__(self, scene: Any, **keywords: Any) -> Any:
-        """Compute ``fn(scene, **keywords)`` in the worker; restart it once if it has died."""
+    def __call__(
+        self,
+        scene: Any,
+        abandoned: Callable[[], bool] | None = None,
+        **keywords: Any,
+    ) -> Any:
+        """Compute ``fn(scene, **keywords)`` in the worker; restart it once if it has died.
+
+        ``abandoned`` (optional) tells whether the caller has given up on this call: it
+        is asked before the worker starts on it and when the worker stops; if it says
+        yes, the call raises :class:`Interrupted` instead of starting again. A caller
+        gives up on a call by setting its flag, then calling :meth:`interrupt`.
+        """
         with self._lock:
             ok, value = False, "the planner process did not answer"
             for attempt in (1, 2):
                 if self._closed:
                     raise RuntimeError("the planner process is closed")
+                if abandoned is not None and abandoned():
+                    raise Interrupted("the computation was given up")
                 try:
+                    self._ensure_started()
                     stdin = self._pipe("stdin")
                     pickle.dump(
                         (scene, keywords), stdin, protocol=pickle.HIGHEST_PROTOCOL
@@ -132,11 +158,13 @@ class ProcessLane:
                     ok, value = pickle.load(self._pipe("stdout"))
                     break
                 except (EOFError, OSError, pickle.UnpicklingError, ValueError):
+                    if abandoned is not None and abandoned():
+                        raise Interrupted("the computation was given up") from None
                     if attempt == 2 or self._closed:
                         raise RuntimeError("the planner process stopped") from None
                     logger.warning("the planner process stopped; starting a new one")
                     self._stop_process()
-                    self._start()
+                    self._ensure_started()
             if not ok:
                 raise RuntimeError(value)
             return value
@@ -158,6 +186,17 @@ class ProcessLane:
                     pipe.close()
                 except OSError:
                     pass
+
+    def interrupt(self) -> None:
+        """Stop the worker now (a call in progress ends) and start a fresh one.
+
+        A long computation cannot be stopped half-way inside the worker; stopping the
+        process can. The new worker starts at once (its imports take a moment), so the
+        next call rarely waits for it. Its :class:`planners.Memo` starts empty.
+        """
+        # Not under the lock: the call in progress holds it while it waits for the child.
+        self._stop_process()
+        self._ensure_started()
 
     @property
     def pid(self) -> int | None:

@@ -22,6 +22,7 @@ import planners
 from app.controller import TOOLS, Controller, Frame, RobotPose
 from app.files import ScenesFolder
 from app.style import COLORS, hex_color, planner_look
+from app.thinning import frame_note
 from app.tools import layer_names
 from planners.registry import PlannerSpec
 
@@ -439,7 +440,8 @@ class Panels:
         _set(
             self.results,
             "content",
-            results_markdown(frame.plans, frame.lagging, self._registry),
+            results_markdown(frame.plans, frame.lagging, self._registry)
+            + _note(frame_note(frame.plans, frame.layers)),
         )
 
         # Settings are pushed only from the newest frame: while a slider is being dragged
@@ -540,6 +542,11 @@ class Panels:
             self.rates.content = text
 
 
+def _note(text: str | None) -> str:
+    """Return a note to put under the results table (empty when there is none)."""
+    return "" if text is None else f"\n\n{text}"
+
+
 def _set(handle: Any, name: str, value: Any) -> None:
     """Assign a GUI property only when it changes.
 
@@ -561,6 +568,9 @@ def status_markdown(frame: Frame) -> str:
     - VG, SVG: the goal is inside obstacle 2
     """
     parts = []
+    progress = getattr(frame, "progress", None)
+    if progress:  # a big scene's worker computes (app.big)
+        parts.append(f"**{progress}**  \n*The last plans are shown grey until then.*")
     if frame.message:
         parts.append(f"**{frame.message}**")
     if frame.problems:

@@ -50,8 +50,9 @@ import numpy.typing as npt
 from shapely import Polygon
 
 import planners
+from app.big import BIG_SCENE_VERTICES, PROGRESS_S, SETTLE_S, BigJob, scene_vertices
 from app.frames import Frame, Views, build_frame
-from app.lanes import ProcessLane, picklable
+from app.lanes import Interrupted, ProcessLane, picklable
 from app.playback import Playback
 from app.session import SessionState, Snapshot
 from planners.registry import REGISTRY, PlannerSpec, planners_of_kind
@@ -140,6 +141,8 @@ class Lane:
     """Run only the enabled ones of :attr:`names` (False: a caller's fixed function)."""
     process: ProcessLane | None = None
     """The worker process the lane runs in, if any (closed with the scheduler)."""
+    big: ProcessLane | None = None
+    """The worker process a big scene's plans are computed in (:mod:`app.big`), if any."""
 
     def which(self, enabled: frozenset[str]) -> tuple[str, ...]:
         """Return the names to run when the ``enabled`` planners are switched on."""
@@ -178,7 +181,8 @@ def lanes_for(
             return fast, None
     else:
         memo = planners.Memo()
-        fast = Lane(fast_names, functools.partial(_run, registry=registry, memo=memo))
+        run = functools.partial(_run, registry=registry, memo=memo)
+        fast = Lane(fast_names, run, big=_big_worker(fast_names, registry))
     if slow_plan is not None:
         names = slow if slow_names is None else tuple(slow_names)
         return fast, _fixed(slow_plan, names)
@@ -194,6 +198,14 @@ def lanes_for(
         return fast, Lane(slow, _remote(process), process=process)
     memo = planners.Memo()
     return fast, Lane(slow, functools.partial(_run, registry=registry, memo=memo))
+
+
+def _big_worker(
+    names: tuple[str, ...], registry: Mapping[str, PlannerSpec]
+) -> ProcessLane | None:
+    """Make the worker for big scenes' fast planners (started on first use; None if unpicklable)."""
+    fn = functools.partial(default_plan, which=names, registry=dict(registry))
+    return ProcessLane(fn, start=False) if names and picklable(fn) else None
 
 
 def _run(
@@ -384,6 +396,9 @@ class Scheduler:
         self._busy = False
         self._closed = False
         self._last_frame: Frame | None = None
+        self._job: BigJob | None = None  # a big scene's computation (app.big)
+        self._slow_big = False  # the slow lane computes a big scene
+        self._slow_given_up: _PlanKey | None = None  # the slow call given up on
         # The fast lane's thread only:
         self._other: tuple[Any, tuple[Polygon, ...] | None] = (None, None)
         self._threads = [threading.Thread(target=self._work, name="planner-worker")]
@@ -438,6 +453,8 @@ class Scheduler:
             self._lock.notify_all()
         if self.process is not None:
             self.process.close()
+        if self._fast.big is not None:
+            self._fast.big.close()
         for thread in self._threads:
             if thread is not threading.current_thread():
                 thread.join(timeout=5.0)
@@ -493,11 +510,19 @@ class Scheduler:
         self, snapshot: Snapshot, computed: _Computed | None, slow: SlowResults
     ) -> None:
         key = self._key(snapshot)
+        self._give_up_stale(key)
         if computed is None or computed.key != key:
-            t0 = time.perf_counter()
-            plans = self._fast.run(snapshot.scene, self._fast.which(key.enabled))
-            ms = (time.perf_counter() - t0) * 1e3
-            computed = _Computed(key, snapshot.scene, plans, ms)
+            if self._fast.big is not None and (
+                scene_vertices(snapshot.scene) > BIG_SCENE_VERTICES
+            ):
+                computed = self._compute_big(snapshot, key)
+                if computed is None:
+                    return  # a newer edit came first: the next round plans it
+            else:
+                t0 = time.perf_counter()
+                plans = self._fast.run(snapshot.scene, self._fast.which(key.enabled))
+                ms = (time.perf_counter() - t0) * 1e3
+                computed = _Computed(key, snapshot.scene, plans, ms)
         scene = computed.scene
         slow_names = (
             () if self._slow_lane is None else self._slow_lane.which(key.enabled)
@@ -551,9 +576,15 @@ class Scheduler:
                     return
                 key = self._key(snapshot)
                 self._slow_tried, self._slow_busy = key, True
+                self._slow_big = scene_vertices(snapshot.scene) > BIG_SCENE_VERTICES
             which = lane.which(key.enabled)
             try:
-                results = dict(lane.run(snapshot.scene, which)) if which else {}
+                results = self._run_slow(lane, snapshot.scene, key, which)
+            except Interrupted:
+                with self._lock:  # given up for a newer big scene (_give_up_stale)
+                    self._slow_busy = False
+                    self._lock.notify_all()
+                continue
             except Exception as error:
                 if self._closed:
                     return  # the planner process was stopped by close()
@@ -605,3 +636,111 @@ class Scheduler:
             polygons = None
         self._other = (key, polygons)
         return polygons
+
+    # ------------------------------------------------------------------ big scenes
+
+    def _run_slow(
+        self, lane: Lane, scene: Scene, key: _PlanKey, which: tuple[str, ...]
+    ) -> dict[str, Any]:
+        """Run the slow planners; in the lane's own worker, a call that may be given up."""
+        if not which:
+            return {}
+        if lane.process is None:
+            return dict(lane.run(scene, which))
+
+        def given_up() -> bool:
+            return self._slow_given_up == key
+
+        return dict(lane.process(scene, abandoned=given_up, which=which))
+
+    def _give_up_stale(self, key: _PlanKey) -> None:
+        """Stop the big scene's computations that are not for ``key`` (a newer edit).
+
+        The fast lane's job, and the slow lane's call when it plans a big scene in a
+        worker of its own (a small scene's slow result is still shown, marked lagging,
+        during a drag: that call is left to finish).
+        """
+        job, process = self._job, None
+        if job is not None and job.key != key:
+            self._job = None
+            job.cancel()
+        with self._lock:
+            slow = self._slow_lane
+            if (
+                slow is not None
+                and slow.process is not None
+                and self._slow_busy
+                and self._slow_big
+                and self._slow_tried not in (key, self._slow_given_up)
+            ):
+                self._slow_given_up = self._slow_tried
+                process = slow.process
+        if process is not None:
+            process.interrupt()
+
+    def _compute_big(self, snapshot: Snapshot, key: _PlanKey) -> _Computed | None:
+        """Plan a big scene in the worker, drawing progress frames; None if overtaken."""
+        big = self._fast.big
+        assert big is not None
+        if snapshot.ui.dragging and self._job is None:
+            # While the mouse moves, show the scene as edited and wait for it to rest.
+            self._views.render(self._progress_frame(snapshot, None))
+            with self._lock:
+                self._lock.wait_for(
+                    lambda: (
+                        self._closed or self._key(self._state.snapshot_locked()) != key
+                    ),
+                    timeout=SETTLE_S,
+                )
+                if self._closed or self._key(self._state.snapshot_locked()) != key:
+                    return None
+        job = self._job
+        if job is None:
+            job = self._job = BigJob(
+                key, snapshot.scene, self._fast.which(key.enabled), big, self._wake
+            )
+        drawn_ui, next_at = -1, 0.0
+        while True:
+            with self._lock:
+                now = self._state.snapshot_locked()
+                if self._closed or self._key(now) != key:
+                    return None  # the next round gives this job up
+                if job.done.is_set():
+                    break
+                if now.ui_version == drawn_ui and time.monotonic() < next_at:
+                    self._lock.wait(max(0.0, next_at - time.monotonic()))
+                    continue
+            self._views.render(self._progress_frame(now, job))
+            drawn_ui, next_at = now.ui_version, time.monotonic() + PROGRESS_S
+        self._job = None
+        if job.error is not None:
+            plans = {n: Failed(n, _failure(n, job.error)) for n in job.which}
+        else:
+            plans = dict(job.result)
+        return _Computed(key, job.scene, plans, job.elapsed() * 1e3)
+
+    def _wake(self) -> None:
+        with self._lock:
+            self._lock.notify_all()
+
+    def _progress_frame(self, snapshot: Snapshot, job: BigJob | None) -> Frame:
+        """Make a frame of the scene as edited, with the last plans (stale) if of its room."""
+        with self._lock:
+            last = self._last_frame
+        kept = last is not None and last.scene.boundary == snapshot.scene.boundary
+        plans: Mapping[str, Any] = last.plans if kept and last is not None else {}
+        frame = build_frame(
+            snapshot,
+            plans,
+            trajectory=last.trajectory if kept and last is not None else None,
+            other=None,
+            compute_ms=0.0,
+            lagging=frozenset(plans),  # an older scene's reasons are not said
+        )
+        words = (
+            job.progress()
+            if job is not None
+            else "Waiting for the drag to rest before planning"
+            f" ({scene_vertices(snapshot.scene):,} vertices)."
+        )
+        return dataclasses.replace(frame, progress=words, stale=True)

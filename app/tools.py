@@ -95,8 +95,8 @@ def layer_names(registry: Mapping[str, PlannerSpec]) -> Mapping[str, str]:
 
     Examples
     --------
-    >>> list(layer_names(planners.REGISTRY))[3:6]
-    ['vg_edges', 'vg_path', 'svg_edges']
+    >>> list(layer_names(planners.REGISTRY))[3:7]
+    ['vg_edges', 'vg_path', 'vg_edges_all', 'svg_edges']
     """
     out = {
         "obstacles": "Obstacles",
@@ -108,6 +108,8 @@ def layer_names(registry: Mapping[str, PlannerSpec]) -> Mapping[str, str]:
         if spec.kind == "graph":
             out[f"{name}_edges"] = f"{short} edges"
             out[f"{name}_path"] = f"{short} path"
+            # A big graph is drawn thinned (app.thinning); this draws every edge.
+            out[f"{name}_edges_all"] = f"{short} edges: all"
         else:
             out[f"{name}_path"] = f"{short} path and events"
     out["robot"] = "Robot"
@@ -163,9 +165,15 @@ class Selection:
 def default_layers(
     registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
 ) -> Mapping[str, bool]:
-    """Return which layers of :func:`layer_names` show at first (all but the other model)."""
+    """Return which layers of :func:`layer_names` show at first.
+
+    All but the other model and the "edges: all" switches (a big graph starts thinned).
+    """
     return MappingProxyType(
-        {key: key not in _DEFAULT_OFF for key in layer_names(registry)}
+        {
+            key: key not in _DEFAULT_OFF and not key.endswith("_edges_all")
+            for key in layer_names(registry)
+        }
     )
 
 

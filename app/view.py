@@ -12,6 +12,7 @@ The functions at the top are pure (numpy and shapely only) and are tested as arr
 from __future__ import annotations
 
 __all__ = [
+    "STALE_RGB",
     "PlannerView",
     "SensingPicture",
     "circle_segments",
@@ -50,11 +51,18 @@ from app.controller import Frame, Handle, RobotPose
 from app.robot import RobotModel
 from app.scoped import ScopedTarget
 from app.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
+from app.thinning import edges_to_draw
 from planners.trace import FOLLOW
 
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]
 Mesh = tuple[FloatArray, IndexArray]
+
+MAX_VERTEX_HANDLES = 600
+"""A scene with more obstacle vertices than this shows no vertex gizmos in the edit tool."""
+
+# The grey of an older scene's plans, kept while a big scene is computed (app.big).
+STALE_RGB = (176, 176, 176)
 
 # One degenerate segment / triangle: viser nodes keep a valid shape while hidden.
 _NO_SEGMENTS = np.zeros((1, 2, 3))
@@ -475,6 +483,7 @@ class _GraphLayer:
             scene, f"/{name}/edges", look.edges or look.path, look.edges_px, "screen"
         )
         self.path = _Segments(scene, f"/{name}/path", look.path, look.path_width)
+        self.stale = False  # drawn grey (an older scene's result)
 
     def render(self, frame: Frame, changed: Callable[[str, Any], bool]) -> None:
         """Draw the frame's result of this planner (nothing is sent if it is unchanged)."""
@@ -483,12 +492,26 @@ class _GraphLayer:
             result, "status", ""
         ) in ("ok", "unreachable")
         show_path = frame.layers.get(f"{self.name}_path", True)
+        all_edges = frame.layers.get(f"{self.name}_edges_all", False)
         # The same result object drawn the same way: nothing to send (the frame that
         # brings the DSB result leaves VG and SVG as they are).
-        if not changed(self.name, (result, show_edges, show_path)):
+        key = (result, show_edges, show_path, all_edges, frame.stale)
+        if not changed(self.name, key):
             return
+        if frame.stale != self.stale:
+            # An older scene's plans, kept while a big scene is computed, are grey.
+            self.stale = frame.stale
+            for layer, color in (
+                (self.edges, self.look.edges),
+                (self.path, self.look.path),
+            ):
+                rgb = STALE_RGB if frame.stale else (color or self.look.path)
+                layer.handle.colors = np.asarray(rgb, dtype=np.uint8)
+        # A big graph is thinned unless its "edges: all" layer is on (app.thinning).
         self.edges.set(
-            lift_segments(result.arrays.segments(), self.look.edges_height)
+            lift_segments(
+                edges_to_draw(result, all_edges).segments, self.look.edges_height
+            )
             if show_edges and result is not None
             else _NO_SEGMENTS,
             show_edges,
@@ -531,17 +554,21 @@ class _TraceLayer:
         # the path and the crosses only on the result: a goal dragged while the DSB
         # result lags re-sends no path.
         key = (result, show, markers, marker_size)
+        stale = frame.stale
         if changed(f"{self.name}_labels", key):
             labels = clear_of_markers(merge_labels(events, 0.2), markers, marker_size)
             self.labels.set([(text, (*at, z + 0.05)) for text, at in labels], show)
-        if not changed(self.name, (result, show)):
+        if not changed(self.name, (result, show, stale)):
             return
         segments = (
             path_to_segments(result.path, z)
             if show and result is not None
             else _NO_SEGMENTS
         )
-        self.path.set(segments, show, self._colors(result, len(segments)))
+        colors = self._colors(result, len(segments))
+        if stale and colors is not None:  # an older scene's walk, kept while computing
+            colors[:] = STALE_RGB
+        self.path.set(segments, show, colors)
         crosses = [_cross(at, 0.12, z + 0.004) for _, at in events]
         self.marks.set(
             np.concatenate(crosses) if crosses else _NO_SEGMENTS, show and bool(crosses)
@@ -870,7 +897,10 @@ class PlannerView:
             for j in range(len(o.exterior.coords) - 1)
         ]
         top = HEIGHTS["obstacle"] + 0.01
-        while len(self.vertex_handles) < len(slots):
+        # Gizmos are made when the edit tool first needs them; a scene of thousands of
+        # vertices (a CAD floor plan) gets none: its obstacles are moved whole.
+        wanted = len(slots) if editing and len(slots) <= MAX_VERTEX_HANDLES else 0
+        while len(self.vertex_handles) < wanted:
             k = len(self.vertex_handles)
             gizmo = self.scene.add_transform_controls(
                 f"/handles/vertex/{k}",
@@ -885,7 +915,7 @@ class PlannerView:
             self.vertex_handles.append(gizmo)
         self.vertex_slots = slots
         for k, gizmo in enumerate(self.vertex_handles):
-            shown = k < len(slots) and editing
+            shown = k < wanted
             if shown:
                 i, j = slots[k]
                 if ("vertex", i, j) not in dragging:
@@ -894,7 +924,7 @@ class PlannerView:
             if gizmo.visible != shown:
                 gizmo.visible = shown
         n = len(scene.obstacles)
-        while len(self.obstacle_handles) < n:
+        while len(self.obstacle_handles) < (n if editing else 0):
             k = len(self.obstacle_handles)
             gizmo = self.scene.add_transform_controls(
                 f"/handles/obstacle/{k}",

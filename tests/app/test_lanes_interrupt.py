@@ -1,0 +1,69 @@
+"""ProcessLane.interrupt: a call given up ends at once, and the lane keeps working."""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import pytest
+
+from app.lanes import Interrupted, ProcessLane
+
+
+def slow_echo(value: Any, memo: Any = None, seconds: float = 0.0) -> Any:
+    """Return ``value`` after ``seconds`` (run in the worker process)."""
+    time.sleep(seconds)
+    return value
+
+
+def test_an_interrupted_call_raises_and_the_next_one_is_answered():
+    lane = ProcessLane(slow_echo, start=False)
+    try:
+        assert lane.pid is None  # started on first use
+        given_up = threading.Event()
+        outcome: list[BaseException | Any] = []
+
+        def call() -> None:
+            try:
+                outcome.append(lane(1, abandoned=given_up.is_set, seconds=60.0))
+            except BaseException as error:
+                outcome.append(error)
+
+        thread = threading.Thread(target=call)
+        thread.start()
+        deadline = time.monotonic() + 30
+        while lane.pid is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        first = lane.pid
+        time.sleep(0.5)  # the worker is inside the minute-long call
+        given_up.set()
+        lane.interrupt()
+        thread.join(timeout=30)
+        assert not thread.is_alive()
+        assert len(outcome) == 1 and isinstance(outcome[0], Interrupted)
+        # A fresh worker answers the next call (never the given-up one's result).
+        assert lane.pid is not None and lane.pid != first
+        assert lane(2, seconds=0.0) == 2
+    finally:
+        lane.close()
+
+
+def test_a_call_given_up_before_it_starts_never_runs():
+    lane = ProcessLane(slow_echo, start=False)
+    try:
+        with pytest.raises(Interrupted):
+            lane(3, abandoned=lambda: True, seconds=60.0)
+        assert lane.pid is None
+    finally:
+        lane.close()
+
+
+def test_a_worker_that_dies_on_its_own_is_still_restarted():
+    lane = ProcessLane(slow_echo)
+    try:
+        assert lane(4) == 4
+        lane.interrupt()  # nobody gave a call up: the next call just uses the new one
+        assert lane(5, abandoned=lambda: False) == 5
+    finally:
+        lane.close()

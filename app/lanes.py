@@ -116,11 +116,6 @@ class ProcessLane:
         stdin.write(self._payload)
         stdin.flush()
 
-    def _ensure_started(self) -> None:
-        with self._start_lock:
-            if self._proc is None and not self._closed:
-                self._start()
-
     def _pipe(self, name: str) -> IO[bytes]:
         proc = self._proc
         pipe = None if proc is None else getattr(proc, name)
@@ -146,15 +141,8 @@ class ProcessLane:
             for attempt in (1, 2):
                 if self._closed:
                     raise RuntimeError("the planner process is closed")
-                if abandoned is not None and abandoned():
-                    raise Interrupted("the computation was given up")
                 try:
-                    self._ensure_started()
-                    stdin = self._pipe("stdin")
-                    pickle.dump(
-                        (scene, keywords), stdin, protocol=pickle.HIGHEST_PROTOCOL
-                    )
-                    stdin.flush()
+                    self._send(scene, keywords, abandoned)
                     ok, value = pickle.load(self._pipe("stdout"))
                     break
                 except (EOFError, OSError, pickle.UnpicklingError, ValueError):
@@ -163,11 +151,32 @@ class ProcessLane:
                     if attempt == 2 or self._closed:
                         raise RuntimeError("the planner process stopped") from None
                     logger.warning("the planner process stopped; starting a new one")
-                    self._stop_process()
-                    self._ensure_started()
+                    with self._start_lock:  # the next attempt starts a new one
+                        self._stop_process()
             if not ok:
                 raise RuntimeError(value)
             return value
+
+    def _send(
+        self,
+        scene: Any,
+        keywords: dict[str, Any],
+        abandoned: Callable[[], bool] | None,
+    ) -> None:
+        """Hand one call to the worker, unless the caller has given it up.
+
+        Under the start lock, like :meth:`interrupt`: a caller sets its flag before it
+        interrupts, so a call given up is either refused here or written to the worker
+        that the interrupt then stops -- never to the fresh one.
+        """
+        with self._start_lock:
+            if abandoned is not None and abandoned():
+                raise Interrupted("the computation was given up")
+            if self._proc is None and not self._closed:
+                self._start()
+            stdin = self._pipe("stdin")
+            pickle.dump((scene, keywords), stdin, protocol=pickle.HIGHEST_PROTOCOL)
+            stdin.flush()
 
     def _stop_process(self) -> None:
         proc, self._proc = self._proc, None
@@ -194,9 +203,13 @@ class ProcessLane:
         process can. The new worker starts at once (its imports take a moment), so the
         next call rarely waits for it. Its :class:`planners.Memo` starts empty.
         """
-        # Not under the lock: the call in progress holds it while it waits for the child.
-        self._stop_process()
-        self._ensure_started()
+        # Not under the call lock: the call in progress holds it while it waits for the
+        # child. Under the start lock, so that close() and a call's hand-over do not
+        # interleave with the restart (no worker outlives close()).
+        with self._start_lock:
+            self._stop_process()
+            if not self._closed:
+                self._start()
 
     @property
     def pid(self) -> int | None:
@@ -205,7 +218,9 @@ class ProcessLane:
 
     def close(self) -> None:
         """Stop the worker process (a call in progress ends with an error)."""
-        self._closed = True
-        # Not under the lock: a call may be waiting for the child; stopping the child
-        # ends that wait with EOFError.
-        self._stop_process()
+        # Not under the call lock: a call may be waiting for the child; stopping the
+        # child ends that wait with EOFError. Under the start lock: an interrupt() or a
+        # call's hand-over in progress finishes first and starts nothing after this.
+        with self._start_lock:
+            self._closed = True
+            self._stop_process()

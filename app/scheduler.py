@@ -358,6 +358,15 @@ def merge_slow(
 # --------------------------------------------------------------------------- scheduler
 
 
+def _same_slow_work(lane: Lane, a: _PlanKey, b: _PlanKey) -> bool:
+    """Whether the slow lane computes the same for keys ``a`` and ``b``.
+
+    The same scene version and the same slow planners on: switching a fast planner on or
+    off gives no slow call up.
+    """
+    return a.version == b.version and lane.which(a.enabled) == lane.which(b.enabled)
+
+
 class Scheduler:
     """Plan every new version of the session's scene in two lanes and draw the frames.
 
@@ -576,13 +585,16 @@ class Scheduler:
                     return
                 key = self._key(snapshot)
                 self._slow_tried, self._slow_busy = key, True
+                self._slow_given_up = None  # a call given up before is over
                 self._slow_big = scene_vertices(snapshot.scene) > BIG_SCENE_VERTICES
             which = lane.which(key.enabled)
             try:
                 results = self._run_slow(lane, snapshot.scene, key, which)
             except Interrupted:
                 with self._lock:  # given up for a newer big scene (_give_up_stale)
-                    self._slow_busy = False
+                    # Not tried after all: if the scene comes back to this key (a
+                    # planner switched off and on again), it is computed again.
+                    self._slow_busy, self._slow_tried = False, None
                     self._lock.notify_all()
                 continue
             except Exception as error:
@@ -671,7 +683,9 @@ class Scheduler:
                 and slow.process is not None
                 and self._slow_busy
                 and self._slow_big
-                and self._slow_tried not in (key, self._slow_given_up)
+                and self._slow_tried is not None
+                and self._slow_tried != self._slow_given_up
+                and not _same_slow_work(slow, self._slow_tried, key)
             ):
                 self._slow_given_up = self._slow_tried
                 process = slow.process

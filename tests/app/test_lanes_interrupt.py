@@ -67,3 +67,27 @@ def test_a_worker_that_dies_on_its_own_is_still_restarted():
         assert lane(5, abandoned=lambda: False) == 5
     finally:
         lane.close()
+
+
+def test_close_while_an_interrupt_restarts_the_worker_leaves_no_worker(monkeypatch):
+    # Review finding: interrupt() restarting the worker while close() ran could start a
+    # worker after close that lived until the app's process ended.
+    lane = ProcessLane(slow_echo, start=False)
+    starting = threading.Event()
+    real_start = ProcessLane._start
+
+    def slow_start(self: ProcessLane) -> None:
+        starting.set()
+        time.sleep(0.5)  # close() arrives while the restart is under way
+        real_start(self)
+
+    monkeypatch.setattr(ProcessLane, "_start", slow_start)
+    restart = threading.Thread(target=lane.interrupt)
+    restart.start()
+    assert starting.wait(30)
+    lane.close()
+    restart.join(timeout=30)
+    assert not restart.is_alive()
+    assert lane.pid is None  # the restart finished first, then close() stopped it
+    lane.interrupt()  # an interrupt after close starts nothing
+    assert lane.pid is None

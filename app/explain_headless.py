@@ -166,7 +166,7 @@ def _run(
                 )
             return b""
 
-        headless._in_own_thread(take)
+        headless._Threaded(take, "snapshot-browser").result()
     finally:
         with headless._quiet_stdout(), contextlib.suppress(Exception):
             planner_app.stop()

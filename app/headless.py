@@ -62,7 +62,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -766,30 +766,40 @@ def _quiet_stdout() -> Iterator[None]:
         yield
 
 
-def _in_own_thread(fn: Callable[[], bytes]) -> bytes:
-    """Run ``fn`` in a new thread and return its result (or raise its exception).
+T = TypeVar("T")
+
+
+class _Threaded(Generic[T]):
+    """``fn()`` run in a new thread of its own; :meth:`result` returns or raises its outcome.
 
     playwright's sync API refuses to start in a thread that runs an asyncio loop (a
     notebook) or that already drives another playwright (a test session's shared
     browser); a thread of its own always works.
     """
-    box: dict[str, Any] = {}
 
-    def run() -> None:
+    def __init__(self, fn: Callable[[], T], name: str) -> None:
+        self._fn = fn
+        self._value: T | None = None
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
         try:
-            box["result"] = fn()
-        except BaseException as error:  # handed to the caller below
-            box["error"] = error
+            self._value = self._fn()
+        except BaseException as error:  # handed to the caller by result()
+            self._error = error
 
-    worker = threading.Thread(target=run, name="snapshot-browser", daemon=True)
-    worker.start()
-    worker.join()
-    if "error" in box:
-        raise box["error"]
-    return box["result"]
+    def join(self) -> None:
+        """Wait until ``fn`` has returned or raised."""
+        self._thread.join()
 
-
-T = TypeVar("T")
+    def result(self) -> T:
+        """Wait for ``fn``; return its value, or raise what it raised."""
+        self.join()
+        if self._error is not None:
+            raise self._error
+        return cast("T", self._value)
 
 
 def run_with_browser(
@@ -823,29 +833,18 @@ def run_with_browser(
                 raise _Cancelled
             return work(box["app"], browser)
 
-    result: dict[str, Any] = {}
-
-    def run() -> None:
-        try:
-            result["value"] = browse()
-        except BaseException as error:  # handed to the caller below
-            result["error"] = error
-
-    worker = threading.Thread(target=run, name="pictures-browser", daemon=True)
-    worker.start()
+    browsing = _Threaded(browse, "pictures-browser")
     planner_app = None
     try:
         planner_app = start()
         box["app"] = planner_app
     finally:
         ready.set()
-        worker.join()
+        browsing.join()
         if planner_app is not None:
             with _quiet_stdout(), contextlib.suppress(Exception):
                 planner_app.stop()
-    if "error" in result:
-        raise result["error"]
-    return result["value"]
+    return browsing.result()
 
 
 class _Cancelled(Exception):

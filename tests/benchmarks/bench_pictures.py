@@ -35,13 +35,13 @@ SCENARIO = "02_three_obstacles"
 PLAIN = """
 import sys
 from app import start_app
-from app.headless import capture, launch_browser, _in_own_thread, _quiet_stdout
+from app.headless import capture, launch_browser, _Threaded, _quiet_stdout
 with _quiet_stdout():
     app = start_app(sys.argv[1], port=0, print_url=False)
 def take():
     with launch_browser() as browser:
         return capture(app, browser, width=1920, height=1080)
-open(sys.argv[2], "wb").write(_in_own_thread(take))
+open(sys.argv[2], "wb").write(_Threaded(take, "snapshot-browser").result())
 with _quiet_stdout():
     app.stop()
 """

@@ -134,11 +134,10 @@ class BigJob:
 
     def cancel(self) -> None:
         """Give the job up: stop the worker if it computes this job's scene."""
-        if self._cancelled or self.done.is_set():
-            self._cancelled = True
-            return
+        running = not (self._cancelled or self.done.is_set())
         self._cancelled = True
-        self._worker.interrupt()
+        if running:
+            self._worker.interrupt()
 
     def _run(self) -> None:
         try:

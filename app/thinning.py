@@ -95,8 +95,9 @@ def edges_to_draw(result: Any, all_edges: bool, limit: int = THIN_ABOVE) -> Edge
     total = len(arrays.i)
     if all_edges or total <= limit:
         return EdgeDrawing(arrays.segments(), total)
-    nodes = path_nodes(arrays, result.path)
-    keep = np.isin(arrays.i, nodes) | np.isin(arrays.j, nodes)
+    at_path = np.zeros(len(arrays.points), dtype=bool)
+    at_path[path_nodes(arrays, result.path)] = True
+    keep = at_path[arrays.i] | at_path[arrays.j]
     points = np.asarray(arrays.points, dtype=np.float64)
     segments = np.stack([points[arrays.i[keep]], points[arrays.j[keep]]], axis=1)
     return EdgeDrawing(segments, total)

@@ -141,15 +141,25 @@ def rings_to_segments(
     --------
     >>> rings_to_segments([Polygon([(0, 0), (1, 0), (0, 1)])]).shape
     (3, 2, 3)
+
+    Each polygon's outline is kept (polygons compare by value): while one obstacle is
+    dragged only its outline is made again.
     """
-    parts = []
-    for polygon in polygons:
-        rings = [polygon.exterior, *(polygon.interiors if holes else [])]
-        for ring in rings:
-            coords = np.asarray(ring.coords, dtype=np.float64)
-            if len(coords) >= 2:
-                parts.append(path_to_segments(coords[:, :2], z))
+    parts = [_outline(polygon, float(z), holes) for polygon in polygons]
     return np.concatenate(parts) if parts else np.zeros((0, 2, 3))
+
+
+@functools.lru_cache(maxsize=1024)
+def _outline(polygon: Polygon, z: float, holes: bool) -> FloatArray:
+    """One polygon's rings as segments (N, 2, 3) at height ``z`` (read-only)."""
+    parts = [np.zeros((0, 2, 3))]
+    for ring in [polygon.exterior, *(polygon.interiors if holes else [])]:
+        coords = np.asarray(ring.coords, dtype=np.float64)
+        if len(coords) >= 2:
+            parts.append(path_to_segments(coords[:, :2], z))
+    segments = np.concatenate(parts)
+    segments.setflags(write=False)
+    return segments
 
 
 def _triangles(polygon: Polygon) -> FloatArray:
@@ -194,14 +204,26 @@ def polygon_to_mesh(
     >>> v, f = polygon_to_mesh(Polygon([(0, 0), (2, 0), (2, 1), (0, 1)]), 0.1)
     >>> v.shape, f.shape, float(v[:, 2].max())
     ((6, 3), (2, 3), 0.1)
+
+    Each polygon's triangles are kept (polygons compare by value): while one obstacle
+    is dragged only its part of the configuration space is triangulated again.
     """
-    tris = [_triangles(p) for g in polygons_of(polygons) for p in _valid_parts(g)]
+    tris = [_fill(g) for g in polygons_of(polygons)]
     if not tris or sum(len(t) for t in tris) == 0:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
     all_tris = np.concatenate(tris)
     vertices = lift(all_tris.reshape(-1, 2), z)
     faces = np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3)
     return vertices, faces
+
+
+@functools.lru_cache(maxsize=1024)
+def _fill(polygon: Polygon) -> FloatArray:
+    """Triangles (T, 3, 2) covering one polygon, made valid first (read-only)."""
+    tris = [np.zeros((0, 3, 2)), *(_triangles(p) for p in _valid_parts(polygon))]
+    triangles = np.concatenate(tris)
+    triangles.setflags(write=False)
+    return triangles
 
 
 def prism_mesh(polygons: Iterable[Polygon] | Polygon, height: float) -> Mesh:

@@ -64,6 +64,11 @@ MAX_VERTEX_HANDLES = 600
 # The grey of an older scene's plans, kept while a big scene is computed (app.big).
 STALE_RGB = (176, 176, 176)
 
+# Drawings of polygons kept for the next frame (by value), and the most vertices a
+# kept one may have: a few MB at most, a big scene's polygons are drawn afresh.
+_KEPT_DRAWINGS = 512
+_KEPT_VERTICES = 2000
+
 # One degenerate segment / triangle: viser nodes keep a valid shape while hidden.
 _NO_SEGMENTS = np.zeros((1, 2, 3))
 _NO_MESH: Mesh = (np.zeros((3, 3)), np.array([[0, 1, 2]], dtype=np.uint32))
@@ -145,12 +150,19 @@ def rings_to_segments(
     Each polygon's outline is kept (polygons compare by value): while one obstacle is
     dragged only its outline is made again.
     """
-    parts = [_outline(polygon, float(z), holes) for polygon in polygons]
+    parts = [
+        (_outline if _small(polygon) else _make_outline)(polygon, float(z), holes)
+        for polygon in polygons
+    ]
     return np.concatenate(parts) if parts else np.zeros((0, 2, 3))
 
 
-@functools.lru_cache(maxsize=1024)
-def _outline(polygon: Polygon, z: float, holes: bool) -> FloatArray:
+def _small(polygon: Polygon) -> bool:
+    """Whether a polygon is small enough to keep its drawing (bounds the caches' memory)."""
+    return shapely.get_num_coordinates(polygon) <= _KEPT_VERTICES
+
+
+def _make_outline(polygon: Polygon, z: float, holes: bool) -> FloatArray:
     """One polygon's rings as segments (N, 2, 3) at height ``z`` (read-only)."""
     parts = [np.zeros((0, 2, 3))]
     for ring in [polygon.exterior, *(polygon.interiors if holes else [])]:
@@ -160,6 +172,9 @@ def _outline(polygon: Polygon, z: float, holes: bool) -> FloatArray:
     segments = np.concatenate(parts)
     segments.setflags(write=False)
     return segments
+
+
+_outline = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(_make_outline)
 
 
 def _triangles(polygon: Polygon) -> FloatArray:
@@ -208,7 +223,7 @@ def polygon_to_mesh(
     Each polygon's triangles are kept (polygons compare by value): while one obstacle
     is dragged only its part of the configuration space is triangulated again.
     """
-    tris = [_fill(g) for g in polygons_of(polygons)]
+    tris = [(_fill if _small(g) else _make_fill)(g) for g in polygons_of(polygons)]
     if not tris or sum(len(t) for t in tris) == 0:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
     all_tris = np.concatenate(tris)
@@ -217,13 +232,15 @@ def polygon_to_mesh(
     return vertices, faces
 
 
-@functools.lru_cache(maxsize=1024)
-def _fill(polygon: Polygon) -> FloatArray:
+def _make_fill(polygon: Polygon) -> FloatArray:
     """Triangles (T, 3, 2) covering one polygon, made valid first (read-only)."""
     tris = [np.zeros((0, 3, 2)), *(_triangles(p) for p in _valid_parts(polygon))]
     triangles = np.concatenate(tris)
     triangles.setflags(write=False)
     return triangles
+
+
+_fill = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(_make_fill)
 
 
 def prism_mesh(polygons: Iterable[Polygon] | Polygon, height: float) -> Mesh:
@@ -238,7 +255,10 @@ def prism_mesh(polygons: Iterable[Polygon] | Polygon, height: float) -> Mesh:
     >>> len(f)  # 2 top triangles + 4 sides x 2
     10
     """
-    parts = [_prism_vertices(g, float(height)) for g in polygons_of(polygons)]
+    parts = [
+        (_prism_vertices if _small(g) else _make_prism_vertices)(g, float(height))
+        for g in polygons_of(polygons)
+    ]
     if not parts:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
     vertices = np.concatenate(parts)
@@ -246,8 +266,7 @@ def prism_mesh(polygons: Iterable[Polygon] | Polygon, height: float) -> Mesh:
     return vertices, faces
 
 
-@functools.lru_cache(maxsize=256)
-def _prism_vertices(polygon: Polygon, height: float) -> FloatArray:
+def _make_prism_vertices(polygon: Polygon, height: float) -> FloatArray:
     """Triangle corners (3T, 3) of one polygon's prism: its top, then its sides."""
     top, _ = polygon_to_mesh(polygon, height)
     side_v = [top]
@@ -272,6 +291,9 @@ def _prism_vertices(polygon: Polygon, height: float) -> FloatArray:
     vertices = np.concatenate(side_v)
     vertices.setflags(write=False)
     return vertices
+
+
+_prism_vertices = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(_make_prism_vertices)
 
 
 def wall_mesh(

@@ -8,7 +8,13 @@ those are ignored, so the panel never feeds its own updates back into the contro
 
 from __future__ import annotations
 
-__all__ = ["Panels", "legend_html", "results_markdown", "wheel_rate_plot_data"]
+__all__ = [
+    "OWN_SCENE",
+    "Panels",
+    "legend_html",
+    "results_markdown",
+    "wheel_rate_plot_data",
+]
 
 import math
 from collections.abc import Callable, Collection, Mapping
@@ -27,6 +33,9 @@ from app.tools import layer_names
 from planners.registry import PlannerSpec
 
 _WHEEL_COLORS = ("#0072b2", "#d55e00", "#009e73")
+
+OWN_SCENE = "(your own scene)"
+"""The scenario dropdown's entry for a scene that is no shipped scenario."""
 
 
 def _swatch(color: tuple[int, int, int], kind: str = "line") -> str:
@@ -189,7 +198,9 @@ class Panels:
         self.status = gui.add_markdown("")
 
         with gui.add_folder("Scenario"):
-            options = list(scenarios) or [""]
+            # The last entry stands for a scene that is no shipped scenario (uploaded,
+            # opened from the scenes folder, given on the command line).
+            options = [*scenarios, OWN_SCENE]
             self.scenario = gui.add_dropdown(
                 "Scenario", options, initial_value=options[0]
             )
@@ -343,7 +354,10 @@ class Panels:
 
     def _bind(self) -> None:
         # Each callback calls exactly one controller method.
-        self._on(self.scenario, lambda v, c: c.files.load_scenario(v))
+        self._on(
+            self.scenario,
+            lambda v, c: c.files.load_scenario(v) if v != OWN_SCENE else None,
+        )
         self._on_click(self.history, lambda v, c: {"Undo": c.undo, "Redo": c.redo}[v]())
 
         @self.download.on_click
@@ -447,8 +461,8 @@ class Panels:
         # Settings are pushed only from the newest frame: while a slider is being dragged
         # the frames lag behind it, and pushing an older value would make it jump back.
         if frame.version >= self._latest_version():
-            if frame.scenario in self._scenario_titles:
-                _set(self.scenario, "value", frame.scenario)
+            shipped = frame.scenario in self._scenario_titles
+            _set(self.scenario, "value", frame.scenario if shipped else OWN_SCENE)
             _set(self.kind, "value", scene.robot.kind)
             _set(self.radius, "value", round(scene.robot.radius, 2))
             _set(self.wheel_radius, "value", scene.robot.wheel_radius)

@@ -187,3 +187,31 @@ def test_panel_controls_call_the_controller():
         assert "Four obstacles" in panels.title.content
     finally:
         app.stop()
+
+
+def test_the_scenario_dropdown_names_an_own_scene_as_such():
+    """A scene that is no shipped scenario (here given to start_app, as an upload or a
+    folder file is) shows as "(your own scene)", never as the last scenario chosen;
+    choosing that entry changes nothing, and a shipped one loads again."""
+    from app.panels import OWN_SCENE
+
+    scene = planners.load_scene(SCENARIO_DIR / "08_narrow_gap.json")
+    app = start_app(scene, port=0, print_url=False)
+    try:
+        controller, panels = app.controller, app.panels
+        assert app.wait_idle(20)
+        assert panels.scenario.value == OWN_SCENE
+        assert OWN_SCENE in panels.scenario.options
+        version = controller.version
+        fire(panels.scenario, OWN_SCENE)
+        assert app.wait_idle(10) and controller.version == version
+        fire(panels.scenario, "01_two_convex")
+        assert app.wait_idle(20)
+        assert panels.scenario.value == "01_two_convex"
+        # An upload after a shipped scenario: the dropdown no longer names that one.
+        controller.files.load_text((SCENARIO_DIR / "08_narrow_gap.json").read_bytes())
+        assert app.wait_idle(20)
+        assert "diagonal gap" in panels.title.content.lower()
+        assert panels.scenario.value == OWN_SCENE
+    finally:
+        app.stop()

@@ -518,25 +518,35 @@ class Scheduler:
     def _round(
         self, snapshot: Snapshot, computed: _Computed | None, slow: SlowResults
     ) -> None:
+        """Plan the snapshot's scene (unless ``computed`` already holds it) and draw it."""
         key = self._key(snapshot)
         self._give_up_stale(key)
         if computed is None or computed.key != key:
-            if self._fast.big is not None and (
-                scene_vertices(snapshot.scene) > BIG_SCENE_VERTICES
-            ):
-                computed = self._compute_big(snapshot, key)
-                if computed is None:
-                    return  # a newer edit came first: the next round plans it
-            else:
-                t0 = time.perf_counter()
-                plans = self._fast.run(snapshot.scene, self._fast.which(key.enabled))
-                ms = (time.perf_counter() - t0) * 1e3
-                computed = _Computed(key, snapshot.scene, plans, ms)
-        scene = computed.scene
-        slow_names = (
-            () if self._slow_lane is None else self._slow_lane.which(key.enabled)
+            computed = self._compute(snapshot, key)
+            if computed is None:
+                return  # a newer edit came first: the next round plans it
+        self._draw(
+            snapshot, computed, merge_slow(computed, slow, self._slow_names(key))
         )
-        merged = merge_slow(computed, slow, slow_names)
+
+    def _compute(self, snapshot: Snapshot, key: _PlanKey) -> _Computed | None:
+        """Run the fast lane's planners on the snapshot's scene (a big one in a worker)."""
+        if self._fast.big is not None and (
+            scene_vertices(snapshot.scene) > BIG_SCENE_VERTICES
+        ):
+            return self._compute_big(snapshot, key)
+        t0 = time.perf_counter()
+        plans = self._fast.run(snapshot.scene, self._fast.which(key.enabled))
+        ms = (time.perf_counter() - t0) * 1e3
+        return _Computed(key, snapshot.scene, plans, ms)
+
+    def _slow_names(self, key: _PlanKey) -> tuple[str, ...]:
+        """Return the slow lane's planners switched on under ``key``."""
+        return () if self._slow_lane is None else self._slow_lane.which(key.enabled)
+
+    def _draw(self, snapshot: Snapshot, computed: _Computed, merged: _Merged) -> None:
+        """Draw the planners' layers, then the robot on the trajectory they give."""
+        scene = computed.scene
         other = (
             self._other_expansion(scene)
             if snapshot.ui.layers["other_expansion"]

@@ -23,6 +23,7 @@ import math
 import os
 import re
 import socket
+import sys
 from pathlib import Path
 
 import viser
@@ -42,6 +43,15 @@ from planners.scene import ScenarioError, Scene
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "static_scenarios"
 """Folder of the shipped lecture scenarios."""
 DEFAULT_SCENARIO = "01_two_convex"
+
+SWITCH_INTERVAL_S = 0.001
+"""How long a Python thread may hold the interpreter while another waits [s].
+
+The app's threads take turns: the fast lane plans and draws, viser's event loop sends
+what it drew, the slow lane collects DSB. Python's default (5 ms) let a waiting one
+wait up to 5 ms at each turn, a third of a frame; a shorter turn keeps the time from an
+edit to its picture even (bench_student.py).
+"""
 """Scenario the app opens on."""
 
 
@@ -225,6 +235,7 @@ def start_app(
         key, path = resolve_scenario(DEFAULT_SCENARIO if scenario is None else scenario)
         scene = planners.load_scene(path)
 
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
     # viser prints its own banner with rich; ours (below) is one line with the real URL.
     with contextlib.redirect_stdout(io.StringIO()):
         server = viser.ViserServer(host=host, port=port, verbose=False)

@@ -41,6 +41,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import shapely
 from shapely import Polygon
 
@@ -585,11 +586,17 @@ def scene_problems(scene: Scene) -> list[str]:
     named = [(f"obstacle {i + 1}", o) for i, o in enumerate(scene.obstacles)]
     if scene.boundary is not None:
         named.append(("boundary", scene.boundary))
-    for label, polygon in named:
+    # One vectorised validity test: a valid polygon that is not empty has three distinct
+    # vertices at least (a ring of fewer has no area), so only the others are looked at.
+    shapes = np.array([polygon for _, polygon in named], dtype=object)
+    sound = shapely.is_valid(shapes) & ~shapely.is_empty(shapes) if named else []
+    for (label, polygon), ok in zip(named, sound, strict=True):
+        if ok:
+            continue
         coords = polygon.exterior.coords[:-1] if not polygon.is_empty else []
         if len(set(coords)) < 3:
             problems.append(f"{label}: needs at least 3 distinct vertices")
-        elif not polygon.is_valid:
+        else:
             problems.append(f"{label}: {_polygon_problem(polygon)}")
     for label, point in (("start", scene.start), ("goal", scene.goal)):
         if not all(math.isfinite(c) for c in point):

@@ -3,6 +3,8 @@ import json
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from shapely import Polygon
 
 from planners import ScenarioError, load_scene, save_scene, scene_problems
@@ -247,3 +249,39 @@ def test_nesting_the_parser_takes_is_a_field_error(tmp_path):
     path.write_text(json.dumps(data))
     with pytest.raises(ScenarioError, match=r"nested\.json: start: "):
         load_scene(path)
+
+
+def _problems_one_by_one(scene):
+    """The slow, obvious reference: each polygon's vertices counted, then its validity."""
+    from planners.scene import _polygon_problem
+
+    named = [(f"obstacle {i + 1}", o) for i, o in enumerate(scene.obstacles)]
+    if scene.boundary is not None:
+        named.append(("boundary", scene.boundary))
+    problems = []
+    for label, polygon in named:
+        coords = polygon.exterior.coords[:-1] if not polygon.is_empty else []
+        if len(set(coords)) < 3:
+            problems.append(f"{label}: needs at least 3 distinct vertices")
+        elif not polygon.is_valid:
+            problems.append(f"{label}: {_polygon_problem(polygon)}")
+    return problems
+
+
+_LATTICE = st.tuples(st.integers(0, 3), st.integers(0, 3))
+
+
+@settings(max_examples=300)
+@given(
+    rings=st.lists(st.lists(_LATTICE, min_size=0, max_size=6), max_size=4),
+    boundary=st.booleans(),
+)
+def test_scene_problems_name_what_a_polygon_by_polygon_check_names(rings, boundary):
+    """On a small lattice (repeated, collinear and crossing vertices, empty and
+    degenerate rings), the vectorised check says what checking each polygon says."""
+    from planners.scene import Scene
+
+    obstacles = tuple(Polygon(r) if len(r) >= 3 else Polygon() for r in rings)
+    walls = Polygon([(-1, -1), (5, -1), (5, 5), (-1, 5)]) if boundary else None
+    scene = Scene(obstacles=obstacles, start=(4, 4), goal=(4.5, 4.5), boundary=walls)
+    assert [p for p in scene_problems(scene) if ":" in p] == _problems_one_by_one(scene)

@@ -1280,17 +1280,27 @@ def _cross(at: Sequence[float] | FloatArray, size: float, z: float) -> FloatArra
 
 
 def _label_point(polygon: Polygon, z: float) -> tuple[float, float, float]:
+    """Where a polygon's label and gizmo sit: a point inside it, at height ``z``."""
+    x, y = (_inner_point if _small(polygon) else _make_inner_point)(polygon)
+    return (x, y, z)
+
+
+def _make_inner_point(polygon: Polygon) -> tuple[float, float]:
     # A self-intersecting ring's centroid can lie far outside it (its signed areas
     # cancel): label what make_valid makes of it, or the mean of its vertices.
     shape = polygon if polygon.is_valid else shapely.make_valid(polygon)
     try:
         p = shape.representative_point()
         if not p.is_empty:
-            return (float(p.x), float(p.y), z)
+            return (float(p.x), float(p.y))
     except Exception:  # a degenerate ring
         pass
     x, y = np.asarray(polygon.exterior.coords)[:-1].mean(axis=0)
-    return (float(x), float(y), z)
+    return (float(x), float(y))
+
+
+# Kept by value like the drawings: 32 obstacles' labels and gizmos each frame.
+_inner_point = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(_make_inner_point)
 
 
 def scene_bounds(scene: Any) -> tuple[float, float, float, float]:

@@ -36,16 +36,17 @@ __all__ = [
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import shapely
+from shapely import Polygon
 
 import planners
 from app.headless import CameraPose, frame_camera, scene_bounds
-from app.labels import Box, LabelRequest, Placement, place_labels
+from app.labels import Box, LabelRequest, Placement, label_size, place_labels
 from app.slide_options import SlideOptions
 from app.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
 from app.view import event_labels
@@ -570,7 +571,10 @@ def _label_requests(
         )
     if layers.get("obstacles", True):
         top = HEIGHTS["obstacle"]
+        font = font_px(height)
         for i, obstacle in enumerate(scene.obstacles):
+            if not _holds_its_number(obstacle, str(i + 1), font, box_around):
+                continue  # a speck on the picture: its number would hide it
             point = obstacle.representative_point()
             requests.append(
                 LabelRequest(
@@ -597,6 +601,23 @@ def _label_requests(
             requests.append(request)
     # Start and goal first (they sit beside their disk), then the numbers, then events.
     return requests, markers, colors
+
+
+def _holds_its_number(
+    obstacle: Polygon,
+    text: str,
+    font: float,
+    box_around: Callable[[float, float, float, float], Box],
+) -> bool:
+    """Tell whether an obstacle is at least as big on the picture as its number's box.
+
+    A room of 500 small triangles would get 500 numbers with leader lines across the
+    scene; a number is drawn only where its obstacle is no smaller than it.
+    """
+    x0, y0, x1, y1 = obstacle.bounds
+    half = max(x1 - x0, y1 - y0) / 2
+    seen = box_around((x0 + x1) / 2, (y0 + y1) / 2, HEIGHTS["obstacle"], half)
+    return max(seen.width, seen.height) >= min(label_size(text, font))
 
 
 # --------------------------------------------------------------------------- drawing

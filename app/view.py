@@ -12,6 +12,8 @@ The functions at the top are pure (numpy and shapely only) and are tested as arr
 from __future__ import annotations
 
 __all__ = [
+    "MAX_NUMBERED_OBSTACLES",
+    "MAX_VERTEX_HANDLES",
     "STALE_RGB",
     "PlannerView",
     "SensingPicture",
@@ -60,6 +62,10 @@ Mesh = tuple[FloatArray, IndexArray]
 
 MAX_VERTEX_HANDLES = 600
 """A scene with more obstacle vertices than this shows no vertex gizmos in the edit tool."""
+MAX_NUMBERED_OBSTACLES = 100
+"""A scene with more obstacles than this shows no obstacle numbers: hundreds of labels
+(a maze, a CAD floor plan) would bury the scene. Pictures number the obstacles as big as
+their number (:mod:`app.slides`)."""
 
 # The grey of an older scene's plans, kept while a big scene is computed (app.big).
 STALE_RGB = (176, 176, 176)
@@ -879,11 +885,14 @@ class PlannerView:
         self.obstacle_edges.set(
             rings_to_segments(scene.obstacles, HEIGHTS["obstacle"] + 0.002), show
         )
+        numbered = len(scene.obstacles) <= MAX_NUMBERED_OBSTACLES
         self.obstacle_labels.set(
             [
                 (str(i + 1), _label_point(o, HEIGHTS["obstacle"] + 0.05))
                 for i, o in enumerate(scene.obstacles)
-            ],
+            ]
+            if numbered
+            else [],
             show,
         )
 

@@ -418,3 +418,31 @@ def test_the_legend_and_layers_list_every_registered_planner():
         assert f"{name.upper()} " in html
     assert "BUG2 path: goal seeking / boundary following" in html
     assert {"bug2_path", "dsb_path", "vg_edges", "svg_path"} <= set(LAYERS)
+
+
+def test_a_scene_of_very_many_obstacles_shows_no_numbers(server):
+    """Up to MAX_NUMBERED_OBSTACLES obstacles are numbered; beyond, none is (a maze of
+    hundreds of numbers would bury the scene), and an edit back below numbers them."""
+    from app.view import MAX_NUMBERED_OBSTACLES
+
+    server.scene.reset()
+    view = PlannerView(server)
+    side = int(np.ceil(np.sqrt(MAX_NUMBERED_OBSTACLES + 1)))
+    squares = [
+        [[3 * i, 3 * j], [3 * i + 1, 3 * j], [3 * i + 1, 3 * j + 1], [3 * i, 3 * j + 1]]
+        for i in range(side)
+        for j in range(side)
+    ][: MAX_NUMBERED_OBSTACLES + 1]
+    scene = planners.load_scene(
+        {"format": 1, "obstacles": squares, "start": [-1, -1], "goal": [-2, -1]}
+    )
+    controller = Controller(view, scene, slow_process=False)
+    try:
+        assert controller.wait_idle(60)
+        assert not any(h.visible for h in view.obstacle_labels.handles)
+        controller.edits.delete_obstacle(0)
+        assert controller.wait_idle(60)
+        shown = [h.text for h in view.obstacle_labels.handles if h.visible]
+        assert shown == [str(k + 1) for k in range(MAX_NUMBERED_OBSTACLES)]
+    finally:
+        controller.close()

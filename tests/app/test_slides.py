@@ -283,3 +283,39 @@ def test_a_time_stamp_box_is_kept_clear_of_the_title_legend_and_labels(path) -> 
             others.append(slide.legend[1])
         assert not any(stamp.overlaps(o) for o in others)
         assert not slide.labels.dropped
+
+
+def _room_of_triangles(count: int, room: float, side: float) -> planners.Scene:
+    """``count`` equal triangles on a jittered lattice of a ``room`` metres square room."""
+    rng = np.random.default_rng(7)
+    per_row = int(np.ceil(np.sqrt(count)))
+    cell = room / per_row
+    obstacles = []
+    for k in range(count):
+        x, y = (np.array([k % per_row, k // per_row]) + 0.5) * cell
+        x, y = (x, y) + rng.uniform(-0.2, 0.2, 2) * cell
+        obstacles.append([[x, y], [x + side, y], [x, y + side]])
+    return planners.load_scene(
+        {
+            "format": 1,
+            "boundary": [[0, 0], [room, 0], [room, room], [0, room]],
+            "obstacles": obstacles,
+            "start": [0.3 * cell, 0.3 * cell],
+            "goal": [room - 0.3 * cell, room - 0.3 * cell],
+            "robot": {"radius": 0.1},
+        }
+    )
+
+
+@pytest.mark.parametrize(("width", "height"), [(1920, 1080), (800, 500)])
+def test_obstacles_smaller_than_their_number_are_not_numbered(width, height) -> None:
+    """400 specks in a big room get no numbers (500 boxes with leader lines would bury
+    the scene); obstacles as big as their number on the picture keep theirs."""
+    specks = _room_of_triangles(400, 100.0, 0.6)
+    slide = layout(specks, {}, {}, width, height)
+    assert [p.request.text for p in slide.labels.placed] == ["start", "goal"]
+    assert not slide.labels.dropped
+    blocks = _room_of_triangles(16, 20.0, 3.0)
+    slide = layout(blocks, {}, {}, width, height)
+    numbers = {p.request.text for p in slide.labels.placed} - {"start", "goal"}
+    assert numbers == {str(k + 1) for k in range(16)}

@@ -579,19 +579,15 @@ def _sweep(  # noqa: PLR0912, PLR0915
 
     items: list[_Item] = []
     here = (float(x[0]), float(x[1]))
+    # The ray through the middle of each interval against every facing edge: all rays
+    # at once when there are many edges (a finely drawn border seen from its hollow side).
+    hits = _first_hits(facing, ux_l, uy_l) if len(facing) >= _MANY_FACING else None
     for j in range(len(lo_l)):
         ux, uy = ux_l[j], uy_l[j]
         if occ and _in_any_wedge(occ, ux, uy):
             kind, e = "blocked", -1
         else:
-            # The ray through the middle of the interval against every facing edge.
-            e, best = -1, math.inf
-            for edge, _, _, dx, dy, cross, _, _, inx, iny, outx, outy, _ in facing:
-                if outx * uy - outy * ux > 0 and ux * iny - uy * inx > 0:
-                    denom = ux * dy - uy * dx
-                    s = cross / denom if denom != 0 else math.inf
-                    if 0 < s < best:
-                        e, best = edge, s
+            e = hits[j] if hits is not None else _first_hit(facing, ux, uy)
             kind = "piece" if e >= 0 else "free"
         last = items[-1] if items else None
         if last is not None and last.kind == kind and last.edge == e:
@@ -619,6 +615,57 @@ def _sweep(  # noqa: PLR0912, PLR0915
     if occ:
         items = _add_edge_on_pieces(geo, x, radius, items, occ)
     return items
+
+
+_MANY_FACING = 24
+"""With this many facing edges or more, :func:`_sweep` casts its rays through
+:func:`_first_hits` (numpy, all rays at once) instead of :func:`_first_hit` (per ray)."""
+_HITS_CHUNK = 1 << 18
+"""Rays x edges tested at once by :func:`_first_hits` (bounds its memory: a few MB)."""
+
+
+def _first_hit(facing: list[_Part], ux: float, uy: float) -> int:
+    """Return the facing edge a ray from the robot along (ux, uy) meets first, or -1.
+
+    Among the parts whose angular span holds the ray strictly, the least distance
+    cross / (u x d); the first of equals in the order of ``facing``.
+    """
+    e, best = -1, math.inf
+    for edge, _, _, dx, dy, cr, _, _, inx, iny, outx, outy, _ in facing:
+        if outx * uy - outy * ux > 0 and ux * iny - uy * inx > 0:
+            denom = ux * dy - uy * dx
+            s = cr / denom if denom != 0 else math.inf
+            if 0 < s < best:
+                e, best = edge, s
+    return e
+
+
+def _first_hits(facing: list[_Part], ux_l: list[float], uy_l: list[float]) -> list[int]:
+    """Return :func:`_first_hit` for every ray (unit directions ``ux_l``, ``uy_l``).
+
+    The same IEEE operations on the same numbers, as (rays x edges) arrays in chunks of
+    :data:`_HITS_CHUNK`: the same edge for every ray, ties to the first in ``facing``.
+    """
+    cols = np.array(facing, dtype=np.float64).T  # the _Part fields as rows
+    edge = np.array([p.edge for p in facing], dtype=np.intp)
+    dx, dy, cr = cols[3], cols[4], cols[5]
+    inx, iny, outx, outy = cols[8], cols[9], cols[10], cols[11]
+    ux_all, uy_all = np.array(ux_l), np.array(uy_l)
+    out: list[int] = []
+    rows = max(1, _HITS_CHUNK // len(facing))
+    for lo in range(0, len(ux_all), rows):
+        ux = ux_all[lo : lo + rows, None]
+        uy = uy_all[lo : lo + rows, None]
+        spans = (outx * uy - outy * ux > 0) & (ux * iny - uy * inx > 0)
+        denom = ux * dy - uy * dx
+        ok = spans & (denom != 0)
+        s = np.full(ok.shape, np.inf)
+        np.divide(np.broadcast_to(cr, ok.shape), denom, out=s, where=ok)
+        s[~(s > 0)] = np.inf
+        k = np.argmin(s, axis=1)
+        found = s[np.arange(len(k)), k] < np.inf
+        out.extend(np.where(found, edge[k], -1).tolist())
+    return out
 
 
 class _Part(NamedTuple):

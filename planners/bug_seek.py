@@ -697,7 +697,8 @@ def _beyond_corner(
         return None  # not at a vertex
     sx, sy = geo.start_list[after]
     dx, dy = geo.step_list[after]
-    # cross(start - p, step) along p = x + s w; positive on the blocked side of the line.
+    # cross(start - p, step) along p = x + s w: positive while the edge does not face
+    # the robot (it is on the edge's blocked side), below eps * length once it touches.
     c0 = (sx - float(x[0])) * dy - (sy - float(x[1])) * dx
     rate = float(w[0]) * dy - float(w[1]) * dx
     threshold = geo.eps * geo.length_list[after]

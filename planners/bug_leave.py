@@ -38,7 +38,14 @@ from planners.bug_context import (
     _pt,
     _segment_closest,
 )
-from planners.sensor import disk_span, free_extent, measure_border, visible_pieces
+from planners.sensor import (
+    IntArray,
+    RingGeometry,
+    disk_span,
+    free_extent,
+    measure_border,
+    visible_pieces,
+)
 
 
 def _reach(ctx: _Context, y: FloatArray, ring: int) -> tuple[float, FloatArray]:
@@ -95,8 +102,14 @@ def _may_come_closer(ctx: _Context, f: Follow, y: FloatArray) -> bool:
     # Only the ring's edges that come closer to the goal than d_followed matter: the
     # first ones in the order of their distance to the goal.
     distance, edges = ctx.edges_by_goal[f.ring]
+    closer = edges[: bisect.bisect_left(distance, f.d_followed + slack)]
     r2 = (ctx.radius + slack) ** 2
-    for e in edges[: bisect.bisect_left(distance, f.d_followed + slack)]:
+    bound = f.d_followed + slack
+    if len(closer) >= _MANY_EDGES:
+        return _any_in_view_closer(
+            geo, np.array(closer, dtype=np.intp), y, g, r2, bound
+        )
+    for e in closer:
         # The part of the edge within R of y, t in [t_in, t_out], and its point
         # closest to the goal.
         sx, sy = geo.start_list[e]
@@ -107,9 +120,47 @@ def _may_come_closer(ctx: _Context, f: Follow, y: FloatArray) -> bool:
             continue
         t = ((gx - sx) * dx + (gy - sy) * dy) / qa
         t = min(max(t, t_in), t_out)
-        if math.hypot(sx + t * dx - gx, sy + t * dy - gy) < f.d_followed + slack:
+        if math.hypot(sx + t * dx - gx, sy + t * dy - gy) < bound:
             return True
     return False
+
+
+_MANY_EDGES = 48
+"""With this many edges to test or more, :func:`_may_come_closer` tests them as arrays
+(:func:`_any_in_view_closer`) instead of one by one."""
+
+
+def _any_in_view_closer(  # noqa: PLR0917 - the loop's quantities, as arrays
+    geo: RingGeometry,
+    edges: IntArray,
+    y: FloatArray,
+    g: FloatArray,
+    r2: float,
+    bound: float,
+) -> bool:
+    """Tell whether some edge's part within sqrt(``r2``) of ``y`` comes closer than ``bound`` to ``g``.
+
+    :func:`_may_come_closer`'s loop over ``edges`` as array arithmetic: the same
+    operations (:func:`planners.sensor.disk_span`, then the point of the part closest
+    to the goal), numpy's hypot for the distance (it may differ from the math module's
+    in the last bit, far inside the bound's slack).
+    """
+    yx, yy = float(y[0]), float(y[1])
+    gx, gy = float(g[0]), float(g[1])
+    sx, sy = geo.start[edges, 0], geo.start[edges, 1]
+    dx, dy = geo.step_x[edges], geo.step_y[edges]
+    qa = geo.len2[edges]
+    ax, ay = sx - yx, sy - yy
+    qb = 2.0 * (ax * dx + ay * dy)
+    qc = ax * ax + ay * ay - r2
+    disc = qb * qb - 4.0 * qa * qc
+    root = np.sqrt(np.maximum(disc, 0.0))
+    t_in = np.maximum(0.0, (-qb - root) / (2.0 * qa))
+    t_out = np.minimum(1.0, (-qb + root) / (2.0 * qa))
+    t = ((gx - sx) * dx + (gy - sy) * dy) / qa
+    t = np.minimum(np.maximum(t, t_in), t_out)
+    near = np.hypot(sx + t * dx - gx, sy + t * dy - gy) < bound
+    return bool(np.any(near & (disc >= 0) & (t_in <= t_out)))
 
 
 def _refine_leave(

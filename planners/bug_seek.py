@@ -44,6 +44,7 @@ from planners.bug_context import (
 )
 from planners.geometry import unit as _unit
 from planners.sensor import (
+    OCCLUDING,
     RANGE,
     RingGeometry,
     Sensing,
@@ -540,63 +541,171 @@ def _switch_point(
 ) -> tuple[FloatArray, _Seek]:
     """Find where, moving ``s`` along ``w`` from ``x``, the decision first changes.
 
-    Bisection on the sensor, whose first probes are where the chosen range point turns
-    into a corner (:func:`_corner_in_range`), the most common switch, then found exactly.
-    Returns that point and the decision there; the whole move and the decision at its end
-    when the decision does not change.
+    Most switches are where the geometry says they are (:func:`_switch_guess`): a range
+    point turning into a corner, or the border beyond the chosen corner coming into view.
+    The sensor is asked on either side of that point first (two readings), and only when
+    it disagrees does the search of :func:`_bisect_switch` run. Either way the switch is
+    located to ``s / 2**refine``. Returns that point and the decision there; the whole
+    move and the decision at its end when the decision does not change.
     """
-    y = x + s * w
     # Every probe lies on the move: the edges near it are found once (a short move).
     among = (
         nearby(ctx.geo, x + 0.5 * s * w, ctx.radius + 0.5 * s)
         if s <= ctx.radius
         else None
     )
-    nxt = _decide(ctx, y, dec.key, among)
-    if nxt.key == dec.key:
-        return y, nxt
+    probe = _Probe(ctx, x, w, dec, among)
     gap = max(100.0 * ctx.tol, 1e-6 * s)
-    before = s - gap
-    if not (before > 0 and _decide(ctx, x + before * w, dec.key, among).key != dec.key):
+    guess = _switch_guess(ctx, x, w, dec, s - gap)
+    if guess is not None:
+        found = _at_guess(probe, guess, gap=gap, end=s)
+        if found is not None:
+            return found
+    return _bisect_switch(probe, s, gap=gap, guess=guess)
+
+
+class _Probe(NamedTuple):
+    """The decision along one move: at ``x + s * w`` with ``dec``'s key preferred."""
+
+    ctx: _Context
+    x: FloatArray
+    w: FloatArray
+    dec: _Seek
+    among: IntArray | None
+
+    def at(self, s: float) -> _Seek:
+        """Return the decision after moving ``s`` [m]."""
+        return _decide(self.ctx, self.x + s * self.w, self.dec.key, self.among)
+
+    def holds(self, s: float) -> bool:
+        """Tell whether the decision is still ``dec``'s after moving ``s`` [m]."""
+        return self.at(s).key == self.dec.key
+
+
+def _at_guess(
+    probe: _Probe, guess: float, *, gap: float, end: float
+) -> tuple[FloatArray, _Seek] | None:
+    """Confirm a switch at ``guess``: the decision holds just before it, not just after.
+
+    The two readings are half the search's resolution apart (at most ``gap``), so the
+    switch is located as precisely as :func:`_bisect_switch` would locate it. Returns
+    the point just after and the decision there, or None when the sensor disagrees
+    (or the guess lies too close to either end of the move, ``end`` long).
+    """
+    half = min(gap, 0.5 * (end - gap) / 2.0**probe.ctx.refine)
+    if not (half < guess and guess + half < end - gap):
+        return None
+    if not probe.holds(guess - half):
+        return None
+    after = probe.at(guess + half)
+    if after.key == probe.dec.key:
+        return None
+    return probe.x + (guess + half) * probe.w, after
+
+
+def _bisect_switch(
+    probe: _Probe, s: float, *, gap: float, guess: float | None
+) -> tuple[FloatArray, _Seek]:
+    """Search the whole move for the switch: its end, then a bisection.
+
+    The bisection's first probes bracket ``guess`` (:func:`_corner_probe`).
+    """
+    x, w, key = probe.x, probe.w, probe.dec.key
+    y = x + s * w
+    nxt = probe.at(s)
+    if nxt.key == key:
         return y, nxt
-    lo, hi, at_hi = _corner_probe(ctx, x, w, dec, gap=gap, before=before, among=among)
-    resolution = before / 2.0**ctx.refine
+    before = s - gap
+    if not (before > 0 and not probe.holds(before)):
+        return y, nxt
+    lo, hi, at_hi = _corner_probe(probe, guess, gap=gap, before=before)
+    resolution = before / 2.0**probe.ctx.refine
     while hi - lo > resolution:
         mid = 0.5 * (lo + hi)
-        d_mid = _decide(ctx, x + mid * w, dec.key, among)
-        if d_mid.key == dec.key:
+        d_mid = probe.at(mid)
+        if d_mid.key == key:
             lo = mid
         else:
             hi, at_hi = mid, d_mid
-    y = x + hi * w
-    return y, at_hi if at_hi is not None else _decide(ctx, y, dec.key, among)
+    return x + hi * w, at_hi if at_hi is not None else probe.at(hi)
 
 
 def _corner_probe(
-    ctx: _Context,
-    x: FloatArray,
-    w: FloatArray,
-    dec: _Seek,
-    *,
-    gap: float,
-    before: float,
-    among: IntArray | None = None,
+    probe: _Probe, guess: float | None, *, gap: float, before: float
 ) -> tuple[float, float, _Seek | None]:
-    """Bracket the switch in [0, ``before``] around the guess of :func:`_corner_in_range`.
+    """Bracket the switch in [0, ``before``] around ``guess`` (:func:`_switch_guess`).
 
     Returns (lo, hi, the decision at hi if known): the decision holds at lo, not at hi.
     """
     lo, hi = 0.0, before
-    guess = _corner_in_range(ctx, x, w, dec, before)
     if guess is None or not (lo < guess - gap and guess + gap < hi):
         return lo, hi, None
-    d_lo = _decide(ctx, x + (guess - gap) * w, dec.key, among)
-    if d_lo.key != dec.key:
+    d_lo = probe.at(guess - gap)
+    if d_lo.key != probe.dec.key:
         return lo, guess - gap, d_lo
-    d_hi = _decide(ctx, x + (guess + gap) * w, dec.key, among)
-    if d_hi.key != dec.key:
+    d_hi = probe.at(guess + gap)
+    if d_hi.key != probe.dec.key:
         return guess - gap, guess + gap, d_hi
     return guess + gap, hi, None
+
+
+def _switch_guess(
+    ctx: _Context, x: FloatArray, w: FloatArray, dec: _Seek, limit: float
+) -> float | None:
+    """Where, moving from ``x`` along ``w``, the chosen O_i is likely to stop being chosen.
+
+    A range point turns into a corner (:func:`_corner_in_range`); at an occluding
+    corner, the border beyond it comes into view (:func:`_beyond_corner`). None when
+    neither happens before ``limit``. Only a first guess: the sensor decides.
+    """
+    seen = dec.sensing
+    if seen is None or dec.index < 0:
+        return None
+    if seen.kinds[dec.index] == RANGE:
+        return _corner_in_range(ctx, x, w, dec, limit)
+    if seen.kinds[dec.index] == OCCLUDING:
+        return _beyond_corner(ctx, x, w, dec, limit)
+    return None
+
+
+def _beyond_corner(
+    ctx: _Context, x: FloatArray, w: FloatArray, dec: _Seek, limit: float
+) -> float | None:
+    """Where, moving from ``x`` along ``w``, the edge beyond the chosen corner shows.
+
+    The chosen O_i is a vertex where the border turns away from the robot; the edge
+    after it (along the ring, away from the piece in view) is seen edge-on from its
+    line. Moving straight at the vertex the robot reaches that line only there; but
+    along the border, where it turns only slightly (a finely drawn arc), the robot comes
+    within eps of the line, touching the corner, well before the vertex, and sees along
+    the next edge from there (:func:`planners.sensor.measure_border`). Returns the
+    distance along ``w`` at which the robot comes within eps of that line, or None.
+    """
+    seen = dec.sensing
+    assert seen is not None
+    geo = ctx.geo
+    e, t, follow = (
+        int(seen.edge[dec.index]),
+        float(seen.t[dec.index]),
+        int(seen.follow[dec.index]),
+    )
+    if follow > 0 and t >= 1.0:
+        after = int(geo.next_edge[e])
+    elif follow < 0 and t <= 0.0:
+        after = int(geo.prev_edge[e])
+    else:
+        return None  # not at a vertex
+    sx, sy = geo.start_list[after]
+    dx, dy = geo.step_list[after]
+    # cross(start - p, step) along p = x + s w: positive while the edge does not face
+    # the robot (it is on the edge's blocked side), below eps * length once it touches.
+    c0 = (sx - float(x[0])) * dy - (sy - float(x[1])) * dx
+    rate = float(w[0]) * dy - float(w[1]) * dx
+    threshold = geo.eps * geo.length_list[after]
+    if not (c0 > threshold and rate > 0):
+        return None
+    s = (c0 - threshold) / rate
+    return s if s < limit else None
 
 
 def _corner_in_range(

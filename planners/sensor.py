@@ -274,54 +274,118 @@ def _measure(
     edges = among
     if edges is None and indexed and math.isfinite(reach):
         edges = geo.index.near_disk(x, max(reach, geo.eps))
+    rows = _edge_rows(geo, x, edges)
+    along = (
+        -(rows.ax * rows.dx + rows.ay * rows.dy) / rows.len2
+    )  # foot of x on each line
+    t = np.minimum(np.maximum(along, 0.0), 1.0)
+    dist = np.hypot(rows.ax + t * rows.dx, rows.ay + t * rows.dy)
+    cr = rows.ax * rows.dy - rows.ay * rows.dx
+    # Edges whose line passes within eps of x (few): the robot may touch them.
+    where = np.flatnonzero(np.abs(cr) <= rows.eps_length)
+    occ = _occurrences(geo, x, edges, where, along, t, dist) if len(where) else []
+    return Near(edges, reach, rows.a, dist, cr, occ)
+
+
+class _Rows(NamedTuple):
+    """The measured edges as columns: start relative to the robot, step, lengths."""
+
+    a: FloatArray  # (k, 2) edge start - robot
+    ax: FloatArray  # its columns (views)
+    ay: FloatArray
+    dx: FloatArray  # edge step
+    dy: FloatArray
+    len2: FloatArray  # squared edge length
+    eps_length: FloatArray  # eps times the edge length
+
+
+def _edge_rows(geo: RingGeometry, x: FloatArray, edges: IntArray | None) -> _Rows:
+    """Gather the measured edges (every edge when ``edges`` is None) relative to ``x``."""
     if edges is None:
         a = geo.start - x
-        ax, ay = a[:, 0], a[:, 1]
-        dx, dy, len2, eps_length = geo.step_x, geo.step_y, geo.len2, geo.eps_length
-    else:  # one gather of the packed rows, the same numbers
-        sx, sy, dx, dy, len2, eps_length = geo.index.packed[:, edges]
-        a = np.empty((len(edges), 2))
-        ax, ay = a[:, 0], a[:, 1]
-        np.subtract(sx, x[0], out=ax)
-        np.subtract(sy, x[1], out=ay)
-    along = -(ax * dx + ay * dy) / len2  # foot of x on each edge's line
-    t = np.minimum(np.maximum(along, 0.0), 1.0)
-    dist = np.hypot(ax + t * dx, ay + t * dy)
-    cr = ax * dy - ay * dx
-    occ: list[_Occurrence] = []
-    # Edges whose line passes within eps of x (few), then the corners (at an edge's
-    # start) whose two lines do, x not beyond the far end of either edge.
-    where = np.flatnonzero(np.abs(cr) <= eps_length)
-    if not len(where):
-        return Near(edges, reach, a, dist, cr, occ)
+        return _Rows(
+            a, a[:, 0], a[:, 1], geo.step_x, geo.step_y, geo.len2, geo.eps_length
+        )
+    # One gather of the index's packed rows: the same numbers.
+    sx, sy, dx, dy, len2, eps_length = geo.index.packed[:, edges]
+    a = np.empty((len(edges), 2))
+    ax, ay = a[:, 0], a[:, 1]
+    np.subtract(sx, x[0], out=ax)
+    np.subtract(sy, x[1], out=ay)
+    return _Rows(a, ax, ay, dx, dy, len2, eps_length)
+
+
+def _occurrences(  # noqa: PLR0917 - the measured columns of the lined edges
+    geo: RingGeometry,
+    x: FloatArray,
+    edges: IntArray | None,
+    where: IntArray,
+    along: FloatArray,
+    t: FloatArray,
+    dist: FloatArray,
+) -> list[_Occurrence]:
+    """Find the blocked wedges at the robot's feet among the edges it is lined up with.
+
+    ``where``: positions (in the measured arrays) of the edges whose line passes within
+    eps of ``x``; ``along``, ``t`` and ``dist`` the foot of ``x`` on every measured edge's
+    line, clipped to the edge, and its distance. A touched corner gives its own wedge
+    (:func:`_corner_wedge`); an edge touched elsewhere its half turn (:func:`_edge_wedge`).
+    """
     lined = (where if edges is None else edges[where]).tolist()
     along_of = dict(zip(lined, along[where].tolist(), strict=True))
+    corner = _touched_corners(geo, lined, along_of)
+    touching = {
+        e for e, d in zip(lined, dist[where].tolist(), strict=True) if d <= geo.eps
+    }
     t_of = dict(zip(lined, t[where].tolist(), strict=True))
-    prev, nxt = geo.prev_edge, geo.next_edge
-    corner = {
+    nxt = geo.next_edge
+    occ: list[_Occurrence] = []
+    for e in sorted(touching | corner):
+        if e in corner:
+            occ.append(_corner_wedge(geo, e))
+        if e in touching and e not in corner and int(nxt[e]) not in corner:
+            occ.append(_edge_wedge(geo, x, e, t_of[e]))
+    return occ
+
+
+def _touched_corners(
+    geo: RingGeometry, lined: list[int], along_of: dict[int, float]
+) -> set[int]:
+    """Return the corners (by the edge they start) whose two edges' lines pass within eps.
+
+    The robot is not beyond the far end of either edge: it lies before the end of the
+    edge the corner starts (``along`` < 1) and after the start of the one it ends (> 0).
+    """
+    prev = geo.prev_edge
+    return {
         e
         for e in lined
         if int(prev[e]) in along_of
         and along_of[e] < 1.0
         and along_of[int(prev[e])] > 0.0
     }
-    touching = {
-        e for e, d in zip(lined, dist[where].tolist(), strict=True) if d <= geo.eps
-    }
-    for e in sorted(touching | corner):
-        if e in corner:
-            n = (float(geo.unit[e, 0]), float(geo.unit[e, 1]))
-            q = (float(geo.prev_dir[e, 0]), float(geo.prev_dir[e, 1]))
-            occ.append(_Occurrence(n, q, e, int(prev[e]), 0.0, 1.0))
-        if e not in touching or e in corner or int(nxt[e]) in corner:
-            continue  # not touched, or part of a touched corner
-        ux, uy = float(geo.unit[e, 0]), float(geo.unit[e, 1])
-        n, q = (ux, uy), (-ux, -uy)
-        n = _side_toward(geo, x, int(nxt[e]), n, -1.0)
-        q = _side_toward(geo, x, e, q, 1.0)
-        tt = t_of[e]
-        occ.append(_Occurrence(n, q, e, e, tt, tt))
-    return Near(edges, reach, a, dist, cr, occ)
+
+
+def _corner_wedge(geo: RingGeometry, e: int) -> _Occurrence:
+    """Return a touched corner's own wedge, as if the robot stood on the vertex.
+
+    The corner is the start of edge ``e``; its two edges run away from it edge-on.
+    """
+    n = (float(geo.unit[e, 0]), float(geo.unit[e, 1]))
+    q = (float(geo.prev_dir[e, 0]), float(geo.prev_dir[e, 1]))
+    return _Occurrence(n, q, e, int(geo.prev_edge[e]), 0.0, 1.0)
+
+
+def _edge_wedge(geo: RingGeometry, x: FloatArray, e: int, t: float) -> _Occurrence:
+    """Return the half turn an edge touched at parameter ``t`` blocks, its sides made exact.
+
+    Toward the edge's ends (:func:`_side_toward`): narrowed toward a convex corner,
+    widened toward a reflex one.
+    """
+    ux, uy = float(geo.unit[e, 0]), float(geo.unit[e, 1])
+    n = _side_toward(geo, x, int(geo.next_edge[e]), (ux, uy), -1.0)
+    q = _side_toward(geo, x, e, (-ux, -uy), 1.0)
+    return _Occurrence(n, q, e, e, t, t)
 
 
 def _side_toward(
@@ -515,19 +579,15 @@ def _sweep(  # noqa: PLR0912, PLR0915
 
     items: list[_Item] = []
     here = (float(x[0]), float(x[1]))
+    # The ray through the middle of each interval against every facing edge: all rays
+    # at once when there are many edges (a finely drawn border seen from its hollow side).
+    hits = _first_hits(facing, ux_l, uy_l) if len(facing) >= _MANY_FACING else None
     for j in range(len(lo_l)):
         ux, uy = ux_l[j], uy_l[j]
         if occ and _in_any_wedge(occ, ux, uy):
             kind, e = "blocked", -1
         else:
-            # The ray through the middle of the interval against every facing edge.
-            e, best = -1, math.inf
-            for edge, _, _, dx, dy, cross, _, _, inx, iny, outx, outy, _ in facing:
-                if outx * uy - outy * ux > 0 and ux * iny - uy * inx > 0:
-                    denom = ux * dy - uy * dx
-                    s = cross / denom if denom != 0 else math.inf
-                    if 0 < s < best:
-                        e, best = edge, s
+            e = hits[j] if hits is not None else _first_hit(facing, ux, uy)
             kind = "piece" if e >= 0 else "free"
         last = items[-1] if items else None
         if last is not None and last.kind == kind and last.edge == e:
@@ -555,6 +615,57 @@ def _sweep(  # noqa: PLR0912, PLR0915
     if occ:
         items = _add_edge_on_pieces(geo, x, radius, items, occ)
     return items
+
+
+_MANY_FACING = 24
+"""With this many facing edges or more, :func:`_sweep` casts its rays through
+:func:`_first_hits` (numpy, all rays at once) instead of :func:`_first_hit` (per ray)."""
+_HITS_CHUNK = 1 << 18
+"""Rays x edges tested at once by :func:`_first_hits` (bounds its memory: a few MB)."""
+
+
+def _first_hit(facing: list[_Part], ux: float, uy: float) -> int:
+    """Return the facing edge a ray from the robot along (ux, uy) meets first, or -1.
+
+    Among the parts whose angular span holds the ray strictly, the least distance
+    cross / (u x d); the first of equals in the order of ``facing``.
+    """
+    e, best = -1, math.inf
+    for edge, _, _, dx, dy, cr, _, _, inx, iny, outx, outy, _ in facing:
+        if outx * uy - outy * ux > 0 and ux * iny - uy * inx > 0:
+            denom = ux * dy - uy * dx
+            s = cr / denom if denom != 0 else math.inf
+            if 0 < s < best:
+                e, best = edge, s
+    return e
+
+
+def _first_hits(facing: list[_Part], ux_l: list[float], uy_l: list[float]) -> list[int]:
+    """Return :func:`_first_hit` for every ray (unit directions ``ux_l``, ``uy_l``).
+
+    The same IEEE operations on the same numbers, as (rays x edges) arrays in chunks of
+    :data:`_HITS_CHUNK`: the same edge for every ray, ties to the first in ``facing``.
+    """
+    cols = np.array(facing, dtype=np.float64).T  # the _Part fields as rows
+    edge = np.array([p.edge for p in facing], dtype=np.intp)
+    dx, dy, cr = cols[3], cols[4], cols[5]
+    inx, iny, outx, outy = cols[8], cols[9], cols[10], cols[11]
+    ux_all, uy_all = np.array(ux_l), np.array(uy_l)
+    out: list[int] = []
+    rows = max(1, _HITS_CHUNK // len(facing))
+    for lo in range(0, len(ux_all), rows):
+        ux = ux_all[lo : lo + rows, None]
+        uy = uy_all[lo : lo + rows, None]
+        spans = (outx * uy - outy * ux > 0) & (ux * iny - uy * inx > 0)
+        denom = ux * dy - uy * dx
+        ok = spans & (denom != 0)
+        s = np.full(ok.shape, np.inf)
+        np.divide(np.broadcast_to(cr, ok.shape), denom, out=s, where=ok)
+        s[~(s > 0)] = np.inf
+        k = np.argmin(s, axis=1)
+        found = s[np.arange(len(k)), k] < np.inf
+        out.extend(np.where(found, edge[k], -1).tolist())
+    return out
 
 
 class _Part(NamedTuple):
@@ -936,7 +1047,6 @@ def _assemble(
 # --------------------------------------------------------------------------- one ray
 
 
-# A numeric kernel, kept whole: vectorised tests over every edge, then the few hits.
 def free_extent(
     geo: RingGeometry,
     position: npt.ArrayLike,
@@ -948,8 +1058,11 @@ def free_extent(
     """How far the robot can go from ``position`` along a unit ``direction``, up to ``limit``.
 
     Exact on the polygons: the segment may run along the border or touch a vertex (that is
-    free), it stops where it would enter blocked space. ``near`` is
-    :func:`measure_border` at ``position``, if the caller already has it.
+    free), it stops where it would enter blocked space: in a blocked wedge at the robot's
+    feet, at the first proper crossing of an edge (:func:`_first_crossing`), or at a
+    vertex on the way where it turns into blocked space (:func:`_first_vertex_turn`),
+    whichever comes first. ``near`` is :func:`measure_border` at ``position``, if the
+    caller already has it.
 
     Returns
     -------
@@ -970,7 +1083,6 @@ def free_extent(
     u = np.asarray(direction, dtype=np.float64).reshape(2)
     if len(geo.start) == 0 or limit <= 0:
         return max(float(limit), 0.0), -1
-    tol = geo.eps
     if near is None:
         near = _measure(geo, x, 0.0 if math.isfinite(limit) else math.inf)
     # At the robot's feet: touching the border, it may look straight into blocked space.
@@ -978,17 +1090,46 @@ def free_extent(
     for o in near.occ:
         if _in_any_wedge([o], ux, uy):
             return 0.0, int(geo.ring[o.edge_n])
-    # The edges that may stop the ray: all, those measured (when the ray stays within
-    # their reach), or those near the ray (the same answer: the tests are per edge).
+    ray = _ray_edges(geo, near, x, u, float(limit))
+    best, ring = _first_crossing(geo, ray, float(limit))
+    return _first_vertex_turn(geo, ray, best, ring)
+
+
+class _RayEdges(NamedTuple):
+    """The edges that may stop a ray, relative to its start."""
+
+    u: FloatArray  # the ray's unit direction
+    cand: IntArray | None  # their flat indices, None for every edge
+    a: FloatArray  # (k, 2) edge start - ray start
+    sub: slice | IntArray  # index of these edges into the flat arrays
+
+
+def _ray_edges(
+    geo: RingGeometry, near: Near, x: FloatArray, u: FloatArray, limit: float
+) -> _RayEdges:
+    """Return the edges that may stop the ray from ``x`` along ``u`` up to ``limit``.
+
+    All, those measured (when the ray stays within their reach), or those near the ray
+    (the same answer: every test is per edge).
+    """
     cand, a = near.edges, near.a
     if cand is not None and not limit <= near.reach:
         cand = geo.index.near_segment(x, x + limit * u)
         a = geo.start[cand] - x
-    sub = slice(None) if cand is None else cand
-    best, ring = float(limit), -1
-    # Proper crossings of the segment x -> x + limit * u with an edge.
+    return _RayEdges(u, cand, a, slice(None) if cand is None else cand)
+
+
+def _first_crossing(
+    geo: RingGeometry, ray: _RayEdges, limit: float
+) -> tuple[float, int]:
+    """Return the first proper crossing of the ray's segment with an edge: (distance, ring).
+
+    (``limit``, -1) when there is none. Touching (within eps) is not crossing.
+    """
+    tol, sub = geo.eps, ray.sub
+    ux, uy = float(ray.u[0]), float(ray.u[1])
     dx, dy = geo.step_x[sub], geo.step_y[sub]
-    ax, ay = a[:, 0], a[:, 1]
+    ax, ay = ray.a[:, 0], ray.a[:, 1]
     yx, yy = limit * ux, limit * uy
     oa = yx * ay - yy * ax
     ob = yx * (ay + dy) - yy * (ax + dx)
@@ -999,31 +1140,48 @@ def free_extent(
     proper = (((oa > tol_y) & (ob < -tol_y)) | ((oa < -tol_y) & (ob > tol_y))) & (
         ((ox > tol_d) & (oy < -tol_d)) | ((ox < -tol_d) & (oy > tol_d))
     )
-    if proper.any():
-        idx = np.flatnonzero(proper)
-        s = (ax[idx] * dy[idx] - ay[idx] * dx[idx]) / (ux * dy[idx] - uy * dx[idx])
-        k = int(np.argmin(s))
-        if s[k] < best:
-            best, ring = float(s[k]), int(geo.ring[sub][idx[k]])
-    # Vertices on the segment where it would turn into blocked space.
+    if not proper.any():
+        return limit, -1
+    idx = np.flatnonzero(proper)
+    s = (ax[idx] * dy[idx] - ay[idx] * dx[idx]) / (ux * dy[idx] - uy * dx[idx])
+    k = int(np.argmin(s))
+    if s[k] < limit:
+        return float(s[k]), int(geo.ring[sub][idx[k]])
+    return limit, -1
+
+
+def _first_vertex_turn(
+    geo: RingGeometry, ray: _RayEdges, best: float, ring: int
+) -> tuple[float, int]:
+    """Return the ray's stop: a vertex on it before ``best`` where it turns into blocked space.
+
+    The ray may run along the border or touch a vertex (free); it stops at a vertex
+    where it would pass into the blocked wedge between the vertex's two edges. Else
+    (``best``, ``ring``), the stop found so far.
+    """
+    tol, u = geo.eps, ray.u
+    ux, uy = float(u[0]), float(u[1])
+    ax, ay = ray.a[:, 0], ray.a[:, 1]
     along = ax * ux + ay * uy
     off = np.abs(ux * ay - uy * ax)
     on = (off <= tol) & (along > tol) & (along < best + tol)
-    if on.any():
-        idx = np.flatnonzero(on)
-        glob = idx if cand is None else cand[idx]
-        nxt = geo.unit[glob]
-        prv = geo.prev_dir[glob]
-        narrow = cross(nxt, prv) > 0
-        uu = np.broadcast_to(u, nxt.shape)
-        inside = np.where(
-            narrow,
-            (cross(nxt, uu) > 1e-12) & (cross(uu, prv) > 1e-12),
-            ~((cross(prv, uu) >= -1e-12) & (cross(uu, nxt) >= -1e-12)),
-        )
-        if inside.any():
-            hit = idx[inside]
-            k = int(np.argmin(along[hit]))
-            if along[hit][k] < best:
-                best, ring = float(along[hit][k]), int(geo.ring[sub][hit[k]])
+    if not on.any():
+        return best, ring
+    idx = np.flatnonzero(on)
+    glob = idx if ray.cand is None else ray.cand[idx]
+    nxt = geo.unit[glob]
+    prv = geo.prev_dir[glob]
+    narrow = cross(nxt, prv) > 0
+    uu = np.broadcast_to(u, nxt.shape)
+    inside = np.where(
+        narrow,
+        (cross(nxt, uu) > 1e-12) & (cross(uu, prv) > 1e-12),
+        ~((cross(prv, uu) >= -1e-12) & (cross(uu, nxt) >= -1e-12)),
+    )
+    if not inside.any():
+        return best, ring
+    hit = idx[inside]
+    k = int(np.argmin(along[hit]))
+    if along[hit][k] < best:
+        return float(along[hit][k]), int(geo.ring[ray.sub][hit[k]])
     return best, ring

@@ -54,9 +54,10 @@ scenarios, stops a run that would not end and says so (status ``"unreachable"``,
 Stepping is event-driven: the robot moves straight until the next point where its
 decision can change (the obstacle ahead coming into range, arriving at O_i, the closest
 approach to the goal) or at most a fraction of R; where the decision changes within a
-move, a bisection on the sensor locates the switch point (its first probes are where the
-chosen range point would turn into a corner, the most common switch, which is then
-found exactly rather than to a bisection step). Where two choices are equally
+move, the sensor locates the switch point: first on either side of where geometry puts
+the most common switches (the chosen range point turning into a corner, the border
+beyond the chosen corner coming into view), which are then found with two readings,
+else by a bisection. Where two choices are equally
 good the continuous algorithm would chatter between them; the robot then moves like a
 sliding mode, along the combination of both headings that keeps them equal. A run is
 :func:`run`, a loop over the pure :func:`step`; it returns a :class:`BugTrace` that the

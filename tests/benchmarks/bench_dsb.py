@@ -16,6 +16,15 @@ DESIGN.md's budget: a whole run with DSB included at most 50 ms (p95) on every l
 scenario. Exit status 0 unless ``--strict`` and a budget is missed. The timings are of
 this machine under its current load (the script prints the load average); on a shared
 machine run it twice.
+
+``--big`` times DSB alone on borders of thousands of vertices instead (issue 15, item 4),
+each in a fresh process (``spawn``): the circle of 10,000 vertices of ``bench_big.py``
+(the robot rounds it in goal-seeking mode, one decision per corner) and a hollow C of
+10,000 vertices (:func:`hollow_c_scene`: the robot starts inside, follows the inner
+border round to the opening, seeing hundreds of edges at once). It prints the wall
+time, the decisions (:attr:`BugTrace.decisions`), the sensor readings (goal-seeking
+decisions computed, :func:`planners.bug_seek._decide`, and full views swept,
+:func:`planners.sensor._sweep`) and the child's peak resident memory.
 """
 
 from __future__ import annotations
@@ -24,7 +33,9 @@ import argparse
 import functools
 import gc
 import math
+import multiprocessing
 import os
+import resource
 import sys
 import time
 from collections.abc import Callable
@@ -38,6 +49,99 @@ import planners  # noqa: E402
 from planners import PlanOptions, load_scene, plan_all, plan_tangent_bug  # noqa: E402
 
 BUDGET_DSB_MS = 50.0
+BIG_VERTICES = 10_000
+
+
+def hollow_c_scene(vertices: int = BIG_VERTICES) -> dict[str, object]:
+    """A thick C of ``vertices`` vertices (radii 9 and 10 m) open to the left; start inside.
+
+    The goal lies to the right, outside: the robot meets the inner border at a local
+    minimum and follows it round to the opening (about 60 m along a finely drawn arc).
+    """
+    gap = math.radians(40.0)
+    angles = [
+        math.pi + gap / 2 + (2 * math.pi - gap) * i / (vertices // 2 - 1)
+        for i in range(vertices // 2)
+    ]
+    outer = [[20 + 10 * math.cos(a), 20 + 10 * math.sin(a)] for a in angles]
+    inner = [[20 + 9 * math.cos(a), 20 + 9 * math.sin(a)] for a in reversed(angles)]
+    return {
+        "format": 1,
+        "name": f"hollow C of {vertices} vertices",
+        "boundary": [[0, 0], [40, 0], [40, 40], [0, 40]],
+        "obstacles": [outer + inner],
+        "start": [20.0, 20.0],
+        "goal": [37.0, 20.5],
+        "robot": {"radius": 0.3},
+        "expansion": "disk",
+        "sensor_range": 2.0,
+    }
+
+
+def _big_scenes() -> dict[str, Callable[[], dict[str, object]]]:
+    from tests.benchmarks.bench_big import circle_scene
+
+    return {"circle": circle_scene, "hollow_c": hollow_c_scene}
+
+
+def _big_child(name: str, rule: str, out: object) -> None:
+    """Run DSB once on a big scene in this (fresh) process; send its figures to ``out``."""
+    from planners import bug_seek, sensor
+
+    counts = {"decide": 0, "sweep": 0}
+
+    def counted(module: object, attr: str, key: str) -> None:
+        inner = getattr(module, attr)
+
+        def wrapper(*args: object, **kwargs: object) -> object:
+            counts[key] += 1
+            return inner(*args, **kwargs)
+
+        setattr(module, attr, wrapper)
+
+    counted(bug_seek, "_decide", "decide")
+    counted(sensor, "_sweep", "sweep")
+    scene = load_scene(_big_scenes()[name]())
+    space = plan_all(scene, ())["cspace"]
+    t0 = time.perf_counter()
+    trace = plan_tangent_bug(space, scene.start, scene.goal, scene.sensor_range, rule)
+    ms = (time.perf_counter() - t0) * 1e3
+    out.send(  # type: ignore[attr-defined]
+        {
+            "ms": ms,
+            "status": trace.status,
+            "length": trace.length,
+            "decisions": len(trace.decisions),
+            "steps": trace.steps,
+            "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+            **counts,
+        }
+    )
+
+
+def big(rule: str) -> None:
+    """Time DSB alone on each big scene in a fresh process and print one line each."""
+    ctx = multiprocessing.get_context("spawn")
+    print(f"DSB ({rule}) on big borders, one fresh process each")
+    head = f"{'scene':<10} {'time s':>7} {'status':>8} {'length':>8} {'decisions':>9} {'readings':>8} {'sweeps':>7} {'peak MB':>8}"
+    print(head)
+    print("-" * len(head))
+    for name in _big_scenes():
+        receive, send = ctx.Pipe(duplex=False)
+        child = ctx.Process(target=_big_child, args=(name, rule, send))
+        child.start()
+        r = receive.recv() if receive.poll(300) else None
+        child.join(5)
+        if child.is_alive():
+            child.kill()
+        if r is None:
+            print(f"{name:<10} no answer within 300 s")
+            continue
+        length = "-" if r["length"] is None else f"{r['length']:.3f}"
+        print(
+            f"{name:<10} {r['ms'] / 1e3:>7.2f} {r['status']:>8} {length:>8} {r['decisions']:>9}"
+            f" {r['decide']:>8} {r['sweep']:>7} {r['peak_mb']:>8.0f}"
+        )
 
 
 def clear_caches(*spaces: object) -> None:
@@ -117,7 +221,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--strict", action="store_true", help="exit 1 when a budget is missed"
     )
+    parser.add_argument(
+        "--big",
+        action="store_true",
+        help="time DSB on borders of 10,000 vertices instead (see the docstring)",
+    )
     args = parser.parse_args(argv)
+    if args.big:
+        big(args.rule)
+        return 0
 
     paths = sorted((ROOT / "static_scenarios").glob("*.json"))
     if args.scenario:

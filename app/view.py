@@ -70,10 +70,11 @@ their number (:mod:`app.slides`)."""
 # The grey of an older scene's plans, kept while a big scene is computed (app.big).
 STALE_RGB = (176, 176, 176)
 
-# Drawings of polygons kept for the next frame (by value), and the most vertices a
-# kept one may have: a few MB at most, a big scene's polygons are drawn afresh.
-_KEPT_DRAWINGS = 512
-_KEPT_VERTICES = 2000
+# Drawings of polygons kept for the next frames (by value), and the most vertices a kept
+# one may have: at most 256 x 200 vertices a cache, about 11 MB for the prisms and 3 MB
+# for each of the others; a bigger polygon (a CAD floor plan's) is drawn afresh.
+_KEPT_DRAWINGS = 256
+_KEPT_VERTICES = 200
 
 # One degenerate segment / triangle: viser nodes keep a valid shape while hidden.
 _NO_SEGMENTS = np.zeros((1, 2, 3))

@@ -6,7 +6,7 @@ n x n matrix, costs gigabytes at ten thousand vertices. This module does the sam
 test (module docstring of :mod:`planners.visibility`) with two devices:
 
 Uniform grid of the edges (:class:`EdgeGrid`)
-    The border's edges are bucketed in square cells (about two edges a cell), each edge
+    The border's edges are bucketed in square cells (about one edge a cell), each edge
     in every cell that a disk of radius ``margin`` around it meets. A segment can only
     cross or touch the edges listed in the cells it passes through.
 Marching segments (:func:`march`)
@@ -45,8 +45,9 @@ __all__ = [
 
 import dataclasses
 import functools
+import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -57,10 +58,13 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
-_EDGES_PER_CELL = 0.5
+_EDGES_PER_CELL = 1.0
 """Cell size: about this many edges a cell if they were spread evenly."""
 _MAX_CELLS_PER_EDGE = 4
 """At most this many cells per edge in the grid (bounds its memory)."""
+_PAIRS_AT_ONCE = 1 << 13
+"""(segment, edge) pairs tested at once: each temporary array stays under 128 KiB, which
+the allocator hands out again from its heap instead of fresh (zeroed) pages."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -304,11 +308,11 @@ def march(
             grid, segs, np.arange(first, min(first + block, len(segs.ax)))
         )
         while len(walk.seg):
-            seg, edge = _pairs_in_cells(grid, walk)
-            blocked, t_seg, t_val = crossings(segs, edges, seg, edge, eps)
-            crossed[blocked] = True
-            touch_seg.append(t_seg)
-            touch_t.append(t_val)
+            for seg, edge in _pairs_in_cells(grid, walk):
+                blocked, t_seg, t_val = crossings(segs, edges, seg, edge, eps)
+                crossed[blocked] = True
+                touch_seg.append(t_seg)
+                touch_t.append(t_val)
             walk = _step(grid, walk, crossed)
     seg_all = np.concatenate(touch_seg) if touch_seg else np.zeros(0, dtype=np.intp)
     t_all = np.concatenate(touch_t) if touch_t else np.zeros(0)
@@ -359,14 +363,27 @@ def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
     return _Walk(seg, ix, iy, sx, sy, nx_, ny_, ddx, ddy, t1)
 
 
-def _pairs_in_cells(grid: EdgeGrid, walk: _Walk) -> tuple[IntArray, IntArray]:
-    """(segment, edge) pairs: each walking segment with the edges of its current cell."""
+def _pairs_in_cells(
+    grid: EdgeGrid, walk: _Walk
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield (segment, edge) pairs: each walking segment with the edges of its cell.
+
+    In slices of about ``_PAIRS_AT_ONCE`` pairs (whole segments each).
+    """
     cell = walk.ix * grid.ny + walk.iy
     first = grid.offsets[cell]
     count = grid.offsets[cell + 1] - first
-    seg = np.repeat(walk.seg, count)
-    edge = grid.edges[np.repeat(first, count) + _ramp(count)]
-    return seg, edge
+    ends = np.cumsum(count)
+    total = int(ends[-1])
+    cuts = np.searchsorted(ends, np.arange(_PAIRS_AT_ONCE, total, _PAIRS_AT_ONCE))
+    bounds = [0, *np.unique(cuts).tolist(), len(count)]
+    for lo, hi in itertools.pairwise(bounds):
+        if hi <= lo:
+            continue
+        c = count[lo:hi]
+        seg = np.repeat(walk.seg[lo:hi], c)
+        edge = grid.edges[np.repeat(first[lo:hi], c) + _ramp(c)]
+        yield seg, edge
 
 
 def _step(grid: EdgeGrid, walk: _Walk, crossed: npt.NDArray[np.bool_]) -> _Walk:

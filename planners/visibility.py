@@ -83,8 +83,9 @@ BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.intp]
 
 # Node pairs screened at once (a block of rows against the columns after them): small
-# enough for the screen's temporaries to stay in the processor's cache.
-_SCREEN_PAIRS = 1 << 17
+# enough for the screen's temporaries to stay in the processor's cache and under the
+# allocator's threshold for fresh pages (larger ones cost a page fault every 4 KiB).
+_SCREEN_PAIRS = 1 << 14
 # Pairs handed on at once, at most (plus one screened block's).
 _BLOCK_PAIRS = 1 << 18
 # Below this many segment x edge pairs, a bounding-box matrix beats the edge grid.

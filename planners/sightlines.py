@@ -34,13 +34,19 @@ Eurographics 1987.
 from __future__ import annotations
 
 __all__ = [
+    "Disks",
     "EdgeGrid",
     "Edges",
     "Marched",
     "Segments",
+    "cover_table",
     "crossings",
     "edge_grid",
+    "inner_disks",
     "march",
+    "occluded",
+    "occluded_pairs",
+    "sector_count",
 ]
 
 import dataclasses
@@ -289,6 +295,13 @@ class _Walk:
     delta_x: FloatArray  # t to cross one column
     delta_y: FloatArray
     end: FloatArray  # t where the segment leaves the grid (or ends)
+    enter: FloatArray  # t where the segment entered its current cell
+
+
+_TAIL = 512
+"""When no more segments than this still walk, each one's remaining cells are listed at
+once: a step costs a few dozen numpy calls whatever its size, and the last walkers,
+mostly long free segments, would take as many steps as they cross cells."""
 
 
 def march(
@@ -298,7 +311,8 @@ def march(
 
     A segment stops at the first cell where an edge properly crosses it; the others are
     tested against every edge within the grid's margin, so their touching vertices are
-    complete. Segments are walked ``block`` at a time.
+    complete. Segments are walked ``block`` at a time; the last few walkers of a block
+    (``_TAIL``) are tested against all their remaining cells at once.
     """
     crossed = np.zeros(len(segs.ax), dtype=bool)
     touch_seg: list[IntArray] = []
@@ -308,11 +322,17 @@ def march(
             grid, segs, np.arange(first, min(first + block, len(segs.ax)))
         )
         while len(walk.seg):
-            for seg, edge in _pairs_in_cells(grid, walk):
+            tail = len(walk.seg) <= _TAIL
+            cells = (
+                _rest_cells(grid, segs, walk, eps) if tail else _cells_now(grid, walk)
+            )
+            for seg, edge in _pairs_in_cells(grid, *cells):
                 blocked, t_seg, t_val = crossings(segs, edges, seg, edge, eps)
                 crossed[blocked] = True
                 touch_seg.append(t_seg)
                 touch_t.append(t_val)
+            if tail:
+                break
             walk = _step(grid, walk, crossed)
     seg_all = np.concatenate(touch_seg) if touch_seg else np.zeros(0, dtype=np.intp)
     t_all = np.concatenate(touch_t) if touch_t else np.zeros(0)
@@ -360,30 +380,54 @@ def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
         delta = np.where(d != 0, grid.cell / np.abs(safe), np.inf)
         axes.append((at.astype(np.intp), step, nxt, delta))
     (ix, sx, nx_, ddx), (iy, sy, ny_, ddy) = axes
-    return _Walk(seg, ix, iy, sx, sy, nx_, ny_, ddx, ddy, t1)
+    return _Walk(seg, ix, iy, sx, sy, nx_, ny_, ddx, ddy, t1, t0)
+
+
+def _cells_now(grid: EdgeGrid, walk: _Walk) -> tuple[IntArray, IntArray]:
+    """(segment, cell) of each walking segment: the cell it is in."""
+    return walk.seg, walk.ix * grid.ny + walk.iy
+
+
+def _rest_cells(
+    grid: EdgeGrid, segs: Segments, walk: _Walk, eps: float
+) -> tuple[IntArray, IntArray]:
+    """(segment, cell) for every cell each walking segment has still to cross.
+
+    The part of the segment from where it entered its current cell to its end, listed
+    as :func:`_edge_cells` lists an edge's cells (a superset of the cells the traversal
+    would step through: testing more pairs finds nothing false, the test is exact).
+    """
+    seg = walk.seg
+    px, py, dx, dy = segs.ax[seg], segs.ay[seg], segs.dx[seg], segs.dy[seg]
+    a = np.column_stack([px + walk.enter * dx, py + walk.enter * dy])
+    b = np.column_stack([px + walk.end * dx, py + walk.end * dy])
+    k, ix, iy = _edge_cells(
+        a, b, grid.lo, grid.cell, margin=eps, shape=(grid.nx, grid.ny)
+    )
+    return seg[k], ix * grid.ny + iy
 
 
 def _pairs_in_cells(
-    grid: EdgeGrid, walk: _Walk
+    grid: EdgeGrid, seg: IntArray, cell: IntArray
 ) -> Iterator[tuple[IntArray, IntArray]]:
-    """Yield (segment, edge) pairs: each walking segment with the edges of its cell.
+    """Yield (segment, edge) pairs: each segment with the edges of its cell.
 
-    In slices of about ``_PAIRS_AT_ONCE`` pairs (whole segments each).
+    In slices of about ``_PAIRS_AT_ONCE`` pairs (whole cells each).
     """
-    cell = walk.ix * grid.ny + walk.iy
     first = grid.offsets[cell]
     count = grid.offsets[cell + 1] - first
     ends = np.cumsum(count)
-    total = int(ends[-1])
+    total = int(ends[-1]) if len(ends) else 0
     cuts = np.searchsorted(ends, np.arange(_PAIRS_AT_ONCE, total, _PAIRS_AT_ONCE))
     bounds = [0, *np.unique(cuts).tolist(), len(count)]
     for lo, hi in itertools.pairwise(bounds):
         if hi <= lo:
             continue
         c = count[lo:hi]
-        seg = np.repeat(walk.seg[lo:hi], c)
-        edge = grid.edges[np.repeat(first[lo:hi], c) + _ramp(c)]
-        yield seg, edge
+        yield (
+            np.repeat(seg[lo:hi], c),
+            grid.edges[np.repeat(first[lo:hi], c) + _ramp(c)],
+        )
 
 
 def _step(grid: EdgeGrid, walk: _Walk, crossed: npt.NDArray[np.bool_]) -> _Walk:
@@ -409,6 +453,7 @@ def _step(grid: EdgeGrid, walk: _Walk, crossed: npt.NDArray[np.bool_]) -> _Walk:
         walk.delta_x[keep],
         walk.delta_y[keep],
         walk.end[keep],
+        t_next[keep],
     )
 
 
@@ -450,8 +495,53 @@ def inner_disks(polygons: Sequence[Polygon], margin: float) -> Disks:
 _SECTORS = (64, 512)
 """Fewest and most angular sectors around each start in :func:`occluded`: about as many
 as segments per start (the table costs starts x sectors, finer sectors flag more)."""
-_OCCLUDER_PAIRS = 1 << 20
-"""(start, disk) pairs handled at once in :func:`occluded`."""
+_COVER_PAIRS = 1 << 13
+"""(start, disk) pairs handled at once when the cover table is built."""
+_SEGMENTS_AT_ONCE = 1 << 13
+"""Segments looked up in the cover table at once."""
+
+
+def sector_count(per_start: float) -> int:
+    """Return the number of sectors for about ``per_start`` segments per start.
+
+    Examples
+    --------
+    >>> sector_count(10.0), sector_count(300.0), sector_count(1e6)
+    (64, 256, 512)
+    """
+    return int(np.clip(2 ** round(math.log2(max(per_start, 1.0))), *_SECTORS))
+
+
+def cover_table(disks: Disks, sources: FloatArray, sectors: int) -> FloatArray:
+    """Return, per source and sector, the length beyond which a segment is blocked.
+
+    Sector k of a source holds the directions at angles in [k w - pi, (k + 1) w - pi],
+    w = 2 pi / ``sectors``. A segment from the source in that sector and longer than
+    the table's entry passes through a disk (inf where no disk covers the sector);
+    shape (len(sources), sectors) [m]. Built ``_COVER_PAIRS`` (source, disk) pairs at
+    a time, so its temporaries stay small.
+
+    Examples
+    --------
+    >>> d = Disks(np.array([[2.0, 0.0]]), np.array([1.0]))
+    >>> t = cover_table(d, np.zeros((1, 2)), 64)
+    >>> t[0, 32].item(), t[0, 0].item()  # straight ahead (angle 0) and behind
+    (2.0, inf)
+    """
+    table = np.full((len(sources), sectors), np.inf)
+    if not len(disks.radius):
+        return table
+    rows = max(1, _COVER_PAIRS // len(disks.radius))
+    for r0 in range(0, len(sources), rows):
+        table[r0 : r0 + rows] = _nearest_cover(disks, sources[r0 : r0 + rows], sectors)
+    return table
+
+
+def _sectors_of(dx: FloatArray, dy: FloatArray, sectors: int) -> IntArray:
+    """Sector of each direction (dx, dy), as :func:`cover_table` numbers them."""
+    width = 2.0 * np.pi / sectors
+    sector = ((np.arctan2(dy, dx) + np.pi) // width).astype(np.intp)
+    return np.minimum(sector, sectors - 1)
 
 
 def occluded(disks: Disks, a: FloatArray, b: FloatArray, starts: IntArray) -> BoolArray:
@@ -461,25 +551,53 @@ def occluded(disks: Disks, a: FloatArray, b: FloatArray, starts: IntArray) -> Bo
     the directions are cut into sectors; a sector lies inside the cone under which a
     disk is seen, at distance r to its centre, and a segment in that sector longer than
     r passes closer to the centre than the radius (the closest point is at most r
-    along it). Each sector keeps the nearest such r. Only a filter: a segment it does
-    not flag is tested exactly.
+    along it). Each sector keeps the nearest such r (:func:`cover_table`). Only a
+    filter: a segment it does not flag is tested exactly.
     """
     blocked = np.zeros(len(a), dtype=bool)
     if not len(disks.radius) or not len(a):
         return blocked
     sources = a[starts[:-1]]
-    rows = max(1, _OCCLUDER_PAIRS // len(disks.radius))
-    per_start = len(a) / max(len(sources), 1)
-    sectors = int(np.clip(2 ** round(math.log2(max(per_start, 1.0))), *_SECTORS))
-    width = 2.0 * np.pi / sectors
-    for r0 in range(0, len(sources), rows):
-        near = _nearest_cover(disks, sources[r0 : r0 + rows], sectors)
-        s0, s1 = starts[r0], starts[min(r0 + rows, len(sources))]
-        src = np.repeat(np.arange(len(near)), np.diff(starts[r0 : r0 + rows + 1]))
-        d = b[s0:s1] - a[s0:s1]
-        sector = ((np.arctan2(d[:, 1], d[:, 0]) + np.pi) // width).astype(np.intp)
-        sector = np.minimum(sector, sectors - 1)
-        blocked[s0:s1] = np.hypot(d[:, 0], d[:, 1]) > near[src, sector]
+    sectors = sector_count(len(a) / max(len(sources), 1))
+    table = cover_table(disks, sources, sectors).ravel()
+    src = np.repeat(np.arange(len(sources), dtype=np.intp) * sectors, np.diff(starts))
+    for s0 in range(0, len(a), _SEGMENTS_AT_ONCE):
+        s1 = min(s0 + _SEGMENTS_AT_ONCE, len(a))
+        dx, dy = b[s0:s1, 0] - a[s0:s1, 0], b[s0:s1, 1] - a[s0:s1, 1]
+        near = table[src[s0:s1] + _sectors_of(dx, dy, sectors)]
+        blocked[s0:s1] = np.hypot(dx, dy) > near
+    return blocked
+
+
+def occluded_pairs(
+    table: FloatArray, points: FloatArray, i: IntArray, j: IntArray
+) -> BoolArray:
+    """Tell which segments points[i] -> points[j] certainly pass through a disk.
+
+    ``table`` is :func:`cover_table` of every point: the segment is looked up from both
+    ends (from j its direction is reversed, half a turn of sectors on). Only a filter,
+    like :func:`occluded`, which looks from the start alone and flags fewer.
+
+    Examples
+    --------
+    >>> d = Disks(np.array([[2.0, 0.0]]), np.array([1.0]))
+    >>> p = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 3.0]])
+    >>> occluded_pairs(cover_table(d, p, 64), p, np.array([0, 0]), np.array([1, 2]))
+    array([ True, False])
+    """
+    sectors = table.shape[1]
+    flat = table.ravel()
+    blocked = np.zeros(len(i), dtype=bool)
+    for s0 in range(0, len(i), _SEGMENTS_AT_ONCE):
+        ii, jj = i[s0 : s0 + _SEGMENTS_AT_ONCE], j[s0 : s0 + _SEGMENTS_AT_ONCE]
+        dx = points[jj, 0] - points[ii, 0]
+        dy = points[jj, 1] - points[ii, 1]
+        sector = _sectors_of(dx, dy, sectors)
+        length = np.hypot(dx, dy)
+        back = (sector + sectors // 2) % sectors
+        blocked[s0 : s0 + len(ii)] = (length > flat[ii * sectors + sector]) | (
+            length > flat[jj * sectors + back]
+        )
     return blocked
 
 

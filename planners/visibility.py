@@ -513,6 +513,8 @@ def _exact_free(
         free[crossed_seg] = False
         keep = free[t_seg]
         t_seg, t_val = t_seg[keep], t_val[keep]
+        order = np.lexsort((t_val, t_seg))  # few: as the march hands them on
+        t_seg, t_val = t_seg[order], t_val[order]
     else:
         marched = march(border.grid, border.edges, segs, cspace.eps)
         free, t_seg, t_val = ~marched.crossed, marched.touch_seg, marched.touch_t
@@ -521,17 +523,38 @@ def _exact_free(
         return free
     # Each survivor is cut at the border vertices lying on it; every piece is free,
     # blocked or along an edge, and its middle tells which.
-    seg_ids = np.concatenate([survivors, survivors, t_seg])
-    ts = np.concatenate([np.zeros(len(survivors)), np.ones(len(survivors)), t_val])
-    order = np.lexsort((ts, seg_ids))
-    seg_ids, ts = seg_ids[order], ts[order]
-    same = seg_ids[1:] == seg_ids[:-1]
-    piece_seg = seg_ids[:-1][same]
-    mid_t = 0.5 * (ts[:-1][same] + ts[1:][same])
+    piece_seg, mid_t = _pieces(survivors, t_seg, t_val)
     mids = a[piece_seg] + mid_t[:, None] * (b[piece_seg] - a[piece_seg])
     blocked_piece = cspace.contains_blocked(mids)
     free[piece_seg[blocked_piece]] = False
     return free
+
+
+def _pieces(
+    survivors: IntArray, t_seg: IntArray, t_val: FloatArray
+) -> tuple[IntArray, FloatArray]:
+    """Cut each survivor at the parameters t of the vertices on it; give each piece's middle.
+
+    ``survivors`` ascending; (``t_seg``, ``t_val``) the vertices on them, ordered by
+    segment, then t, each t in (0, 1). Survivor s with vertices at t1 < ... < tk has
+    the pieces [0, t1], [t1, t2], ..., [tk, 1]. Returns (segment, middle t) per piece, in
+    that order: laid out in place instead of sorted (a sort of the ends costs more than
+    all the rest on scenes with many collinear vertices).
+    """
+    rank = np.searchsorted(survivors, t_seg)  # each vertex's survivor
+    count = np.bincount(rank, minlength=len(survivors)) + 2  # ends: 0, the ts, 1
+    last = np.cumsum(count) - 1
+    first = last - count + 1
+    ts = np.empty(int(last[-1]) + 1)
+    ts[first] = 0.0
+    ts[last] = 1.0
+    # The vertices of survivor r fill first[r] + 1, ... in their order.
+    before = np.cumsum(count - 2) - (count - 2)
+    ts[first[rank] + 1 + np.arange(len(t_seg)) - before[rank]] = t_val
+    starts = np.ones(len(ts), dtype=bool)
+    starts[last] = False
+    mid = 0.5 * (ts[:-1] + ts[1:])
+    return np.repeat(survivors, count - 1), mid[starts[:-1]]
 
 
 def _overlapping_boxes(

@@ -503,3 +503,33 @@ def test_path_bending_at_a_pinch_point_is_in_the_svg():
     vg, svg = both(obstacles, (1, 0), (0, 3))
     assert vg.length == pytest.approx(1 + math.sqrt(5), abs=1e-12)
     assert svg.length == pytest.approx(vg.length, abs=1e-12)
+
+
+@st.composite
+def survivors_and_vertices(draw):
+    """Ascending survivors; vertices on some of them (t in (0, 1), repeats allowed)."""
+    survivors = sorted(draw(st.sets(st.integers(0, 40), min_size=1, max_size=12)))
+    ts = st.sampled_from([0.125, 0.25, 0.5, 0.75]) | st.floats(
+        0.0, 1.0, exclude_min=True, exclude_max=True
+    )
+    pairs = draw(st.lists(st.tuples(st.sampled_from(survivors), ts), max_size=20))
+    pairs.sort()
+    seg = np.array([p[0] for p in pairs], dtype=np.intp)
+    t = np.array([p[1] for p in pairs], dtype=float)
+    return np.array(survivors, dtype=np.intp), seg, t
+
+
+@given(survivors_and_vertices())
+def test_pieces_are_what_sorting_every_cut_gives(case):
+    survivors, t_seg, t_val = case
+    # The obvious way: every survivor's ends and its vertices, sorted by (segment, t);
+    # a piece between each two neighbours of one segment.
+    seg_ids = np.concatenate([survivors, survivors, t_seg])
+    ts = np.concatenate([np.zeros(len(survivors)), np.ones(len(survivors)), t_val])
+    order = np.lexsort((ts, seg_ids))
+    seg_ids, ts = seg_ids[order], ts[order]
+    same = seg_ids[1:] == seg_ids[:-1]
+    want_seg, want_mid = seg_ids[:-1][same], 0.5 * (ts[:-1][same] + ts[1:][same])
+    got_seg, got_mid = visibility._pieces(survivors, t_seg, t_val)
+    np.testing.assert_array_equal(got_seg, want_seg)
+    np.testing.assert_array_equal(got_mid, want_mid)

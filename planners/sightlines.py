@@ -286,10 +286,9 @@ class _Walk:
     """The grid traversal state of the segments still walking (one entry each)."""
 
     seg: IntArray
-    ix: IntArray
-    iy: IntArray
-    step_x: IntArray
-    step_y: IntArray
+    cell: IntArray  # ix * ny + iy
+    step_x: IntArray  # change of cell to the next column: +-ny (or 0)
+    step_y: IntArray  # ... to the next row: +-1 (or 0)
     next_x: FloatArray  # parameter t where the segment leaves the cell's column
     next_y: FloatArray  # ... and its row
     delta_x: FloatArray  # t to cross one column
@@ -389,12 +388,12 @@ def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
         delta = np.where(d != 0, grid.cell / np.abs(safe), np.inf)
         axes.append((at.astype(np.intp), step, nxt, delta))
     (ix, sx, nx_, ddx), (iy, sy, ny_, ddy) = axes
-    return _Walk(seg, ix, iy, sx, sy, nx_, ny_, ddx, ddy, t1, t0)
+    return _Walk(seg, ix * grid.ny + iy, sx * grid.ny, sy, nx_, ny_, ddx, ddy, t1, t0)
 
 
 def _cells_now(grid: EdgeGrid, walk: _Walk) -> tuple[IntArray, IntArray]:
     """(segment, cell) of each walking segment: the cell it is in."""
-    return walk.seg, walk.ix * grid.ny + walk.iy
+    return walk.seg, walk.cell
 
 
 def _rest_cells(
@@ -440,21 +439,25 @@ def _pairs_in_cells(
 
 
 def _step(grid: EdgeGrid, walk: _Walk, crossed: npt.NDArray[np.bool_]) -> _Walk:
-    """Move every segment to its next cell; drop the blocked and the finished ones."""
+    """Move every segment to its next cell; drop the blocked and the finished ones.
+
+    ``t_next <= end`` keeps a segment in the grid; rounding may still step it out. Out
+    through a side of the grid in x, its cell number leaves [0, nx ny) and it stops;
+    out in y it lands in a cell of a neighbouring column, which it does not cross:
+    testing more pairs finds nothing false (the test is exact), and its t is at its end
+    within rounding, so it stops within a step or two.
+    """
     along_x = walk.next_x < walk.next_y
     t_next = np.where(along_x, walk.next_x, walk.next_y)
-    go = (t_next <= walk.end) & ~crossed[walk.seg]
-    ix = walk.ix + np.where(along_x, walk.step_x, 0)
-    iy = walk.iy + np.where(along_x, 0, walk.step_y)
+    cell = walk.cell + np.where(along_x, walk.step_x, walk.step_y)
     next_x = np.where(along_x, walk.next_x + walk.delta_x, walk.next_x)
     next_y = np.where(along_x, walk.next_y, walk.next_y + walk.delta_y)
-    # t_next <= end keeps a segment in the grid; rounding may still step out of it.
-    go &= (ix >= 0) & (iy >= 0) & (ix < grid.nx) & (iy < grid.ny)
+    go = (t_next <= walk.end) & ~crossed[walk.seg]
+    go &= (cell >= 0) & (cell < grid.nx * grid.ny)
     keep = np.flatnonzero(go)
     return _Walk(
         walk.seg[keep],
-        ix[keep],
-        iy[keep],
+        cell[keep],
         walk.step_x[keep],
         walk.step_y[keep],
         next_x[keep],

@@ -141,7 +141,9 @@ def crossings(
     w = ux * vy - uy * vx
     od = oc + w  # side of d
     tol_pq = eps * len_pq
-    split_cd = ((oc > tol_pq) & (od < -tol_pq)) | ((oc < -tol_pq) & (od > tol_pq))
+    # c and d strictly on either side: one above tol, the other below -tol (the same
+    # booleans as testing both orders, in fewer passes over millions of pairs).
+    split_cd = (np.maximum(oc, od) > tol_pq) & (np.minimum(oc, od) < -tol_pq)
     # Only where c and d lie on either side: p and q on either side of the edge's line.
     cand = np.flatnonzero(split_cd)
     op = cpx[cand] * vy[cand] - cpy[cand] * vx[cand]  # side of p, times |cd|

@@ -797,7 +797,14 @@ def _vertex_visibility(cspace: ConfigurationSpace) -> _Sight:
     # The disks' cover around every vertex, so that each pair is looked up from both of
     # its ends (after the wedge screen about a quarter of the n - 1 others per vertex).
     table = cover_table(cspace.derive(_inner_disks), border.points, sector_count(n / 4))
-    for i, j in _candidate_pairs(border.points, border.wedges, nodes, tangent=False):
+    rings = cspace.derive(_convex_ring_of)
+    apart = bool(np.any(rings.ring >= 0))
+    blocks = (
+        _candidate_pairs_apart(border, rings)
+        if apart
+        else _candidate_pairs(border.points, border.wedges, nodes, tangent=False)
+    )
+    for i, j in blocks:
         ok = ~occluded_pairs(table, border.points, i, j)
         test = np.flatnonzero(ok)
         ok[test] = _exact_free(
@@ -805,7 +812,121 @@ def _vertex_visibility(cspace: ConfigurationSpace) -> _Sight:
         )
         found_i.append(i[ok])
         found_j.append(j[ok])
-    return _Sight(n, np.concatenate(found_i), np.concatenate(found_j))
+    i, j = np.concatenate(found_i), np.concatenate(found_j)
+    if apart:  # found ring by ring: back to row-major order
+        order = np.argsort(i.astype(np.int64) * n + j)
+        i, j = i[order], j[order]
+    return _Sight(n, i, j)
+
+
+_BIG_RING = 64
+"""Rings of at least this many vertices are looked at by :func:`_convex_ring_of`."""
+_CONVEX_MARGIN = 1e-9
+"""Sine by which a ring's other vertices must lie inside each vertex's wedge (1000 times
+the screen's angle tolerance, far above rounding)."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _ConvexRings:
+    """The big strictly convex rings of :func:`_convex_ring_of`."""
+
+    ring: IntArray  # (n,) per border vertex its ring, or -1
+    edge_i: IntArray  # (e,) the rings' edges as node pairs, smaller node first
+    edge_j: IntArray
+
+
+def _convex_ring_of(cspace: ConfigurationSpace) -> _ConvexRings:
+    """Per border vertex, the big strictly convex ring it lies on, or -1; their edges.
+
+    A ring qualifies when it has at least ``_BIG_RING`` vertices, none shared with
+    another ring, and from each vertex v the vertices v + 2 and v - 2 lie inside v's
+    blocked wedge by a sine of ``_CONVEX_MARGIN`` from both sides. Along a convex ring
+    the directions from v to v + 2, v + 3, ..., v - 2 turn one way from one side of the
+    wedge to the other, and the sine of the angle to a side is concave on [0, pi], so
+    every vertex but v's two neighbours lies inside by that margin: the wedge screen
+    (:func:`_leaves_blocked`) drops every such pair, and :func:`_candidate_pairs_apart`
+    need not enumerate them (the circle of 10,000 vertices: 50 million pairs).
+    """
+    border = cspace.derive(_build_border)
+    geo = ring_geometry(cspace, cleaned=False)
+    ring = np.full(len(border.points), -1, dtype=np.intp)
+    edge_i, edge_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
+    for k in range(len(geo.rings)):
+        occ = np.arange(geo.offset[k], geo.offset[k + 1])
+        node = border.occ_node[occ]
+        if len(occ) < _BIG_RING or border.pinch_nodes[node].any():
+            continue
+        if _inside_by_margin(border, occ):
+            ring[node] = k
+            after = np.roll(node, -1)  # each vertex's next one around the ring
+            edge_i.append(np.minimum(node, after))
+            edge_j.append(np.maximum(node, after))
+    return _ConvexRings(ring, np.concatenate(edge_i), np.concatenate(edge_j))
+
+
+def _inside_by_margin(border: _Border, occ: IntArray) -> bool:
+    """Tell if from every vertex of a ring its vertices two on lie inside its wedge."""
+    p = border.points[border.occ_node[occ]]
+    nxt, prv = border.occ_next[occ], border.occ_prev[occ]
+    if not border.occ_convex[occ].all():
+        return False
+    for shift in (-2, 2):
+        d = np.roll(p, shift, axis=0) - p
+        length = np.hypot(d[:, 0], d[:, 1])
+        from_next = (nxt[:, 0] * d[:, 1] - nxt[:, 1] * d[:, 0]) / length
+        from_prev = (d[:, 0] * prv[:, 1] - d[:, 1] * prv[:, 0]) / length
+        if not (
+            np.all(from_next > _CONVEX_MARGIN) and np.all(from_prev > _CONVEX_MARGIN)
+        ):
+            return False
+    return True
+
+
+def _candidate_pairs_apart(
+    border: _Border, rings: _ConvexRings
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield the pairs :func:`_candidate_pairs` yields, without enumerating ring pairs.
+
+    Pairs of two vertices of one ring of :func:`_convex_ring_of` other than its edges
+    are left out before the screen (it would drop them all); each remaining pair (i < j)
+    is screened as there. The blocks come ring by ring, not in row-major order.
+    """
+    ring = rings.ring
+    nodes = np.arange(len(border.points), dtype=np.intp)
+    points, wedges = border.points, border.wedges
+    for k in np.unique(ring).tolist():
+        rows = nodes[ring == k]
+        cols = nodes if k < 0 else nodes[ring != k]
+        yield from _rows_against(points, wedges, rows, cols)
+    # The rings' own edges, screened like every other pair.
+    i, j = rings.edge_i, rings.edge_j
+    d = points[j] - points[i]
+    keep = ~_leaves_blocked(wedges, i, j, d[:, 0], d[:, 1])
+    yield i[keep], j[keep]
+
+
+def _rows_against(
+    points: FloatArray, wedges: _Wedges, rows: IntArray, cols: IntArray
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield the pairs (r, c), r in ``rows``, c in ``cols``, r < c, that pass the screen.
+
+    Both ascending; in blocks of about ``_SCREEN_PAIRS`` pairs, as
+    :func:`_candidate_pairs` screens them (:func:`_leaves_blocked`).
+    """
+    x, y = points[cols, 0], points[cols, 1]
+    k = 0
+    while k < len(rows):
+        first = int(np.searchsorted(cols, rows[k], side="right"))
+        width = max(len(cols) - first, 1)
+        r1 = min(len(rows), k + max(1, _SCREEN_PAIRS // width))
+        r = rows[k:r1, None]
+        c = cols[None, first:]
+        dx = x[None, first:] - points[r, 0]
+        dy = y[None, first:] - points[r, 1]
+        out = _leaves_blocked(wedges, r, c, dx, dy) | (c <= r)
+        a, b = np.nonzero(~out)
+        yield rows[k + a], cols[first + b]
+        k = r1
 
 
 def _visibility(

@@ -894,15 +894,30 @@ def _candidate_pairs_apart(
     ring = rings.ring
     nodes = np.arange(len(border.points), dtype=np.intp)
     points, wedges = border.points, border.wedges
+    found: list[tuple[IntArray, IntArray]] = []
+    count = 0
     for k in np.unique(ring).tolist():
         rows = nodes[ring == k]
         cols = nodes if k < 0 else nodes[ring != k]
-        yield from _rows_against(points, wedges, rows, cols)
+        for block in _rows_against(points, wedges, rows, cols):
+            found.append(block)
+            count += len(block[0])
+            if count >= _BLOCK_PAIRS:  # handed on in blocks, as _candidate_pairs does
+                yield _joined(found)
+                found, count = [], 0
     # The rings' own edges, screened like every other pair.
     i, j = rings.edge_i, rings.edge_j
     d = points[j] - points[i]
     keep = ~_leaves_blocked(wedges, i, j, d[:, 0], d[:, 1])
-    yield i[keep], j[keep]
+    found.append((i[keep], j[keep]))
+    yield _joined(found)
+
+
+def _joined(blocks: list[tuple[IntArray, IntArray]]) -> tuple[IntArray, IntArray]:
+    """Concatenate blocks of pairs (i, j)."""
+    return np.concatenate([b[0] for b in blocks]), np.concatenate(
+        [b[1] for b in blocks]
+    )
 
 
 def _rows_against(

@@ -365,20 +365,9 @@ def march(
 def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
     """Clip each segment to the grid and find its first cell (Amanatides and Woo)."""
     px, py, dx, dy = segs.ax[seg], segs.ay[seg], segs.dx[seg], segs.dy[seg]
-    lo, hi = grid.lo, grid.hi
     t0, t1 = np.zeros(len(seg)), np.ones(len(seg))
-    for p, d, low, high in ((px, dx, lo[0], hi[0]), (py, dy, lo[1], hi[1])):
-        # Liang-Barsky: the parameter range inside the slab low <= p + t d <= high.
-        safe = np.where(d != 0, d, 1.0)
-        with np.errstate(over="ignore"):  # a subnormal direction: t is +-inf, as meant
-            ta, tb = (low - p) / safe, (high - p) / safe
-        enter = np.where(
-            d != 0, np.minimum(ta, tb), np.where(p >= low, -np.inf, np.inf)
-        )
-        leave = np.where(
-            d != 0, np.maximum(ta, tb), np.where(p <= high, np.inf, -np.inf)
-        )
-        t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
+    if not _all_inside(grid, px, py, px + dx, py + dy):
+        t0, t1 = _clip(grid, px, py, dx, dy)
     inside = np.flatnonzero(t0 <= t1)
     seg, t1 = seg[inside], t1[inside]
     px, py, dx, dy, t0 = (v[inside] for v in (px, py, dx, dy, t0))
@@ -396,6 +385,50 @@ def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
         axes.append((at.astype(np.intp), step, nxt, delta))
     (ix, sx, nx_, ddx), (iy, sy, ny_, ddy) = axes
     return _Walk(seg, ix * grid.ny + iy, sx * grid.ny, sy, nx_, ny_, ddx, ddy, t1, t0)
+
+
+def _all_inside(
+    grid: EdgeGrid, ax: FloatArray, ay: FloatArray, bx: FloatArray, by: FloatArray
+) -> bool:
+    """Tell if every segment's two ends lie strictly inside the grid's box.
+
+    Then no clipping is needed: each runs from t = 0 to t = 1 in the grid (the grid
+    reaches twice its margin past every edge, far beyond rounding; a clip that ends a
+    segment an ulp before t = 1 only spares a cell that the exact test finds empty).
+    """
+    if not len(ax):
+        return True
+    lo, hi = grid.lo, grid.hi
+    return bool(
+        min(ax.min(), bx.min()) > lo[0]
+        and max(ax.max(), bx.max()) < hi[0]
+        and min(ay.min(), by.min()) > lo[1]
+        and max(ay.max(), by.max()) < hi[1]
+    )
+
+
+def _clip(
+    grid: EdgeGrid, px: FloatArray, py: FloatArray, dx: FloatArray, dy: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Return the parameter range (t0, t1) of each segment inside the grid (Liang-Barsky).
+
+    Empty (t0 > t1) for a segment that misses the grid.
+    """
+    lo, hi = grid.lo, grid.hi
+    t0, t1 = np.zeros(len(px)), np.ones(len(px))
+    for p, d, low, high in ((px, dx, lo[0], hi[0]), (py, dy, lo[1], hi[1])):
+        # The parameter range inside the slab low <= p + t d <= high.
+        safe = np.where(d != 0, d, 1.0)
+        with np.errstate(over="ignore"):  # a subnormal direction: t is +-inf, as meant
+            ta, tb = (low - p) / safe, (high - p) / safe
+        enter = np.where(
+            d != 0, np.minimum(ta, tb), np.where(p >= low, -np.inf, np.inf)
+        )
+        leave = np.where(
+            d != 0, np.maximum(ta, tb), np.where(p <= high, np.inf, -np.inf)
+        )
+        t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
+    return t0, t1
 
 
 def _cells_now(grid: EdgeGrid, walk: _Walk) -> tuple[IntArray, IntArray]:

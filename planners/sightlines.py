@@ -6,7 +6,7 @@ n x n matrix, costs gigabytes at ten thousand vertices. This module does the sam
 test (module docstring of :mod:`planners.visibility`) with two devices:
 
 Uniform grid of the edges (:class:`EdgeGrid`)
-    The border's edges are bucketed in square cells (about two edges a cell), each edge
+    The border's edges are bucketed in square cells (about one edge a cell), each edge
     in every cell that a disk of radius ``margin`` around it meets. A segment can only
     cross or touch the edges listed in the cells it passes through.
 Marching segments (:func:`march`)
@@ -18,12 +18,17 @@ Marching segments (:func:`march`)
     free segment is tested against every edge near it, which is all the exact test
     needs.
 
-Disks that certainly block (:func:`occluded`)
+Disks that certainly block (:func:`occluded`, :func:`cover_table`, :func:`occluded_pairs`)
     Before marching, a segment that passes through a disk inside an obstacle is blocked
-    for certain; only the others are marched. A filter: it never decides a free one.
+    for certain; only the others are marched. Around each start a table keeps, per
+    angular sector, the nearest disk that covers it; the full visibility graph builds it
+    for every vertex and looks each pair up from both ends. A filter: it never decides
+    a free one.
 
 Segments are marched in blocks of bounded size and only the touching points of the
-survivors are kept, so memory is the block plus the answer.
+survivors are kept, so memory is the block plus the answer. Pairs are tested in slices
+of ``_PAIRS_AT_ONCE``: arrays of 128 KiB and more come from fresh pages, a page fault
+every 4 KiB, which cost a fifth of a cold visibility graph of 300 vertices.
 
 References
 ----------
@@ -34,19 +39,26 @@ Eurographics 1987.
 from __future__ import annotations
 
 __all__ = [
+    "Disks",
     "EdgeGrid",
     "Edges",
     "Marched",
     "Segments",
+    "cover_table",
     "crossings",
     "edge_grid",
+    "inner_disks",
     "march",
+    "occluded",
+    "occluded_pairs",
+    "sector_count",
 ]
 
 import dataclasses
 import functools
+import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -57,10 +69,13 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
-_EDGES_PER_CELL = 0.5
+_EDGES_PER_CELL = 1.0
 """Cell size: about this many edges a cell if they were spread evenly."""
 _MAX_CELLS_PER_EDGE = 4
 """At most this many cells per edge in the grid (bounds its memory)."""
+_PAIRS_AT_ONCE = 1 << 13
+"""(segment, edge) pairs tested at once: each temporary array stays under 128 KiB, which
+the allocator hands out again from its heap instead of fresh (zeroed) pages."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -131,7 +146,9 @@ def crossings(
     w = ux * vy - uy * vx
     od = oc + w  # side of d
     tol_pq = eps * len_pq
-    split_cd = ((oc > tol_pq) & (od < -tol_pq)) | ((oc < -tol_pq) & (od > tol_pq))
+    # c and d strictly on either side: one above tol, the other below -tol (the same
+    # booleans as testing both orders, in fewer passes over millions of pairs).
+    split_cd = (np.maximum(oc, od) > tol_pq) & (np.minimum(oc, od) < -tol_pq)
     # Only where c and d lie on either side: p and q on either side of the edge's line.
     cand = np.flatnonzero(split_cd)
     op = cpx[cand] * vy[cand] - cpy[cand] * vx[cand]  # side of p, times |cd|
@@ -276,25 +293,38 @@ class _Walk:
     """The grid traversal state of the segments still walking (one entry each)."""
 
     seg: IntArray
-    ix: IntArray
-    iy: IntArray
-    step_x: IntArray
-    step_y: IntArray
+    cell: IntArray  # ix * ny + iy
+    step_x: IntArray  # change of cell to the next column: +-ny (or 0)
+    step_y: IntArray  # ... to the next row: +-1 (or 0)
     next_x: FloatArray  # parameter t where the segment leaves the cell's column
     next_y: FloatArray  # ... and its row
     delta_x: FloatArray  # t to cross one column
     delta_y: FloatArray
     end: FloatArray  # t where the segment leaves the grid (or ends)
+    enter: FloatArray  # t where the segment entered its current cell
+
+
+_TAIL = 512
+"""When no more segments than this still walk, each one's remaining cells are listed at
+once: a step costs a few dozen numpy calls whatever its size, and the last walkers,
+mostly long free segments, would take as many steps as they cross cells."""
 
 
 def march(
-    grid: EdgeGrid, edges: Edges, segs: Segments, eps: float, block: int = 1 << 18
+    grid: EdgeGrid,
+    edges: Edges,
+    segs: Segments,
+    eps: float,
+    block: int = 1 << 18,
+    *,
+    tail: int = _TAIL,
 ) -> Marched:
     """Test segments against the edges of the cells they pass through.
 
     A segment stops at the first cell where an edge properly crosses it; the others are
     tested against every edge within the grid's margin, so their touching vertices are
-    complete. Segments are walked ``block`` at a time.
+    complete. Segments are walked ``block`` at a time; once no more than ``tail`` of a
+    block still walk, they are tested against all their remaining cells at once.
     """
     crossed = np.zeros(len(segs.ax), dtype=bool)
     touch_seg: list[IntArray] = []
@@ -304,19 +334,28 @@ def march(
             grid, segs, np.arange(first, min(first + block, len(segs.ax)))
         )
         while len(walk.seg):
-            seg, edge = _pairs_in_cells(grid, walk)
-            blocked, t_seg, t_val = crossings(segs, edges, seg, edge, eps)
-            crossed[blocked] = True
-            touch_seg.append(t_seg)
-            touch_t.append(t_val)
+            rest = len(walk.seg) <= tail
+            cells = (
+                _rest_cells(grid, segs, walk, eps) if rest else _cells_now(grid, walk)
+            )
+            for seg, edge in _pairs_in_cells(grid, *cells):
+                blocked, t_seg, t_val = crossings(segs, edges, seg, edge, eps)
+                crossed[blocked] = True
+                touch_seg.append(t_seg)
+                touch_t.append(t_val)
+            if rest:
+                break
             walk = _step(grid, walk, crossed)
     seg_all = np.concatenate(touch_seg) if touch_seg else np.zeros(0, dtype=np.intp)
     t_all = np.concatenate(touch_t) if touch_t else np.zeros(0)
     keep = np.flatnonzero(~crossed[seg_all])
     seg_all, t_all = seg_all[keep], t_all[keep]
     # An edge listed in several cells along a segment was met once per cell: the same
-    # vertex at the very same t (computed from the same pair), kept once.
-    order = np.lexsort((t_all, seg_all))
+    # vertex at the very same t (computed from the same pair), kept once. Ordered by
+    # segment, then t: by t, then stably by segment (faster than np.lexsort on floats;
+    # the order among equal (segment, t) is moot, they are one).
+    order = np.argsort(t_all)
+    order = order[np.argsort(seg_all[order], kind="stable")]
     seg_all, t_all = seg_all[order], t_all[order]
     new = np.ones(len(seg_all), dtype=bool)
     new[1:] = (seg_all[1:] != seg_all[:-1]) | (t_all[1:] != t_all[:-1])
@@ -326,20 +365,9 @@ def march(
 def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
     """Clip each segment to the grid and find its first cell (Amanatides and Woo)."""
     px, py, dx, dy = segs.ax[seg], segs.ay[seg], segs.dx[seg], segs.dy[seg]
-    lo, hi = grid.lo, grid.hi
     t0, t1 = np.zeros(len(seg)), np.ones(len(seg))
-    for p, d, low, high in ((px, dx, lo[0], hi[0]), (py, dy, lo[1], hi[1])):
-        # Liang-Barsky: the parameter range inside the slab low <= p + t d <= high.
-        safe = np.where(d != 0, d, 1.0)
-        with np.errstate(over="ignore"):  # a subnormal direction: t is +-inf, as meant
-            ta, tb = (low - p) / safe, (high - p) / safe
-        enter = np.where(
-            d != 0, np.minimum(ta, tb), np.where(p >= low, -np.inf, np.inf)
-        )
-        leave = np.where(
-            d != 0, np.maximum(ta, tb), np.where(p <= high, np.inf, -np.inf)
-        )
-        t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
+    if not _all_inside(grid, px, py, px + dx, py + dy):
+        t0, t1 = _clip(grid, px, py, dx, dy)
     inside = np.flatnonzero(t0 <= t1)
     seg, t1 = seg[inside], t1[inside]
     px, py, dx, dy, t0 = (v[inside] for v in (px, py, dx, dy, t0))
@@ -356,35 +384,120 @@ def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
         delta = np.where(d != 0, grid.cell / np.abs(safe), np.inf)
         axes.append((at.astype(np.intp), step, nxt, delta))
     (ix, sx, nx_, ddx), (iy, sy, ny_, ddy) = axes
-    return _Walk(seg, ix, iy, sx, sy, nx_, ny_, ddx, ddy, t1)
+    return _Walk(seg, ix * grid.ny + iy, sx * grid.ny, sy, nx_, ny_, ddx, ddy, t1, t0)
 
 
-def _pairs_in_cells(grid: EdgeGrid, walk: _Walk) -> tuple[IntArray, IntArray]:
-    """(segment, edge) pairs: each walking segment with the edges of its current cell."""
-    cell = walk.ix * grid.ny + walk.iy
+def _all_inside(
+    grid: EdgeGrid, ax: FloatArray, ay: FloatArray, bx: FloatArray, by: FloatArray
+) -> bool:
+    """Tell if every segment's two ends lie strictly inside the grid's box.
+
+    Then no clipping is needed: each runs from t = 0 to t = 1 in the grid (the grid
+    reaches twice its margin past every edge, far beyond rounding; a clip that ends a
+    segment an ulp before t = 1 only spares a cell that the exact test finds empty).
+    """
+    if not len(ax):
+        return True
+    lo, hi = grid.lo, grid.hi
+    return bool(
+        min(ax.min(), bx.min()) > lo[0]
+        and max(ax.max(), bx.max()) < hi[0]
+        and min(ay.min(), by.min()) > lo[1]
+        and max(ay.max(), by.max()) < hi[1]
+    )
+
+
+def _clip(
+    grid: EdgeGrid, px: FloatArray, py: FloatArray, dx: FloatArray, dy: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Return the parameter range (t0, t1) of each segment inside the grid (Liang-Barsky).
+
+    Empty (t0 > t1) for a segment that misses the grid.
+    """
+    lo, hi = grid.lo, grid.hi
+    t0, t1 = np.zeros(len(px)), np.ones(len(px))
+    for p, d, low, high in ((px, dx, lo[0], hi[0]), (py, dy, lo[1], hi[1])):
+        # The parameter range inside the slab low <= p + t d <= high.
+        safe = np.where(d != 0, d, 1.0)
+        with np.errstate(over="ignore"):  # a subnormal direction: t is +-inf, as meant
+            ta, tb = (low - p) / safe, (high - p) / safe
+        enter = np.where(
+            d != 0, np.minimum(ta, tb), np.where(p >= low, -np.inf, np.inf)
+        )
+        leave = np.where(
+            d != 0, np.maximum(ta, tb), np.where(p <= high, np.inf, -np.inf)
+        )
+        t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
+    return t0, t1
+
+
+def _cells_now(grid: EdgeGrid, walk: _Walk) -> tuple[IntArray, IntArray]:
+    """(segment, cell) of each walking segment: the cell it is in."""
+    return walk.seg, walk.cell
+
+
+def _rest_cells(
+    grid: EdgeGrid, segs: Segments, walk: _Walk, eps: float
+) -> tuple[IntArray, IntArray]:
+    """(segment, cell) for every cell each walking segment has still to cross.
+
+    The part of the segment from where it entered its current cell to its end, listed
+    as :func:`_edge_cells` lists an edge's cells (a superset of the cells the traversal
+    would step through: testing more pairs finds nothing false, the test is exact).
+    """
+    seg = walk.seg
+    px, py, dx, dy = segs.ax[seg], segs.ay[seg], segs.dx[seg], segs.dy[seg]
+    a = np.column_stack([px + walk.enter * dx, py + walk.enter * dy])
+    b = np.column_stack([px + walk.end * dx, py + walk.end * dy])
+    k, ix, iy = _edge_cells(
+        a, b, grid.lo, grid.cell, margin=eps, shape=(grid.nx, grid.ny)
+    )
+    return seg[k], ix * grid.ny + iy
+
+
+def _pairs_in_cells(
+    grid: EdgeGrid, seg: IntArray, cell: IntArray
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield (segment, edge) pairs: each segment with the edges of its cell.
+
+    In slices of about ``_PAIRS_AT_ONCE`` pairs (whole cells each).
+    """
     first = grid.offsets[cell]
     count = grid.offsets[cell + 1] - first
-    seg = np.repeat(walk.seg, count)
-    edge = grid.edges[np.repeat(first, count) + _ramp(count)]
-    return seg, edge
+    ends = np.cumsum(count)
+    total = int(ends[-1]) if len(ends) else 0
+    cuts = np.searchsorted(ends, np.arange(_PAIRS_AT_ONCE, total, _PAIRS_AT_ONCE))
+    bounds = [0, *np.unique(cuts).tolist(), len(count)]
+    for lo, hi in itertools.pairwise(bounds):
+        if hi <= lo:
+            continue
+        c = count[lo:hi]
+        yield (
+            np.repeat(seg[lo:hi], c),
+            grid.edges[np.repeat(first[lo:hi], c) + _ramp(c)],
+        )
 
 
 def _step(grid: EdgeGrid, walk: _Walk, crossed: npt.NDArray[np.bool_]) -> _Walk:
-    """Move every segment to its next cell; drop the blocked and the finished ones."""
+    """Move every segment to its next cell; drop the blocked and the finished ones.
+
+    ``t_next <= end`` keeps a segment in the grid; rounding may still step it out. Out
+    through a side of the grid in x, its cell number leaves [0, nx ny) and it stops;
+    out in y it lands in a cell of a neighbouring column, which it does not cross:
+    testing more pairs finds nothing false (the test is exact), and its t is at its end
+    within rounding, so it stops within a step or two.
+    """
     along_x = walk.next_x < walk.next_y
     t_next = np.where(along_x, walk.next_x, walk.next_y)
-    go = (t_next <= walk.end) & ~crossed[walk.seg]
-    ix = walk.ix + np.where(along_x, walk.step_x, 0)
-    iy = walk.iy + np.where(along_x, 0, walk.step_y)
+    cell = walk.cell + np.where(along_x, walk.step_x, walk.step_y)
     next_x = np.where(along_x, walk.next_x + walk.delta_x, walk.next_x)
     next_y = np.where(along_x, walk.next_y, walk.next_y + walk.delta_y)
-    # t_next <= end keeps a segment in the grid; rounding may still step out of it.
-    go &= (ix >= 0) & (iy >= 0) & (ix < grid.nx) & (iy < grid.ny)
+    go = (t_next <= walk.end) & ~crossed[walk.seg]
+    go &= (cell >= 0) & (cell < grid.nx * grid.ny)
     keep = np.flatnonzero(go)
     return _Walk(
         walk.seg[keep],
-        ix[keep],
-        iy[keep],
+        cell[keep],
         walk.step_x[keep],
         walk.step_y[keep],
         next_x[keep],
@@ -392,6 +505,7 @@ def _step(grid: EdgeGrid, walk: _Walk, crossed: npt.NDArray[np.bool_]) -> _Walk:
         walk.delta_x[keep],
         walk.delta_y[keep],
         walk.end[keep],
+        t_next[keep],
     )
 
 
@@ -433,8 +547,53 @@ def inner_disks(polygons: Sequence[Polygon], margin: float) -> Disks:
 _SECTORS = (64, 512)
 """Fewest and most angular sectors around each start in :func:`occluded`: about as many
 as segments per start (the table costs starts x sectors, finer sectors flag more)."""
-_OCCLUDER_PAIRS = 1 << 20
-"""(start, disk) pairs handled at once in :func:`occluded`."""
+_COVER_PAIRS = 1 << 13
+"""(start, disk) pairs handled at once when the cover table is built."""
+_SEGMENTS_AT_ONCE = 1 << 13
+"""Segments looked up in the cover table at once."""
+
+
+def sector_count(per_start: float) -> int:
+    """Return the number of sectors for about ``per_start`` segments per start.
+
+    Examples
+    --------
+    >>> sector_count(10.0), sector_count(300.0), sector_count(1e6)
+    (64, 256, 512)
+    """
+    return int(np.clip(2 ** round(math.log2(max(per_start, 1.0))), *_SECTORS))
+
+
+def cover_table(disks: Disks, sources: FloatArray, sectors: int) -> FloatArray:
+    """Return, per source and sector, the length beyond which a segment is blocked.
+
+    Sector k of a source holds the directions at angles in [k w - pi, (k + 1) w - pi],
+    w = 2 pi / ``sectors``. A segment from the source in that sector and longer than
+    the table's entry passes through a disk (inf where no disk covers the sector);
+    shape (len(sources), sectors) [m]. Built ``_COVER_PAIRS`` (source, disk) pairs at
+    a time, so its temporaries stay small.
+
+    Examples
+    --------
+    >>> d = Disks(np.array([[2.0, 0.0]]), np.array([1.0]))
+    >>> t = cover_table(d, np.zeros((1, 2)), 64)
+    >>> t[0, 32].item(), t[0, 0].item()  # straight ahead (angle 0) and behind
+    (2.0, inf)
+    """
+    table = np.full((len(sources), sectors), np.inf)
+    if not len(disks.radius):
+        return table
+    rows = max(1, _COVER_PAIRS // len(disks.radius))
+    for r0 in range(0, len(sources), rows):
+        table[r0 : r0 + rows] = _nearest_cover(disks, sources[r0 : r0 + rows], sectors)
+    return table
+
+
+def _sectors_of(dx: FloatArray, dy: FloatArray, sectors: int) -> IntArray:
+    """Sector of each direction (dx, dy), as :func:`cover_table` numbers them."""
+    width = 2.0 * np.pi / sectors
+    sector = ((np.arctan2(dy, dx) + np.pi) // width).astype(np.intp)
+    return np.minimum(sector, sectors - 1)
 
 
 def occluded(disks: Disks, a: FloatArray, b: FloatArray, starts: IntArray) -> BoolArray:
@@ -444,25 +603,53 @@ def occluded(disks: Disks, a: FloatArray, b: FloatArray, starts: IntArray) -> Bo
     the directions are cut into sectors; a sector lies inside the cone under which a
     disk is seen, at distance r to its centre, and a segment in that sector longer than
     r passes closer to the centre than the radius (the closest point is at most r
-    along it). Each sector keeps the nearest such r. Only a filter: a segment it does
-    not flag is tested exactly.
+    along it). Each sector keeps the nearest such r (:func:`cover_table`). Only a
+    filter: a segment it does not flag is tested exactly.
     """
     blocked = np.zeros(len(a), dtype=bool)
     if not len(disks.radius) or not len(a):
         return blocked
     sources = a[starts[:-1]]
-    rows = max(1, _OCCLUDER_PAIRS // len(disks.radius))
-    per_start = len(a) / max(len(sources), 1)
-    sectors = int(np.clip(2 ** round(math.log2(max(per_start, 1.0))), *_SECTORS))
-    width = 2.0 * np.pi / sectors
-    for r0 in range(0, len(sources), rows):
-        near = _nearest_cover(disks, sources[r0 : r0 + rows], sectors)
-        s0, s1 = starts[r0], starts[min(r0 + rows, len(sources))]
-        src = np.repeat(np.arange(len(near)), np.diff(starts[r0 : r0 + rows + 1]))
-        d = b[s0:s1] - a[s0:s1]
-        sector = ((np.arctan2(d[:, 1], d[:, 0]) + np.pi) // width).astype(np.intp)
-        sector = np.minimum(sector, sectors - 1)
-        blocked[s0:s1] = np.hypot(d[:, 0], d[:, 1]) > near[src, sector]
+    sectors = sector_count(len(a) / max(len(sources), 1))
+    table = cover_table(disks, sources, sectors).ravel()
+    src = np.repeat(np.arange(len(sources), dtype=np.intp) * sectors, np.diff(starts))
+    for s0 in range(0, len(a), _SEGMENTS_AT_ONCE):
+        s1 = min(s0 + _SEGMENTS_AT_ONCE, len(a))
+        dx, dy = b[s0:s1, 0] - a[s0:s1, 0], b[s0:s1, 1] - a[s0:s1, 1]
+        near = table[src[s0:s1] + _sectors_of(dx, dy, sectors)]
+        blocked[s0:s1] = np.hypot(dx, dy) > near
+    return blocked
+
+
+def occluded_pairs(
+    table: FloatArray, points: FloatArray, i: IntArray, j: IntArray
+) -> BoolArray:
+    """Tell which segments points[i] -> points[j] certainly pass through a disk.
+
+    ``table`` is :func:`cover_table` of every point: the segment is looked up from both
+    ends (from j its direction is reversed, half a turn of sectors on). Only a filter,
+    like :func:`occluded`, which looks from the start alone and flags fewer.
+
+    Examples
+    --------
+    >>> d = Disks(np.array([[2.0, 0.0]]), np.array([1.0]))
+    >>> p = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 3.0]])
+    >>> occluded_pairs(cover_table(d, p, 64), p, np.array([0, 0]), np.array([1, 2]))
+    array([ True, False])
+    """
+    sectors = table.shape[1]
+    flat = table.ravel()
+    blocked = np.zeros(len(i), dtype=bool)
+    for s0 in range(0, len(i), _SEGMENTS_AT_ONCE):
+        ii, jj = i[s0 : s0 + _SEGMENTS_AT_ONCE], j[s0 : s0 + _SEGMENTS_AT_ONCE]
+        dx = points[jj, 0] - points[ii, 0]
+        dy = points[jj, 1] - points[ii, 1]
+        sector = _sectors_of(dx, dy, sectors)
+        length = np.hypot(dx, dy)
+        back = (sector + sectors // 2) % sectors
+        blocked[s0 : s0 + len(ii)] = (length > flat[ii * sectors + sector]) | (
+            length > flat[jj * sectors + back]
+        )
     return blocked
 
 

@@ -71,11 +71,14 @@ from planners.sightlines import (
     EdgeGrid,
     Edges,
     Segments,
+    cover_table,
     crossings,
     edge_grid,
     inner_disks,
     march,
     occluded,
+    occluded_pairs,
+    sector_count,
 )
 
 FloatArray = npt.NDArray[np.float64]
@@ -83,8 +86,9 @@ BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.intp]
 
 # Node pairs screened at once (a block of rows against the columns after them): small
-# enough for the screen's temporaries to stay in the processor's cache.
-_SCREEN_PAIRS = 1 << 17
+# enough for the screen's temporaries to stay in the processor's cache and under the
+# allocator's threshold for fresh pages (larger ones cost a page fault every 4 KiB).
+_SCREEN_PAIRS = 1 << 14
 # Pairs handed on at once, at most (plus one screened block's).
 _BLOCK_PAIRS = 1 << 18
 # Below this many segment x edge pairs, a bounding-box matrix beats the edge grid.
@@ -475,8 +479,17 @@ def _segments_free(
 
 
 def _inner_disks(cspace: ConfigurationSpace) -> Disks:
-    """Return a disk inside each expanded and each merged obstacle, shrunk a few eps."""
-    return inner_disks([*cspace.expanded, *cspace.merged.geoms], 8.0 * cspace.eps)
+    """Return a disk inside each expanded obstacle and each merged one, shrunk a few eps.
+
+    A merged obstacle made of a single expanded one is that one (its disk would be a
+    copy), so only the merged obstacles of several get a disk of their own.
+    """
+    expanded = np.asarray(cspace.expanded, dtype=object)
+    merged = np.asarray(cspace.merged.geoms, dtype=object)
+    if len(expanded) and len(merged):
+        _, part = shapely.STRtree(merged).query(expanded, predicate="intersects")
+        merged = merged[np.bincount(part, minlength=len(merged)) > 1]
+    return inner_disks([*expanded, *merged], 8.0 * cspace.eps)
 
 
 def _runs_of_equal_starts(a: FloatArray) -> IntArray:
@@ -500,6 +513,8 @@ def _exact_free(
         free[crossed_seg] = False
         keep = free[t_seg]
         t_seg, t_val = t_seg[keep], t_val[keep]
+        order = np.lexsort((t_val, t_seg))  # few: as the march hands them on
+        t_seg, t_val = t_seg[order], t_val[order]
     else:
         marched = march(border.grid, border.edges, segs, cspace.eps)
         free, t_seg, t_val = ~marched.crossed, marched.touch_seg, marched.touch_t
@@ -508,17 +523,38 @@ def _exact_free(
         return free
     # Each survivor is cut at the border vertices lying on it; every piece is free,
     # blocked or along an edge, and its middle tells which.
-    seg_ids = np.concatenate([survivors, survivors, t_seg])
-    ts = np.concatenate([np.zeros(len(survivors)), np.ones(len(survivors)), t_val])
-    order = np.lexsort((ts, seg_ids))
-    seg_ids, ts = seg_ids[order], ts[order]
-    same = seg_ids[1:] == seg_ids[:-1]
-    piece_seg = seg_ids[:-1][same]
-    mid_t = 0.5 * (ts[:-1][same] + ts[1:][same])
+    piece_seg, mid_t = _pieces(survivors, t_seg, t_val)
     mids = a[piece_seg] + mid_t[:, None] * (b[piece_seg] - a[piece_seg])
     blocked_piece = cspace.contains_blocked(mids)
     free[piece_seg[blocked_piece]] = False
     return free
+
+
+def _pieces(
+    survivors: IntArray, t_seg: IntArray, t_val: FloatArray
+) -> tuple[IntArray, FloatArray]:
+    """Cut each survivor at the parameters t of the vertices on it; give each piece's middle.
+
+    ``survivors`` ascending; (``t_seg``, ``t_val``) the vertices on them, ordered by
+    segment, then t, each t in (0, 1). Survivor s with vertices at t1 < ... < tk has
+    the pieces [0, t1], [t1, t2], ..., [tk, 1]. Returns (segment, middle t) per piece, in
+    that order: laid out in place instead of sorted (a sort of the ends costs more than
+    all the rest on scenes with many collinear vertices).
+    """
+    rank = np.searchsorted(survivors, t_seg)  # each vertex's survivor
+    count = np.bincount(rank, minlength=len(survivors)) + 2  # ends: 0, the ts, 1
+    last = np.cumsum(count) - 1
+    first = last - count + 1
+    ts = np.empty(int(last[-1]) + 1)
+    ts[first] = 0.0
+    ts[last] = 1.0
+    # The vertices of survivor r fill first[r] + 1, ... in their order.
+    before = np.cumsum(count - 2) - (count - 2)
+    ts[first[rank] + 1 + np.arange(len(t_seg)) - before[rank]] = t_val
+    starts = np.ones(len(ts), dtype=bool)
+    starts[last] = False
+    mid = 0.5 * (ts[:-1] + ts[1:])
+    return np.repeat(survivors, count - 1), mid[starts[:-1]]
 
 
 def _overlapping_boxes(
@@ -758,11 +794,154 @@ def _vertex_visibility(cspace: ConfigurationSpace) -> _Sight:
     n = len(border.points)
     nodes = np.arange(n, dtype=np.intp)
     found_i, found_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
-    for i, j in _candidate_pairs(border.points, border.wedges, nodes, tangent=False):
-        ok = _segments_free(cspace, border, border.points[i], border.points[j])
+    # The disks' cover around every vertex, so that each pair is looked up from both of
+    # its ends (after the wedge screen about a quarter of the n - 1 others per vertex).
+    table = cover_table(cspace.derive(_inner_disks), border.points, sector_count(n / 4))
+    rings = cspace.derive(_convex_ring_of)
+    apart = bool(np.any(rings.ring >= 0))
+    blocks = (
+        _candidate_pairs_apart(border, rings)
+        if apart
+        else _candidate_pairs(border.points, border.wedges, nodes, tangent=False)
+    )
+    for i, j in blocks:
+        ok = ~occluded_pairs(table, border.points, i, j)
+        test = np.flatnonzero(ok)
+        ok[test] = _exact_free(
+            cspace, border, border.points[i[test]], border.points[j[test]]
+        )
         found_i.append(i[ok])
         found_j.append(j[ok])
-    return _Sight(n, np.concatenate(found_i), np.concatenate(found_j))
+    i, j = np.concatenate(found_i), np.concatenate(found_j)
+    if apart:  # found ring by ring: back to row-major order
+        order = np.argsort(i.astype(np.int64) * n + j)
+        i, j = i[order], j[order]
+    return _Sight(n, i, j)
+
+
+_BIG_RING = 64
+"""Rings of at least this many vertices are looked at by :func:`_convex_ring_of`."""
+_CONVEX_MARGIN = 1e-9
+"""Sine by which a ring's other vertices must lie inside each vertex's wedge (1000 times
+the screen's angle tolerance, far above rounding)."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _ConvexRings:
+    """The big strictly convex rings of :func:`_convex_ring_of`."""
+
+    ring: IntArray  # (n,) per border vertex its ring, or -1
+    edge_i: IntArray  # (e,) the rings' edges as node pairs, smaller node first
+    edge_j: IntArray
+
+
+def _convex_ring_of(cspace: ConfigurationSpace) -> _ConvexRings:
+    """Per border vertex, the big strictly convex ring it lies on, or -1; their edges.
+
+    A ring qualifies when it has at least ``_BIG_RING`` vertices, none shared with
+    another ring, and from each vertex v the vertices v + 2 and v - 2 lie inside v's
+    blocked wedge by a sine of ``_CONVEX_MARGIN`` from both sides. Along a convex ring
+    the directions from v to v + 2, v + 3, ..., v - 2 turn one way from one side of the
+    wedge to the other, and the sine of the angle to a side is concave on [0, pi], so
+    every vertex but v's two neighbours lies inside by that margin: the wedge screen
+    (:func:`_leaves_blocked`) drops every such pair, and :func:`_candidate_pairs_apart`
+    need not enumerate them (the circle of 10,000 vertices: 50 million pairs).
+    """
+    border = cspace.derive(_build_border)
+    geo = ring_geometry(cspace, cleaned=False)
+    ring = np.full(len(border.points), -1, dtype=np.intp)
+    edge_i, edge_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
+    for k in range(len(geo.rings)):
+        occ = np.arange(geo.offset[k], geo.offset[k + 1])
+        node = border.occ_node[occ]
+        if len(occ) < _BIG_RING or border.pinch_nodes[node].any():
+            continue
+        if _inside_by_margin(border, occ):
+            ring[node] = k
+            after = np.roll(node, -1)  # each vertex's next one around the ring
+            edge_i.append(np.minimum(node, after))
+            edge_j.append(np.maximum(node, after))
+    return _ConvexRings(ring, np.concatenate(edge_i), np.concatenate(edge_j))
+
+
+def _inside_by_margin(border: _Border, occ: IntArray) -> bool:
+    """Tell if from every vertex of a ring its vertices two on lie inside its wedge."""
+    p = border.points[border.occ_node[occ]]
+    nxt, prv = border.occ_next[occ], border.occ_prev[occ]
+    if not border.occ_convex[occ].all():
+        return False
+    for shift in (-2, 2):
+        d = np.roll(p, shift, axis=0) - p
+        length = np.hypot(d[:, 0], d[:, 1])
+        from_next = (nxt[:, 0] * d[:, 1] - nxt[:, 1] * d[:, 0]) / length
+        from_prev = (d[:, 0] * prv[:, 1] - d[:, 1] * prv[:, 0]) / length
+        if not (
+            np.all(from_next > _CONVEX_MARGIN) and np.all(from_prev > _CONVEX_MARGIN)
+        ):
+            return False
+    return True
+
+
+def _candidate_pairs_apart(
+    border: _Border, rings: _ConvexRings
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield the pairs :func:`_candidate_pairs` yields, without enumerating ring pairs.
+
+    Pairs of two vertices of one ring of :func:`_convex_ring_of` other than its edges
+    are left out before the screen (it would drop them all); each remaining pair (i < j)
+    is screened as there. The blocks come ring by ring, not in row-major order.
+    """
+    ring = rings.ring
+    nodes = np.arange(len(border.points), dtype=np.intp)
+    points, wedges = border.points, border.wedges
+    found: list[tuple[IntArray, IntArray]] = []
+    count = 0
+    for k in np.unique(ring).tolist():
+        rows = nodes[ring == k]
+        cols = nodes if k < 0 else nodes[ring != k]
+        for block in _rows_against(points, wedges, rows, cols):
+            found.append(block)
+            count += len(block[0])
+            if count >= _BLOCK_PAIRS:  # handed on in blocks, as _candidate_pairs does
+                yield _joined(found)
+                found, count = [], 0
+    # The rings' own edges, screened like every other pair.
+    i, j = rings.edge_i, rings.edge_j
+    d = points[j] - points[i]
+    keep = ~_leaves_blocked(wedges, i, j, d[:, 0], d[:, 1])
+    found.append((i[keep], j[keep]))
+    yield _joined(found)
+
+
+def _joined(blocks: list[tuple[IntArray, IntArray]]) -> tuple[IntArray, IntArray]:
+    """Concatenate blocks of pairs (i, j)."""
+    return np.concatenate([b[0] for b in blocks]), np.concatenate(
+        [b[1] for b in blocks]
+    )
+
+
+def _rows_against(
+    points: FloatArray, wedges: _Wedges, rows: IntArray, cols: IntArray
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield the pairs (r, c), r in ``rows``, c in ``cols``, r < c, that pass the screen.
+
+    Both ascending; in blocks of about ``_SCREEN_PAIRS`` pairs, as
+    :func:`_candidate_pairs` screens them (:func:`_leaves_blocked`).
+    """
+    x, y = points[cols, 0], points[cols, 1]
+    k = 0
+    while k < len(rows):
+        first = int(np.searchsorted(cols, rows[k], side="right"))
+        width = max(len(cols) - first, 1)
+        r1 = min(len(rows), k + max(1, _SCREEN_PAIRS // width))
+        r = rows[k:r1, None]
+        c = cols[None, first:]
+        dx = x[None, first:] - points[r, 0]
+        dy = y[None, first:] - points[r, 1]
+        out = _leaves_blocked(wedges, r, c, dx, dy) | (c <= r)
+        a, b = np.nonzero(~out)
+        yield rows[k + a], cols[first + b]
+        k = r1
 
 
 def _visibility(

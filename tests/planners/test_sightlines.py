@@ -2,8 +2,10 @@
 
 import dataclasses
 import itertools
+import math
 
 import numpy as np
+import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
@@ -12,15 +14,19 @@ from planners import plan_all
 from planners.expansion import configuration_space
 from planners.scene import load_scene
 from planners.sightlines import (
+    Disks,
     Edges,
     Segments,
+    cover_table,
     crossings,
     edge_grid,
     inner_disks,
     march,
     occluded,
+    occluded_pairs,
+    sector_count,
 )
-from planners.visibility import visibility_graph
+from planners.visibility import _inner_disks, visibility_graph
 from tests.conftest import random_scenes, reference_segment_free
 
 EPS = 1e-9
@@ -50,8 +56,11 @@ def _brute(edges, segs, count_s, count_e):
     return crossings(segs, edges, seg.astype(np.intp), edge.astype(np.intp), EPS)
 
 
-@given(segments_and_edges())
-def test_march_finds_what_testing_every_pair_finds(case):
+# Every segment walked cell by cell (0), the last few walkers listed at once (2), every
+# segment's cells listed at once from the start (a million).
+@pytest.mark.parametrize("tail", [0, 2, 1 << 20])
+@given(case=segments_and_edges())
+def test_march_finds_what_testing_every_pair_finds(tail, case):
     ea, eb, sa, sb = case
     edges, segs = Edges.of(ea, eb), Segments.of(sa, sb)
     crossed_seg, touch_seg, touch_t = _brute(edges, segs, len(sa), len(ea))
@@ -59,7 +68,7 @@ def test_march_finds_what_testing_every_pair_finds(case):
     crossed[crossed_seg] = True
     # Cells of every size: one cell, about one edge a cell, tiny cells.
     grid = edge_grid(ea, eb, 4 * EPS)
-    marched = march(grid, edges, segs, EPS, block=3)
+    marched = march(grid, edges, segs, EPS, block=3, tail=tail)
     np.testing.assert_array_equal(marched.crossed, crossed)
     # Each vertex on a segment once, as testing every pair finds it (t bit for bit).
     want = sorted(
@@ -175,3 +184,102 @@ def test_disks_flag_a_segment_through_an_obstacle_and_not_one_past_it():
     # centre (blocked, but the filter leaves that to the exact test).
     flagged = occluded(disks, a, b, np.array([0, 1, 2, 3, 4], dtype=np.intp))
     assert flagged.tolist() == [True, False, False, False]
+
+
+@settings(max_examples=60)
+@given(scene=random_scenes(), picks=st.data())
+def test_both_ends_cover_flags_only_blocked_segments(scene, picks):
+    # The lookup from j turns the direction half a turn: a wrong sector there would
+    # flag a free segment, which the reference would tell.
+    plans = plan_all(scene, ("vg",))
+    assume(plans["vg"].status != "invalid")
+    space = plans["cspace"]
+    points = np.array(
+        [(x, y) for x in np.linspace(-1, 11, 9) for y in np.linspace(-1, 11, 9)]
+    )
+    sectors = picks.draw(st.sampled_from([64, 128, 512]))
+    table = cover_table(space.derive(_inner_disks), points, sectors)
+    i, j = (k.ravel() for k in np.triu_indices(len(points), 1))
+    flagged = np.flatnonzero(occluded_pairs(table, points, i, j))
+    for k in flagged.tolist():
+        assert not reference_segment_free(space, points[i[k]], points[j[k]])
+
+
+def _slow_cover(disks, source, sectors):
+    """Per sector, the nearest disk centre whose cone holds the whole sector (math)."""
+    width = 2 * math.pi / sectors
+    near = [math.inf] * sectors
+    for (cx, cy), r in zip(disks.center.tolist(), disks.radius.tolist(), strict=True):
+        dist = math.hypot(cx - source[0], cy - source[1])
+        if dist <= r:
+            continue
+        half = math.asin(r / dist)
+        mid = math.atan2(cy - source[1], cx - source[0]) + math.pi
+        for k in range(sectors):
+            # Sector k (shifted by whole turns) inside (mid - half, mid + half).
+            for turn in (-2 * math.pi, 0.0, 2 * math.pi):
+                lo, hi = k * width + turn, (k + 1) * width + turn
+                if mid - half < lo and hi < mid + half:
+                    near[k] = min(near[k], dist)
+    return near
+
+
+@settings(max_examples=40)
+@given(
+    centers=st.lists(
+        st.tuples(st.floats(-5, 5), st.floats(-5, 5)), min_size=1, max_size=4
+    ),
+    radii=st.lists(st.floats(0.1, 2.0), min_size=4, max_size=4),
+    source=st.tuples(st.floats(-6, 6), st.floats(-6, 6)),
+    sectors=st.sampled_from([64, 128]),
+)
+def test_cover_table_matches_a_sector_by_sector_reference(
+    centers, radii, source, sectors
+):
+    disks = Disks(np.array(centers), np.array(radii[: len(centers)]))
+    got = cover_table(disks, np.array([source]), sectors)[0]
+    want = _slow_cover(disks, source, sectors)
+    # Sectors whose side lies within rounding of a cone's side may go either way: the
+    # table must never claim more than the reference up to that, and agree elsewhere.
+    width = 2 * math.pi / sectors
+    for k in range(sectors):
+        # The same distance up to rounding (numpy's hypot against math's), or a sector
+        # on a cone's side.
+        if not math.isclose(got[k], want[k], rel_tol=1e-12):
+            lo = k * width - math.pi
+            sides = []
+            for (cx, cy), r in zip(
+                disks.center.tolist(), disks.radius.tolist(), strict=True
+            ):
+                dist = math.hypot(cx - source[0], cy - source[1])
+                if dist > r:
+                    mid = math.atan2(cy - source[1], cx - source[0])
+                    half = math.asin(r / dist)
+                    sides += [mid - half, mid + half]
+            gap = min(
+                abs(math.remainder(edge - side, 2 * math.pi))
+                for side in sides
+                for edge in (lo, lo + width)
+            )
+            assert gap < 1e-9, (k, got[k], want[k])
+
+
+def test_sector_count_grows_with_segments_per_start_within_bounds():
+    assert [sector_count(x) for x in (0.5, 64, 100, 300, 5000)] == [
+        64,
+        64,
+        128,
+        256,
+        512,
+    ]
+
+
+def test_a_merged_obstacle_of_one_gets_no_second_disk():
+    apart = (
+        Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),
+        Polygon([(5, 0), (7, 0), (7, 2), (5, 2)]),
+    )
+    overlapping = (*apart, Polygon([(1, 1), (3, 1), (3, 3), (1, 3)]))
+    assert len(_inner_disks(configuration_space(apart, 0.0)).radius) == 2
+    # The first and the third merge: their union gets a disk of its own.
+    assert len(_inner_disks(configuration_space(overlapping, 0.0)).radius) == 4

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 import shapely
-from hypothesis import assume, given
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from shapely import Polygon
@@ -503,3 +503,85 @@ def test_path_bending_at_a_pinch_point_is_in_the_svg():
     vg, svg = both(obstacles, (1, 0), (0, 3))
     assert vg.length == pytest.approx(1 + math.sqrt(5), abs=1e-12)
     assert svg.length == pytest.approx(vg.length, abs=1e-12)
+
+
+@st.composite
+def survivors_and_vertices(draw):
+    """Ascending survivors; vertices on some of them (t in (0, 1), repeats allowed)."""
+    survivors = sorted(draw(st.sets(st.integers(0, 40), min_size=1, max_size=12)))
+    ts = st.sampled_from([0.125, 0.25, 0.5, 0.75]) | st.floats(
+        0.0, 1.0, exclude_min=True, exclude_max=True
+    )
+    pairs = draw(st.lists(st.tuples(st.sampled_from(survivors), ts), max_size=20))
+    pairs.sort()
+    seg = np.array([p[0] for p in pairs], dtype=np.intp)
+    t = np.array([p[1] for p in pairs], dtype=float)
+    return np.array(survivors, dtype=np.intp), seg, t
+
+
+@given(survivors_and_vertices())
+def test_pieces_are_what_sorting_every_cut_gives(case):
+    survivors, t_seg, t_val = case
+    # The obvious way: every survivor's ends and its vertices, sorted by (segment, t);
+    # a piece between each two neighbours of one segment.
+    seg_ids = np.concatenate([survivors, survivors, t_seg])
+    ts = np.concatenate([np.zeros(len(survivors)), np.ones(len(survivors)), t_val])
+    order = np.lexsort((ts, seg_ids))
+    seg_ids, ts = seg_ids[order], ts[order]
+    same = seg_ids[1:] == seg_ids[:-1]
+    want_seg, want_mid = seg_ids[:-1][same], 0.5 * (ts[:-1][same] + ts[1:][same])
+    got_seg, got_mid = visibility._pieces(survivors, t_seg, t_val)
+    np.testing.assert_array_equal(got_seg, want_seg)
+    np.testing.assert_array_equal(got_mid, want_mid)
+
+
+@st.composite
+def scenes_with_a_big_ring(draw):
+    """A random scene plus a polygon of 64 to 120 vertices: convex, or with a dent."""
+    scene = draw(random_scenes())
+    k = draw(st.integers(64, 120))
+    cx, cy = draw(st.floats(2, 8)), draw(st.floats(2, 8))
+    radius = draw(st.floats(0.5, 3))
+    angles = 2 * np.pi * np.arange(k) / k + draw(st.floats(0, 1))
+    radii = np.full(k, radius)
+    if draw(st.integers(0, 3)) == 0:
+        radii[draw(st.integers(0, k - 1))] *= 0.7  # a reflex vertex: not skipped
+    ring = np.column_stack([cx + radii * np.cos(angles), cy + radii * np.sin(angles)])
+    return dataclasses.replace(scene, obstacles=(*scene.obstacles, Polygon(ring)))
+
+
+@settings(max_examples=60, deadline=None)
+@given(scene=scenes_with_a_big_ring())
+def test_skipping_pairs_of_a_big_convex_ring_finds_the_same_graph(scene):
+    plans = plan_all(scene, ("vg",))
+    assume(plans["vg"].status != "invalid")
+    space = plans["cspace"]
+    saved = visibility._BIG_RING
+    visibility._BIG_RING = 10**9  # no ring is big: every pair is enumerated
+    try:
+        everything = visibility_graph(
+            configuration_space(
+                scene.obstacles,
+                scene.robot.radius,
+                scene.expansion,
+                scene.boundary,
+                extra_points=[scene.start, scene.goal],
+            ),
+            scene.start,
+            scene.goal,
+        )
+    finally:
+        visibility._BIG_RING = saved
+    # plan_all built its own space (rings skipped where they qualify): same arrays.
+    vg = plans["vg"].graph
+    assert list(vg.edges) == list(everything.edges)
+    rings = space.derive(visibility._convex_ring_of)
+    # Every pair of one skipped ring that is not one of its edges is blocked.
+    on = np.flatnonzero(rings.ring >= 0)
+    border = space.derive(visibility._build_border)
+    points = border.points
+    for a, b in itertools.combinations(on[:: max(1, len(on) // 12)].tolist(), 2):
+        if rings.ring[a] == rings.ring[b] and not vg.has_edge(
+            tuple(points[a]), tuple(points[b])
+        ):
+            assert not reference_segment_free(space, points[a], points[b])

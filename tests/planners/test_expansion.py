@@ -11,6 +11,8 @@ from shapely import Polygon
 
 from planners.expansion import (
     DEFAULT_ARC_STEP,
+    _all_ccw_rings,
+    _ccw_rings,
     configuration_space,
     expand_disk,
     expand_square,
@@ -272,3 +274,34 @@ def test_union_slivers_do_not_break_the_polygon():
     grown = expand_disk(polygon, 1.2401316105002522)
     assert grown.is_valid and not grown.interiors
     assert grown.covers(polygon.buffer(1.24 * (1 - 1e-9), quad_segs=64))
+
+
+_CORNER = st.tuples(st.integers(0, 4), st.integers(0, 4)).map(
+    lambda p: (p[0] / 2.0, p[1] / 2.0)
+)
+
+
+@st.composite
+def _polygons(draw):
+    """Polygons on a half-metre lattice: either orientation, repeated and collinear
+    vertices, a hole, self-touching or invalid rings included."""
+    shell = draw(st.lists(_CORNER, min_size=3, max_size=8))
+    if draw(st.booleans()):
+        shell = shell[::-1]
+    holes = []
+    if draw(st.booleans()):
+        x, y = draw(_CORNER)
+        hole = [(x + 0.1, y + 0.1), (x + 0.3, y + 0.1), (x + 0.1, y + 0.3)]
+        holes.append(hole[::-1] if draw(st.booleans()) else hole)
+    return Polygon(shell, holes)
+
+
+@given(st.lists(_polygons(), max_size=6))
+def test_all_rings_at_once_are_the_rings_polygon_by_polygon(polygons):
+    """The vectorised rings equal :func:`_ccw_rings` of each polygon, bit for bit."""
+    polygons = [p for p in polygons if not p.is_empty]
+    fast = _all_ccw_rings(polygons)
+    slow = [r for p in polygons for r in _ccw_rings(p)]
+    assert len(fast) == len(slow)
+    for a, b in zip(fast, slow, strict=True):
+        np.testing.assert_array_equal(a, b)

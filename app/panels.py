@@ -191,6 +191,7 @@ class Panels:
         self.locked = False
         """Whether the controls are disabled (a classroom's watcher)."""
         self._shown_tool = "drag"
+        self._scenario_shown = OWN_SCENE
         gui = server.gui
 
         self.title = gui.add_markdown("### Mobile-robot planner")
@@ -352,11 +353,16 @@ class Panels:
                 return
             action(event.target.value, self.controller)
 
+    def _own(self) -> None:
+        # "(your own scene)" chosen while a shipped scenario is shown: nothing loads, so
+        # the dropdown goes back to the scenario's name.
+        self.scenario.value = self._scenario_shown
+
     def _bind(self) -> None:
         # Each callback calls exactly one controller method.
         self._on(
             self.scenario,
-            lambda v, c: c.files.load_scenario(v) if v != OWN_SCENE else None,
+            lambda v, c: c.files.load_scenario(v) if v != OWN_SCENE else self._own(),
         )
         self._on_click(self.history, lambda v, c: {"Undo": c.undo, "Redo": c.redo}[v]())
 
@@ -462,7 +468,8 @@ class Panels:
         # the frames lag behind it, and pushing an older value would make it jump back.
         if frame.version >= self._latest_version():
             shipped = frame.scenario in self._scenario_titles
-            _set(self.scenario, "value", frame.scenario if shipped else OWN_SCENE)
+            self._scenario_shown = frame.scenario if shipped else OWN_SCENE
+            _set(self.scenario, "value", self._scenario_shown)
             _set(self.kind, "value", scene.robot.kind)
             _set(self.radius, "value", round(scene.robot.radius, 2))
             _set(self.wheel_radius, "value", scene.robot.wheel_radius)

@@ -609,10 +609,11 @@ def _holds_its_number(
     font: float,
     box_around: Callable[[float, float, float, float], Box],
 ) -> bool:
-    """Tell whether an obstacle is at least as big on the picture as its number's box.
+    """Tell whether an obstacle spans at least its number's height on the picture.
 
     A room of 500 small triangles would get 500 numbers with leader lines across the
-    scene; a number is drawn only where its obstacle is no smaller than it.
+    scene; a number is drawn only where its obstacle (its longer side on the picture)
+    is at least as long as the number's box is tall.
     """
     x0, y0, x1, y1 = obstacle.bounds
     half = max(x1 - x0, y1 - y0) / 2

@@ -208,6 +208,10 @@ def test_the_scenario_dropdown_names_an_own_scene_as_such():
         fire(panels.scenario, "01_two_convex")
         assert app.wait_idle(20)
         assert panels.scenario.value == "01_two_convex"
+        version = controller.version
+        fire(panels.scenario, OWN_SCENE)  # while a shipped one shows: back to its name
+        assert app.wait_idle(10) and controller.version == version
+        assert panels.scenario.value == "01_two_convex"
         # An upload after a shipped scenario: the dropdown no longer names that one.
         controller.files.load_text((SCENARIO_DIR / "08_narrow_gap.json").read_bytes())
         assert app.wait_idle(20)

@@ -9,6 +9,8 @@ from typing import Any
 import numpy as np
 import pytest
 import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from shapely import Polygon
 
@@ -446,3 +448,50 @@ def test_a_scene_of_very_many_obstacles_shows_no_numbers(server):
         assert shown == [str(k + 1) for k in range(MAX_NUMBERED_OBSTACLES)]
     finally:
         controller.close()
+
+
+_HALF = st.integers(-4, 4).map(lambda k: k / 2.0)
+
+
+@st.composite
+def _drawable_polygons(draw):
+    """Lattice polygons (either orientation, holes, -0.0, bowties) and big circles."""
+    if draw(st.integers(0, 9)) == 0:  # beyond the kept size: drawn afresh each time
+        n = draw(st.sampled_from([150, 260]))
+        return shapely.Point(0, 0).buffer(3.0, quad_segs=n // 4)
+    shell = draw(st.lists(st.tuples(_HALF, _HALF), min_size=3, max_size=7))
+    if draw(st.booleans()):
+        shell = [(-0.0 if x == 0 else x, y) for x, y in shell]
+    holes = [[(0.1, 0.1), (0.3, 0.1), (0.1, 0.3)]] if draw(st.booleans()) else []
+    return Polygon(shell, holes)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(_drawable_polygons(), min_size=1, max_size=5), st.randoms())
+def test_kept_drawings_equal_fresh_ones(polygons, rnd):
+    """Drawings kept by value (outline, fill, prism, label point) are what drawing the
+    polygons afresh gives, over interleaved calls with equal polygons as new objects;
+    and a kept drawing cannot be changed by whoever received it."""
+    from app import view as v
+
+    for _ in range(3):
+        shuffled = [
+            Polygon(p.exterior.coords, [h.coords for h in p.interiors])
+            for p in polygons
+        ]
+        rnd.shuffle(shuffled)
+        for p in shuffled:
+            for z in (0.0, 0.25):
+                assert_allclose(
+                    v.rings_to_segments([p], z), v._make_outline(p, z, True), rtol=0
+                )
+            fill = v.polygon_to_mesh(p, 0.1)[0]
+            fresh = v.lift(v._make_fill(p).reshape(-1, 2), 0.1)
+            assert_allclose(fill, fresh.reshape(fill.shape), rtol=0)
+            prism = v.prism_mesh([p], 0.4)[0]
+            assert_allclose(prism, v._make_prism_vertices(p, 0.4), rtol=0)
+            assert v._label_point(p, 0.3) == (*v._make_inner_point(p), 0.3)
+    kept = v._outline(polygons[0], 0.0, True) if v._small(polygons[0]) else None
+    if kept is not None and len(kept):
+        with pytest.raises(ValueError):
+            kept[0, 0, 0] = 99.0

@@ -587,8 +587,10 @@ def _at_guess(
 ) -> tuple[FloatArray, _Seek] | None:
     """Confirm a switch at ``guess``: the decision holds just before it, not just after.
 
-    The two readings are half the search's resolution apart (at most ``gap``), so the
-    switch is located as precisely as :func:`_bisect_switch` would locate it. Returns
+    The two readings are at most one search resolution apart (``2 * half``, at most
+    ``2 * gap``), so the switch is located as precisely as :func:`_bisect_switch` would
+    locate it. It takes the first change along the move; the search, which reads the
+    move's end first, would miss a change that reverts within the move. Returns
     the point just after and the decision there, or None when the sensor disagrees
     (or the guess lies too close to either end of the move, ``end`` long).
     """

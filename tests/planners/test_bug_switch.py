@@ -123,23 +123,52 @@ def shipped_scenes():
     return [load_scene(str(p)) for p in sorted(root.glob("*.json"))]
 
 
-def test_along_a_fine_arc_each_step_reads_the_sensor_twice():
-    # Rounding a circle of 2,000 vertices the robot heads for one corner after the
-    # other; the switch to the next is where the border beyond comes within eps
-    # (the guess), confirmed by one reading on either side of it.
-    scene = _arc_scene(2000, 10.0, robot=0.3)
+def _room_circle(vertices: int):
+    """The big-scene benchmark's circle (radius 10 m in a 40 m room), ``vertices`` fine."""
+    angles = np.linspace(0.0, 2.0 * math.pi, vertices, endpoint=False)
+    ring = np.column_stack([20 + 10 * np.cos(angles), 20 + 10 * np.sin(angles)])
+    room = [[0, 0], [40, 0], [40, 40], [0, 40]]
+    return load_scene(
+        scene_dict(
+            [ring.tolist()], (3.0, 20.0), (37.0, 20.5), radius=0.3, boundary=room
+        )
+    )
+
+
+def test_rounding_a_fine_circle_the_guess_is_confirmed_at_most_corners():
+    """On the big-scene benchmark's circle of 10,000 vertices (corners 6 mm apart) the
+    robot touches the next edge's line, within eps, before it reaches the corner: nearly
+    every switch is confirmed by the two readings around the guess (``_at_guess`` returns
+    it), the sensor is read about twice a step, and the decisions are the search's.
+
+    On coarser arcs (here at 5,000 vertices and fewer) the switch is at the corner, the
+    end of the move, and the search finds it with two readings as before; where the guess
+    falls within the last gap of its move, the search runs in full. The saving depends
+    on the geometry."""
+    scene = _room_circle(10_000)
     space = _space(scene)
     params = BugParams(goal=scene.goal, sensor_range=2.0)
-    readings = []
-    decide = bug_seek._decide
+    readings, confirmed = [], []
+    decide, at_guess = bug_seek._decide, bug_seek._at_guess
 
     def counted(*args, **kwargs):
         readings.append(1)
         return decide(*args, **kwargs)
 
-    with mock.patch.object(bug_seek, "_decide", counted):
+    def confirming(*args, **kwargs):
+        found = at_guess(*args, **kwargs)
+        confirmed.append(found is not None)
+        return found
+
+    with (
+        mock.patch.object(bug_seek, "_decide", counted),
+        mock.patch.object(bug_seek, "_at_guess", confirming),
+    ):
         trace = run(space, scene.start, params)
     choices = sum(d.box == "choose_O_i" for d in trace.decisions)
     assert trace.status == "reached"
-    assert choices > 500  # one per corner on the way round
-    assert len(readings) <= 2.1 * choices
+    assert choices > 2500  # one per corner on the way round
+    assert sum(confirmed) >= 0.9 * choices
+    assert len(readings) <= 2.2 * choices
+    guessed, searched, resolution = _runs(scene, 2.0, "tangent_bug")
+    _assert_same_decisions(guessed, searched, resolution)

@@ -23,7 +23,6 @@ import math
 import os
 import re
 import socket
-import sys
 from pathlib import Path
 
 import viser
@@ -44,17 +43,6 @@ SCENARIO_DIR = Path(__file__).resolve().parent.parent / "static_scenarios"
 """Folder of the shipped lecture scenarios."""
 DEFAULT_SCENARIO = "01_two_convex"
 """Scenario the app opens on."""
-
-SWITCH_INTERVAL_S = 0.001
-"""How long a Python thread may hold the interpreter while another waits [s].
-
-The app's threads take turns: the fast lane plans and draws, viser's event loop sends
-what it drew, the slow lane collects DSB. Python's default (5 ms) let a waiting one
-wait up to 5 ms at each turn, a third of a frame; a shorter turn keeps the time from an
-edit to its picture even (bench_student.py). It is the whole process's setting
-(``sys.setswitchinterval``): :func:`start_app` sets it, :meth:`PlannerApp.stop` puts
-back what was there before.
-"""
 
 
 def list_scenarios(folder: Path = SCENARIO_DIR) -> dict[str, Path]:
@@ -136,8 +124,6 @@ class PlannerApp:
     """The *Live* DSB robot (:mod:`app.live`)."""
     explain: ExplainPanel | None = None
     """The Explain panel (issue 13): ``explain.choose("svg")``, ``explain.explainer.go(3)``."""
-    switch_interval_before: float | None = None
-    """The process's thread switch interval before the app set it (put back on stop)."""
 
     @property
     def presenter_url(self) -> str | None:
@@ -179,8 +165,6 @@ class PlannerApp:
             self.classroom.close()
         self.controller.close()
         self.server.stop()
-        if self.switch_interval_before is not None:
-            sys.setswitchinterval(self.switch_interval_before)
 
 
 def start_app(
@@ -241,8 +225,6 @@ def start_app(
         key, path = resolve_scenario(DEFAULT_SCENARIO if scenario is None else scenario)
         scene = planners.load_scene(path)
 
-    switch_before = sys.getswitchinterval()
-    sys.setswitchinterval(SWITCH_INTERVAL_S)
     # viser prints its own banner with rich; ours (below) is one line with the real URL.
     with contextlib.redirect_stdout(io.StringIO()):
         server = viser.ViserServer(host=host, port=port, verbose=False)
@@ -258,7 +240,6 @@ def start_app(
             )
         else:
             app = _wire(server, scene, key, scenarios, host, folder=folder)
-        app.switch_interval_before = switch_before
         if not app.wait_idle(60.0):
             raise RuntimeError("the first frame was not drawn within 60 s")
     except BaseException:
@@ -267,7 +248,6 @@ def start_app(
             app.stop()
         else:
             server.stop()
-            sys.setswitchinterval(switch_before)
         raise
     if print_url:
         _say_where(app, host)

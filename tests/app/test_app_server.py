@@ -219,16 +219,3 @@ def test_the_scenario_dropdown_names_an_own_scene_as_such():
         assert panels.scenario.value == OWN_SCENE
     finally:
         app.stop()
-
-
-def test_the_app_shortens_the_thread_switch_interval_while_it_runs():
-    """The process-wide setting is the app's while it runs, and put back on stop."""
-    from app.server import SWITCH_INTERVAL_S
-
-    before = sys.getswitchinterval()
-    app = start_app(port=0, print_url=False)
-    try:
-        assert sys.getswitchinterval() == SWITCH_INTERVAL_S
-    finally:
-        app.stop()
-    assert sys.getswitchinterval() == before

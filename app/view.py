@@ -166,7 +166,7 @@ def rings_to_segments(
 
 def _small(polygon: Polygon) -> bool:
     """Whether a polygon is small enough to keep its drawing (bounds the caches' memory)."""
-    return shapely.get_num_coordinates(polygon) <= _KEPT_VERTICES
+    return bool(shapely.get_num_coordinates(polygon) <= _KEPT_VERTICES)
 
 
 def _make_outline(polygon: Polygon, z: float, holes: bool) -> FloatArray:

@@ -199,7 +199,7 @@ def test_the_scenario_dropdown_names_an_own_scene_as_such():
     app = start_app(scene, port=0, print_url=False)
     try:
         controller, panels = app.controller, app.panels
-        assert app.wait_idle(20)
+        assert panels is not None and app.wait_idle(20)
         assert panels.scenario.value == OWN_SCENE
         assert OWN_SCENE in panels.scenario.options
         version = controller.version

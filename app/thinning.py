@@ -62,6 +62,11 @@ def path_nodes(arrays: Any, path: npt.ArrayLike) -> npt.NDArray[np.intp]:
     >>> path_nodes(g, [[0.0, 0], [1, 0], [1, 1]]).tolist()
     [0, 1, 2]
     """
+    return np.flatnonzero(_on_path(arrays, path))
+
+
+def _on_path(arrays: Any, path: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """Per node of the graph, whether the path passes through it (start, goal: yes)."""
     points = np.asarray(arrays.points, dtype=np.float64).reshape(-1, 2)
     corners = np.asarray(path, dtype=np.float64).reshape(-1, 2)
     # Exact matches through sorting (x + iy as one number), not an n-by-m comparison: a
@@ -70,7 +75,7 @@ def path_nodes(arrays: Any, path: npt.ArrayLike) -> npt.NDArray[np.intp]:
         points[:, 0] + 1j * points[:, 1], corners[:, 0] + 1j * corners[:, 1]
     )
     on_path[[arrays.start, arrays.goal]] = True
-    return np.flatnonzero(on_path)
+    return on_path
 
 
 def edges_to_draw(result: Any, all_edges: bool, limit: int = THIN_ABOVE) -> EdgeDrawing:
@@ -95,8 +100,7 @@ def edges_to_draw(result: Any, all_edges: bool, limit: int = THIN_ABOVE) -> Edge
     total = len(arrays.i)
     if all_edges or total <= limit:
         return EdgeDrawing(arrays.segments(), total)
-    at_path = np.zeros(len(arrays.points), dtype=bool)
-    at_path[path_nodes(arrays, result.path)] = True
+    at_path = _on_path(arrays, result.path)
     keep = at_path[arrays.i] | at_path[arrays.j]
     points = np.asarray(arrays.points, dtype=np.float64)
     segments = np.stack([points[arrays.i[keep]], points[arrays.j[keep]]], axis=1)

@@ -39,7 +39,7 @@ import contextlib
 import functools
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from typing import Any, Literal, NamedTuple
+from typing import Any, Generic, Literal, NamedTuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -59,6 +59,7 @@ from planners.trace import FOLLOW
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]
 Mesh = tuple[FloatArray, IndexArray]
+T = TypeVar("T")
 
 MAX_VERTEX_HANDLES = 600
 """A scene with more obstacle vertices than this shows no vertex gizmos in the edit tool."""
@@ -157,16 +158,29 @@ def rings_to_segments(
     Each polygon's outline is kept (polygons compare by value): while one obstacle is
     dragged only its outline is made again.
     """
-    parts = [
-        (_outline if _small(polygon) else _make_outline)(polygon, float(z), holes)
-        for polygon in polygons
-    ]
+    parts = [_outline(polygon, float(z), holes) for polygon in polygons]
     return np.concatenate(parts) if parts else np.zeros((0, 2, 3))
 
 
 def _small(polygon: Polygon) -> bool:
     """Whether a polygon is small enough to keep its drawing (bounds the caches' memory)."""
     return bool(shapely.get_num_coordinates(polygon) <= _KEPT_VERTICES)
+
+
+class _Kept(Generic[T]):
+    """A polygon's drawing by ``make``, kept by value (LRU) for a polygon of few vertices.
+
+    Polygons compare and hash by value, so an obstacle that did not move between two
+    frames finds its drawing again; a big polygon's is made afresh each time.
+    """
+
+    def __init__(self, make: Callable[..., T]) -> None:
+        self.make = make
+        self._kept = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(make)
+
+    def __call__(self, polygon: Polygon, *args: Any) -> T:
+        """Return ``make(polygon, *args)``, kept when ``polygon`` is small."""
+        return (self._kept if _small(polygon) else self.make)(polygon, *args)
 
 
 def _make_outline(polygon: Polygon, z: float, holes: bool) -> FloatArray:
@@ -181,7 +195,7 @@ def _make_outline(polygon: Polygon, z: float, holes: bool) -> FloatArray:
     return segments
 
 
-_outline = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(_make_outline)
+_outline = _Kept(_make_outline)
 
 
 def _triangles(polygon: Polygon) -> FloatArray:
@@ -230,7 +244,7 @@ def polygon_to_mesh(
     Each polygon's triangles are kept (polygons compare by value): while one obstacle
     is dragged only its part of the configuration space is triangulated again.
     """
-    tris = [(_fill if _small(g) else _make_fill)(g) for g in polygons_of(polygons)]
+    tris = [_fill(g) for g in polygons_of(polygons)]
     if not tris or sum(len(t) for t in tris) == 0:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
     all_tris = np.concatenate(tris)
@@ -247,7 +261,7 @@ def _make_fill(polygon: Polygon) -> FloatArray:
     return triangles
 
 
-_fill = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(_make_fill)
+_fill = _Kept(_make_fill)
 
 
 def prism_mesh(polygons: Iterable[Polygon] | Polygon, height: float) -> Mesh:
@@ -262,10 +276,7 @@ def prism_mesh(polygons: Iterable[Polygon] | Polygon, height: float) -> Mesh:
     >>> len(f)  # 2 top triangles + 4 sides x 2
     10
     """
-    parts = [
-        (_prism_vertices if _small(g) else _make_prism_vertices)(g, float(height))
-        for g in polygons_of(polygons)
-    ]
+    parts = [_prism_vertices(g, float(height)) for g in polygons_of(polygons)]
     if not parts:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
     vertices = np.concatenate(parts)
@@ -300,7 +311,7 @@ def _make_prism_vertices(polygon: Polygon, height: float) -> FloatArray:
     return vertices
 
 
-_prism_vertices = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(_make_prism_vertices)
+_prism_vertices = _Kept(_make_prism_vertices)
 
 
 def wall_mesh(
@@ -1291,7 +1302,7 @@ def _cross(at: Sequence[float] | FloatArray, size: float, z: float) -> FloatArra
 
 def _label_point(polygon: Polygon, z: float) -> tuple[float, float, float]:
     """Where a polygon's label and gizmo sit: a point inside it, at height ``z``."""
-    x, y = (_inner_point if _small(polygon) else _make_inner_point)(polygon)
+    x, y = _inner_point(polygon)
     return (x, y, z)
 
 
@@ -1310,7 +1321,7 @@ def _make_inner_point(polygon: Polygon) -> tuple[float, float]:
 
 
 # Kept by value like the drawings: 32 obstacles' labels and gizmos each frame.
-_inner_point = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(_make_inner_point)
+_inner_point = _Kept(_make_inner_point)
 
 
 def scene_bounds(scene: Any) -> tuple[float, float, float, float]:

@@ -16,7 +16,9 @@ from __future__ import annotations
 
 __all__ = [
     "THIN_ABOVE",
+    "EdgeCount",
     "EdgeDrawing",
+    "edges_counted",
     "edges_to_draw",
     "frame_note",
     "path_nodes",
@@ -34,6 +36,21 @@ THIN_ABOVE = 2000
 """A graph with more edges than this is drawn thinned unless its "all" layer is on."""
 
 
+@dataclasses.dataclass(frozen=True)
+class EdgeCount:
+    """How many of a graph's edges a layer draws, and how many the graph has."""
+
+    drawn: int
+    """Edges drawn."""
+    total: int
+    """Edges of the graph."""
+
+    @property
+    def thinned(self) -> bool:
+        """Whether some of the graph's edges are left out."""
+        return self.drawn < self.total
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class EdgeDrawing:
     """The edges a graph layer draws, and how many the graph has."""
@@ -47,6 +64,11 @@ class EdgeDrawing:
     def thinned(self) -> bool:
         """Whether some of the graph's edges are left out."""
         return len(self.segments) < self.total
+
+    @property
+    def count(self) -> EdgeCount:
+        """How many edges are drawn, of how many."""
+        return EdgeCount(len(self.segments), self.total)
 
 
 def path_nodes(arrays: Any, path: npt.ArrayLike) -> npt.NDArray[np.intp]:
@@ -100,11 +122,35 @@ def edges_to_draw(result: Any, all_edges: bool, limit: int = THIN_ABOVE) -> Edge
     total = len(arrays.i)
     if all_edges or total <= limit:
         return EdgeDrawing(arrays.segments(), total)
-    at_path = _on_path(arrays, result.path)
-    keep = at_path[arrays.i] | at_path[arrays.j]
+    keep = _at_path(result)
     points = np.asarray(arrays.points, dtype=np.float64)
     segments = np.stack([points[arrays.i[keep]], points[arrays.j[keep]]], axis=1)
     return EdgeDrawing(segments, total)
+
+
+def edges_counted(result: Any, all_edges: bool, limit: int = THIN_ABOVE) -> EdgeCount:
+    """Return how many edges :func:`edges_to_draw` draws, without making them.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> pts = np.array([[0.0, 0], [1, 0], [2, 0], [3, 0]])
+    >>> arrays = SimpleNamespace(points=pts, start=0, goal=1,
+    ...     i=np.array([0, 2, 1]), j=np.array([1, 3, 2]))
+    >>> edges_counted(SimpleNamespace(arrays=arrays, path=pts[:2]), False, limit=2)
+    EdgeCount(drawn=2, total=3)
+    """
+    total = len(result.arrays.i)
+    if all_edges or total <= limit:
+        return EdgeCount(total, total)
+    return EdgeCount(int(np.count_nonzero(_at_path(result))), total)
+
+
+def _at_path(result: Any) -> npt.NDArray[np.bool_]:
+    """Per edge of a graph planner's ``result``, whether an end is on its path."""
+    arrays = result.arrays
+    at_path = _on_path(arrays, result.path)
+    return at_path[arrays.i] | at_path[arrays.j]
 
 
 def frame_note(plans: Mapping[str, Any], layers: Mapping[str, bool]) -> str | None:
@@ -114,7 +160,7 @@ def frame_note(plans: Mapping[str, Any], layers: Mapping[str, bool]) -> str | No
     status with edges to show count.
     """
     drawn = {
-        name: edges_to_draw(result, all_edges=False)
+        name: edges_counted(result, all_edges=False)
         for name, result in plans.items()
         if hasattr(result, "arrays")
         and getattr(result, "status", "") in ("ok", "unreachable")
@@ -125,18 +171,17 @@ def frame_note(plans: Mapping[str, Any], layers: Mapping[str, bool]) -> str | No
 
 
 def thinning_note(
-    drawn: Mapping[str, EdgeDrawing], layers: Mapping[str, bool]
+    drawn: Mapping[str, EdgeCount], layers: Mapping[str, bool]
 ) -> str | None:
     """Say which graph layers are thinned, for the panel (None when none is).
 
     Examples
     --------
-    >>> d = EdgeDrawing(np.zeros((469, 2, 2)), 6388)
-    >>> print(thinning_note({"vg": d}, {"vg_edges": True}))
+    >>> print(thinning_note({"vg": EdgeCount(469, 6388)}, {"vg_edges": True}))
     VG edges: 469 of 6,388 drawn (those at the path's nodes); tick *VG edges: all* under Layers for every edge.
     """
     parts = [
-        f"{name.upper()} edges: {len(d.segments):,} of {d.total:,} drawn"
+        f"{name.upper()} edges: {d.drawn:,} of {d.total:,} drawn"
         f" (those at the path's nodes); tick *{name.upper()} edges: all* under Layers"
         " for every edge."
         for name, d in drawn.items()

@@ -9,7 +9,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import planners
-from app.thinning import THIN_ABOVE, edges_to_draw, frame_note, path_nodes
+from app.thinning import (
+    THIN_ABOVE,
+    edges_counted,
+    edges_to_draw,
+    frame_note,
+    path_nodes,
+)
 from tests.benchmarks.bench_student import student_layout
 
 
@@ -68,6 +74,14 @@ def test_thinned_edges_are_the_reference_ones(result, limit):
         assert _as_pairs(drawn.segments) == everything
     else:
         assert _as_pairs(drawn.segments) == _reference(result.arrays, result.path)
+
+
+@settings(max_examples=200, deadline=None)
+@given(graphs(), st.integers(0, 40), st.booleans())
+def test_the_panel_counts_what_the_view_draws(result, limit, all_edges):
+    # The panel's note counts without making the segments; the counts are the drawing's.
+    drawn = edges_to_draw(result, all_edges=all_edges, limit=limit)
+    assert edges_counted(result, all_edges=all_edges, limit=limit) == drawn.count
 
 
 @settings(max_examples=100, deadline=None)

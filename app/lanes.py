@@ -53,7 +53,10 @@ def picklable(fn: Callable[..., Any]) -> bool:
 
 def _child_main() -> None:
     """Worker process: read ``fn``, then answer (scene, keywords) until stdin closes."""
+    from planners.allocator import keep_freed_memory  # noqa: PLC0415 - the child's
     from planners.memo import Memo  # noqa: PLC0415 - only the child needs it here
+
+    keep_freed_memory()
 
     stdin, stdout = sys.stdin.buffer, sys.stdout.buffer
     # Anything a planner prints must not corrupt the pickles on stdout.

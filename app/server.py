@@ -37,6 +37,7 @@ from app.live import LiveRun, MotionPaths, add_live_panel
 from app.panels import Panels
 from app.scoped import ScopedTarget
 from app.view import PlannerView, scene_bounds
+from planners.allocator import keep_freed_memory
 from planners.scene import ScenarioError, Scene
 
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "static_scenarios"
@@ -213,6 +214,7 @@ def start_app(
     FolderError
         If ``scenes_dir`` is not a folder.
     """
+    keep_freed_memory()  # an edit's temporaries reuse the last one's pages
     scenarios = list_scenarios()
     folder = (
         ScenesFolder(scenes_dir, shipped=tuple(scenarios.values()))

@@ -13,6 +13,7 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
+from planners.allocator import keep_freed_memory
 from planners.api import plan_all, result_to_json
 from planners.registry import REGISTRY, PlanOptions, default_planners
 from planners.scene import ScenarioError, load_scene
@@ -47,6 +48,7 @@ def _sensor_range(text: str) -> float:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code."""
+    keep_freed_memory()
     parser = _Parser(
         prog="python -m planners", description="Plan paths for scenario files."
     )

@@ -37,6 +37,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from planners import plan_all  # noqa: E402 - after the path set-up above
+from planners.allocator import keep_freed_memory  # noqa: E402
 from planners.scene import load_scene  # noqa: E402
 
 TARGET_S = 5.0
@@ -100,6 +101,7 @@ def _rss_mb() -> float:
 
 
 def _child(name: str, planners: str, out: Any) -> None:
+    keep_freed_memory()  # as the CLI and the app run
     scene = load_scene(SCENES[name]())
     base = _rss_mb()
     t0 = time.perf_counter()

@@ -15,7 +15,9 @@ repeat times, interleaved so that noise from other jobs hits every tool alike:
 A tool's figure for one repeat is "build + one query": ours rebuild everything per query,
 so it is the mean over queries; the peers build once, so it is the build plus the mean
 query. The table shows the median over repeats. The peers run in their own interpreter
-(``peers.py``), since they pin numpy<2; the project never imports them.
+(``peers.py``), since they pin numpy<2; the project never imports them. Ours runs with
+the allocator thresholds the app and the CLI set (:mod:`planners.allocator`: freed memory
+is reused instead of faulted in again); ``--default-allocator`` times it without them.
 
 Part 2, lecture budget: ``plan_all`` on every ``static_scenarios/*.json`` with disk
 expansion, caches cleared before each run, p50/p95 against DESIGN.md's budgets.
@@ -49,6 +51,7 @@ import shapely
 from clock import Clock  # tests/benchmarks/clock.py, shared with peers.py
 
 import planners
+from planners.allocator import keep_freed_memory
 from planners.expansion import configuration_space
 from planners.visibility import plan_visibility
 
@@ -656,6 +659,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="write each random scene (query 0) as a scenario file here",
     )
     parser.add_argument("--json", type=Path, help="write the raw results as JSON here")
+    parser.add_argument(
+        "--default-allocator",
+        action="store_true",
+        help="time ours with glibc's default thresholds, not the app's and the CLI's"
+        " (planners.allocator)",
+    )
     return parser.parse_args(argv)
 
 
@@ -672,6 +681,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     lecture_runs = args.lecture_runs or (10 if args.quick else 50)
     t_start = time.perf_counter()
     out(f"machine: {machine()}")
+    # Ours runs as the app and the CLI run it: freed memory kept for the next query.
+    tuned = not args.default_allocator and keep_freed_memory()
+    out(f"allocator: {'planners.allocator thresholds' if tuned else 'default'}")
     results = [] if args.no_random else run_random(args, sizes)
     problems = [(r, p) for r in results for p in r.problems]
     if results:

@@ -1,0 +1,61 @@
+"""Keep freed memory for the next edit: glibc's allocator thresholds (issue 15).
+
+Planning one edit makes many numpy temporaries of a few hundred KiB (the candidate pairs
+of the visibility test: 13,000 pairs of points are 420 KiB). glibc's ``malloc`` serves a
+block above its *mmap threshold* (128 KiB at start, raised only by freeing such a block)
+with fresh pages from the kernel and gives them back on ``free``, and it trims the
+heap's free top beyond its *trim threshold*: either way the next edit's temporaries land
+on fresh pages, and each 4 KiB page costs a page fault when first written. In a
+32-obstacle student room that was about 790 faults a vertex drag, some 2 ms of a 16 ms
+plan on the 2-core machine of ``tests/benchmarks/README.md``; with the thresholds below,
+2 or 3.
+
+:func:`keep_freed_memory` raises both thresholds for the calling process: blocks up to
+:data:`MMAP_THRESHOLD` come from the heap and are reused, and the heap keeps up to
+:data:`TRIM_THRESHOLD` of freed memory instead of returning it. The peak a computation
+needs is unchanged (the big scenes of ``bench_big.py`` are measured with it). The app,
+its worker processes and the command line call it at start; the planners themselves
+never do (a library does not tune its caller's process).
+"""
+
+from __future__ import annotations
+
+__all__ = ["MMAP_THRESHOLD", "TRIM_THRESHOLD", "keep_freed_memory"]
+
+import ctypes
+import ctypes.util
+import sys
+
+MMAP_THRESHOLD = 32 << 20
+"""Blocks up to this many bytes come from the heap (glibc's ``M_MMAP_THRESHOLD``)."""
+TRIM_THRESHOLD = 64 << 20
+"""Freed memory the heap keeps before giving it back (glibc's ``M_TRIM_THRESHOLD``)."""
+
+_M_TRIM_THRESHOLD = -1
+_M_MMAP_THRESHOLD = -3
+
+
+def keep_freed_memory() -> bool:
+    """Raise glibc's mmap and trim thresholds for this process (module docstring).
+
+    Returns True when they were set, False where there is no glibc (macOS, Windows,
+    musl): there the allocator is left as it is and everything works the same, with the
+    page faults.
+
+    Examples
+    --------
+    >>> keep_freed_memory() in (True, False)
+    True
+    """
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
+    mallopt.restype = ctypes.c_int
+    return bool(mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(
+        mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD)
+    )

@@ -171,16 +171,31 @@ class _Kept(Generic[T]):
     """A polygon's drawing by ``make``, kept by value (LRU) for a polygon of few vertices.
 
     Polygons compare and hash by value, so an obstacle that did not move between two
-    frames finds its drawing again; a big polygon's is made afresh each time.
+    frames finds its drawing again; a big polygon's is made afresh each time. Hashing a
+    polygon serialises it, so the very objects drawn lately are looked up by identity
+    first: an edit replaces one obstacle and keeps the others' objects.
     """
 
     def __init__(self, make: Callable[..., T]) -> None:
         self.make = make
         self._kept = functools.lru_cache(maxsize=_KEPT_DRAWINGS)(make)
+        # (id, args) -> (the object itself, drawing): the object is held, so its id is
+        # not reused while the entry lives; cleared when full, then refilled as drawn.
+        self._recent: dict[tuple[Any, ...], tuple[Polygon, T]] = {}
 
     def __call__(self, polygon: Polygon, *args: Any) -> T:
         """Return ``make(polygon, *args)``, kept when ``polygon`` is small."""
-        return (self._kept if _small(polygon) else self.make)(polygon, *args)
+        key = (id(polygon), *args)
+        seen = self._recent.get(key)
+        if seen is not None and seen[0] is polygon:
+            return seen[1]
+        if not _small(polygon):
+            return self.make(polygon, *args)
+        drawing = self._kept(polygon, *args)
+        if len(self._recent) >= 2 * _KEPT_DRAWINGS:
+            self._recent.clear()
+        self._recent[key] = (polygon, drawing)
+        return drawing
 
 
 def _make_outline(polygon: Polygon, z: float, holes: bool) -> FloatArray:

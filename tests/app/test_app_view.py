@@ -470,8 +470,9 @@ def _drawable_polygons(draw):
 @given(st.lists(_drawable_polygons(), min_size=1, max_size=5), st.randoms())
 def test_kept_drawings_equal_fresh_ones(polygons, rnd):
     """Drawings kept by value (outline, fill, prism, label point) are what drawing the
-    polygons afresh gives, over interleaved calls with equal polygons as new objects;
-    and a kept drawing cannot be changed by whoever received it."""
+    polygons afresh gives, over interleaved calls with equal polygons as new objects and
+    with the same objects again (looked up by identity first, per argument); and a kept
+    drawing cannot be changed by whoever received it."""
     from app import view as v
 
     for _ in range(3):
@@ -480,7 +481,7 @@ def test_kept_drawings_equal_fresh_ones(polygons, rnd):
             for p in polygons
         ]
         rnd.shuffle(shuffled)
-        for p in shuffled:
+        for p in shuffled + shuffled[::-1]:
             for z in (0.0, 0.25):
                 assert_allclose(
                     v.rings_to_segments([p], z), v._make_outline(p, z, True), rtol=0

@@ -12,16 +12,24 @@ controller; no browser) and dragged through
 ``move``
     that whole obstacle, through the middle of the room and back.
 
-One event at a time, each waited for until drawn (``step`` in ``bench_app.py``): *fast* is
-until the frame with expansion + VG + SVG, *+DSB* until the frame that also carries DSB.
+One event at a time, each waited for until drawn (``step`` in ``bench_app.py``). Each
+layout and drag runs twice:
+
+- with DSB switched off, until the frame with expansion + VG + SVG: the issue's 16 ms
+  budget, for the planners its measurement named;
+- with DSB on, until the same frame (shown, not judged: DSB's worker process computes
+  on the second core meanwhile) and until the frame that also carries DSB: the 50 ms
+  budget.
+
 The app's fast lane carries the vertex visibility over from the previous edit
 (:mod:`planners.incremental`); ``--full`` measures the same without it (every edit
 builds the visibility graph from scratch), for the scaling against vertex count.
 
 Run: ``python tests/benchmarks/bench_student.py [--events 300] [--obstacles 8,16,24,32]
-[--drag vertex,move] [--full] [--no-dsb] [--plan-only]``. ``--plan-only`` times
-``plan_all`` alone on the same drags (no app, no drawing): the planning's share of the
-budget. A report: exit 0 unless ``--strict``.
+[--drag vertex,move] [--full] [--no-dsb] [--plan-only]``. ``--no-dsb`` runs only the first
+of the two; ``--plan-only`` times ``plan_all`` alone on the same drags instead of it (no
+app, no drawing): the planning's share of the budget. A report: exit 0 unless
+``--strict``.
 """
 
 from __future__ import annotations
@@ -34,7 +42,7 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -194,7 +202,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--obstacles", default="8,16,24,32")
     parser.add_argument("--drag", default="vertex,move")
     parser.add_argument("--full", action="store_true", help="no incremental visibility")
-    parser.add_argument("--no-dsb", action="store_true", help="leave DSB switched off")
+    parser.add_argument(
+        "--no-dsb",
+        action="store_true",
+        help="only the run with DSB switched off (the 16 ms budget)",
+    )
     parser.add_argument(
         "--plan-only",
         action="store_true",
@@ -205,40 +217,70 @@ def main(argv: list[str] | None = None) -> int:
     dsb = not args.no_dsb and not args.plan_only and "dsb" in planners.REGISTRY
     mode = "full builds" if args.full else "incremental visibility"
     mode += ", plan_all only" if args.plan_only else ""
-    print(
-        f"student layouts, {mode}, {args.events} events a drag, DSB {'on' if dsb else 'off'}"
-    )
+    print(f"student layouts, {mode}, {args.events} events a drag")
     print(f"load average: {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    head = (
-        f"{'obstacles':>9} {'drag':6} {'c-space vertices':>16} {'VG edges':>8} |"
-        f" {'fast p50/p95 ms':>16} {'+DSB p50/p95 ms':>16} {'steal':>6}"
-    )
-    print(head)
-    print("-" * len(head))
+    print(_HEAD)
+    print("-" * len(_HEAD))
     missed = False
     with full_builds(args.full):
         for count in (int(k) for k in args.obstacles.split(",")):
             for drag in args.drag.split(","):
-                if args.plan_only:
-                    s = bench_plan(count, drag, args.events)
-                else:
-                    s = bench(count, drag, args.events, dsb)
-                fast95 = percentile(s["fast"], 95)
-                full95 = percentile(s["full"], 95) if s["full"] else math.nan
-                missed |= fast95 > FAST_BUDGET_MS or (dsb and full95 > FULL_BUDGET_MS)
-                steal = "n/a" if s["steal"] is None else format(s["steal"], "6.0%")
-                print(
-                    f"{count:>9} {drag:6} {s['vertices']:>16} {s['vg_edges']:>8} |"
-                    f" {percentile(s['fast'], 50):7.1f}/{fast95:7.1f}"
-                    f" {percentile(s['full'], 50) if s['full'] else math.nan:7.1f}/{full95:7.1f}"
-                    f" {steal:>6}",
-                    flush=True,
-                )
+                row = _row(count, drag, args, dsb)
+                missed |= row.missed
+                print(row.text, flush=True)
     print(
-        f"budgets (p95 <= {FAST_BUDGET_MS:g} ms fast, <= {FULL_BUDGET_MS:g} ms with DSB):",
+        f"budgets (p95 <= {FAST_BUDGET_MS:g} ms for expansion + VG + SVG,"
+        f" <= {FULL_BUDGET_MS:g} ms with DSB):",
         "MISSED" if missed else "met",
     )
     return 1 if missed and args.strict else 0
+
+
+_HEAD = (
+    f"{'obstacles':>9} {'drag':6} {'c-space vertices':>16} {'VG edges':>8} |"
+    f" {'VG+SVG p50/p95':>15} | {'with DSB on: VG+SVG':>19} {'+DSB p50/p95':>15}"
+    f" {'steal':>6}"
+)
+
+
+class _Row(NamedTuple):
+    text: str
+    missed: bool
+
+
+def _row(count: int, drag: str, args: argparse.Namespace, dsb: bool) -> _Row:
+    """Measure one layout and drag: DSB off (the 16 ms budget), then on (the 50 ms one).
+
+    The budget of 16 ms is for expansion + VG + SVG, the planners of the issue's
+    measurement: judged with DSB switched off. With DSB on, its worker process computes
+    on the second core meanwhile; that run's VG+SVG frame is shown too, and its +DSB
+    frame is judged against 50 ms.
+    """
+    if args.plan_only:
+        off = bench_plan(count, drag, args.events)
+    else:
+        off = bench(count, drag, args.events, dsb=False)
+    on = bench(count, drag, args.events, dsb=True) if dsb else None
+    off95 = percentile(off["fast"], 95)
+    full95 = percentile(on["full"], 95) if on else math.nan
+    steals = [s["steal"] for s in (off, on) if s is not None and s["steal"] is not None]
+    steal = format(max(steals), "6.0%") if steals else "n/a"
+    text = (
+        f"{count:>9} {drag:6} {off['vertices']:>16} {off['vg_edges']:>8} |"
+        f" {percentile(off['fast'], 50):6.1f}/{off95:6.1f}  |"
+        f" {_pair(on['fast'] if on else []):>19} {_pair(on['full'] if on else []):>15}"
+        f" {steal:>6}"
+    )
+    return _Row(
+        text, off95 > FAST_BUDGET_MS or (on is not None and full95 > FULL_BUDGET_MS)
+    )
+
+
+def _pair(times: list[float]) -> str:
+    """p50/p95 of ``times`` [ms], or a dash when there are none."""
+    if not times:
+        return "-"
+    return f"{percentile(times, 50):6.1f}/{percentile(times, 95):6.1f}"
 
 
 if __name__ == "__main__":

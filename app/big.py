@@ -15,7 +15,7 @@ drawn. Small scenes keep the in-process path and its few-millisecond budget.
 Data flow::
 
     scheduler round, scene big:
-      job = BigJob(key, scene, which, worker)     # a thread waits on the worker
+      job = BigJob(key, scene, which, workers)    # a thread leases a worker, waits
       while not job.done:  draw progress frame (old plans, stale=True); wait
         a newer edit -> return; the next round: job.cancel() -> worker.interrupt()
       plans = job.result                          # for exactly this key
@@ -28,16 +28,21 @@ __all__ = [
     "PROGRESS_S",
     "SETTLE_S",
     "BigJob",
+    "BigWorkers",
+    "OwnWorker",
+    "SharedWorkers",
     "progress_text",
     "scene_vertices",
 ]
 
+import contextlib
 import threading
 import time
-from collections.abc import Callable, Hashable
-from typing import Any
+from collections.abc import Callable, Hashable, Iterator
+from typing import Any, Protocol
 
 from app.lanes import Interrupted, ProcessLane
+from app.pool import WorkerPool
 from planners.scene import Scene
 
 BIG_SCENE_VERTICES = 1000
@@ -66,6 +71,66 @@ def scene_vertices(scene: Scene) -> int:
     return sum(max(len(r.coords) - 1, 0) for r in rings)
 
 
+class BigWorkers(Protocol):
+    """Where a session's big scenes are computed: workers it leases one call at a time."""
+
+    def lease(self) -> contextlib.AbstractContextManager[ProcessLane]:
+        """Hold a worker for one job (it may interrupt it meanwhile)."""
+        ...
+
+    @property
+    def pid(self) -> int | None:
+        """The process id of a worker started, or None while none is."""
+        ...
+
+    def close(self) -> None:
+        """Stop what the session owns (nothing of a shared pool)."""
+        ...
+
+
+class OwnWorker:
+    """A session's own worker process for big scenes, started on first use."""
+
+    def __init__(self, worker: ProcessLane) -> None:
+        self.worker = worker
+
+    @contextlib.contextmanager
+    def lease(self) -> Iterator[ProcessLane]:
+        """Hold the session's worker: one job at a time is the scheduler's rule."""
+        yield self.worker
+
+    @property
+    def pid(self) -> int | None:
+        """The worker's process id, or None until the first big scene."""
+        return self.worker.pid
+
+    def close(self) -> None:
+        """Stop the worker."""
+        self.worker.close()
+
+
+class SharedWorkers:
+    """The private copies' big scenes computed in a classroom's bounded pool.
+
+    The classroom owns and closes the pool; a copy closing leaves it running.
+    """
+
+    def __init__(self, pool: WorkerPool) -> None:
+        self.pool = pool
+
+    def lease(self) -> contextlib.AbstractContextManager[ProcessLane]:
+        """Hold a free worker of the pool (waiting for one) for one job."""
+        return self.pool.lease()
+
+    @property
+    def pid(self) -> int | None:
+        """None: the pool's workers are the classroom's (see ``pool.processes``)."""
+        return None
+
+    def close(self) -> None:
+        """Leave the pool to the classroom."""
+
+
 def progress_text(names: tuple[str, ...], vertices: int, seconds: float) -> str:
     """Say what is computed and for how long, for the panel.
 
@@ -89,8 +154,9 @@ class BigJob:
         The scene to plan.
     which
         The planners to run.
-    worker
-        The worker process; :meth:`cancel` interrupts it.
+    workers
+        Where to compute: the job leases a worker for its call; :meth:`cancel`
+        interrupts the worker while the job holds it.
     on_done
         Called (from the job's thread) when the job ends, however it ends.
     """
@@ -100,7 +166,7 @@ class BigJob:
         key: Hashable,
         scene: Scene,
         which: tuple[str, ...],
-        worker: ProcessLane,
+        workers: BigWorkers,
         on_done: Callable[[], None],
     ) -> None:
         self.key = key
@@ -113,7 +179,9 @@ class BigJob:
         self.error: BaseException | None = None
         """What the worker raised, if it did."""
         self.done = threading.Event()
-        self._worker = worker
+        self._workers = workers
+        self._held: ProcessLane | None = None  # the worker while this job holds it
+        self._held_lock = threading.Lock()
         self._on_done = on_done
         self._cancelled = False
         self._thread = threading.Thread(target=self._run, name="big-scene", daemon=True)
@@ -133,17 +201,29 @@ class BigJob:
         return progress_text(self.which, self.vertices, self.elapsed())
 
     def cancel(self) -> None:
-        """Give the job up: stop the worker if it computes this job's scene."""
-        running = not (self._cancelled or self.done.is_set())
-        self._cancelled = True
-        if running:
-            self._worker.interrupt()
+        """Give the job up: stop the worker if it computes this job's scene.
+
+        Only while the job holds the worker: once handed back, a shared pool's worker
+        may compute another session's scene, which this must never stop. A job given up
+        before it holds one never starts (the worker asks ``abandoned`` first).
+        """
+        with self._held_lock:
+            self._cancelled = True
+            if self._held is not None:
+                self._held.interrupt()
 
     def _run(self) -> None:
         try:
-            result = self._worker(
-                self.scene, abandoned=lambda: self._cancelled, which=self.which
-            )
+            with self._workers.lease() as worker:
+                with self._held_lock:
+                    self._held = worker
+                try:
+                    result = worker(
+                        self.scene, abandoned=lambda: self._cancelled, which=self.which
+                    )
+                finally:
+                    with self._held_lock:
+                        self._held = None
             if not self._cancelled:
                 self.result = result
         except Interrupted:

@@ -18,7 +18,10 @@ by frames nobody can drag: :mod:`app.scoped`) and, through one :class:`Audience`
 panels of the seats that follow it and on the *own views* of those that edit (a full 3-D
 view with live gizmos in the seat's client scope under ``/own``, which hides ``/shared``
 for that browser). A private copy is a second controller whose views are the seat's own
-view and panel; its slow lane runs in a :class:`app.pool.WorkerPool` shared by every copy.
+view and panel; its slow lane runs in a :class:`app.pool.WorkerPool` shared by every copy,
+and a big scene's graphs (:mod:`app.big`) in a second pool, also shared: a room of
+students who all open a CAD floor plan starts at most ``copy_workers`` processes of each
+kind, not one per seat.
 
 Data flow::
 
@@ -55,13 +58,14 @@ from typing import Any, cast
 import viser
 
 from app import robot as robot_model
+from app.big import SharedWorkers
 from app.controller import Controller, Frame, RobotPose
 from app.files import ScenesFolder
 from app.frames import View
 from app.gate import GatedController, Refusals
 from app.panels import Panels
 from app.pool import WorkerPool
-from app.scheduler import default_plan
+from app.scheduler import big_plan, default_plan
 from app.scoped import ScopedTarget
 from app.view import PlannerView
 from planners.registry import planners_of_kind
@@ -356,6 +360,11 @@ class Classroom:
         self.audience = Audience()
         """The followers' views, drawn by the presenter's session."""
         self.pool = WorkerPool(_slow_fn(controller), size=copy_workers)
+        """The private copies' TangentBug workers."""
+        self.big_pool = WorkerPool(
+            big_plan(dict(controller.registry)), size=copy_workers
+        )
+        """The private copies' workers for big scenes' graphs (:mod:`app.big`)."""
         """The slow-lane workers every private copy shares."""
         controller.add_view(self.audience)
         server.on_client_connect(self.connect)
@@ -489,6 +498,7 @@ class Classroom:
                 scenario=scenario,
                 folder=self._folder,
                 slow_process=self.pool,
+                big_workers=SharedWorkers(self.big_pool),
             )
             private = seat.private
             gated = GatedController(
@@ -530,6 +540,7 @@ class Classroom:
                 seat.tools.close()
         self.audience.close()
         self.pool.close()
+        self.big_pool.close()
 
     # ------------------------------------------------------------------ wiring
 

@@ -67,6 +67,7 @@ from typing import Any, Literal
 
 import planners
 from app import tools
+from app.big import BigWorkers
 from app.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
 from app.frames import Frame, RobotPose, View, Views
 from app.playback import Playback, SampleFn, TrajectoryFn
@@ -105,6 +106,10 @@ class Controller:
     slow_process
         Compute the slow lane in a worker process (see :mod:`app.lanes`); False keeps it
         in a thread; a callable (a shared :class:`app.pool.WorkerPool`) computes it.
+    big_workers
+        Where big scenes' graphs are computed (:mod:`app.big`): None, a worker process
+        of this session's own; a classroom's copies share one
+        (:class:`app.big.SharedWorkers`).
     trajectory
         (scene, path) -> timed trajectory (or None); None disables the robot.
     sample
@@ -131,6 +136,7 @@ class Controller:
         slow_plan: PlanFn | None = None,
         slow_names: Sequence[str] | None = None,
         slow_process: bool | Callable[[Scene, tuple[str, ...]], Any] = True,
+        big_workers: BigWorkers | None = None,
         trajectory: TrajectoryFn | None = None,
         sample: SampleFn | None = None,
         scenarios: Mapping[str, Path] | None = None,
@@ -153,6 +159,7 @@ class Controller:
             slow_plan=slow_plan,
             slow_names=slow_names,
             slow_process=slow_process,
+            big_workers=big_workers,
         )
         self.playback = Playback(self._state, self._views, trajectory, sample, fps)
         """The robot: play, pause, speed, time, the planner followed."""

@@ -1,12 +1,14 @@
-"""A bounded pool of slow-lane worker processes shared by the students' private copies.
+"""Bounded pools of worker processes shared by the students' private copies.
 
-Each session of the presenter's kind has a worker process of its own for TangentBug
-(:mod:`app.lanes`). A classroom may hold dozens of private copies; one process each would
-grow without bound (about 60 MB and a start-up of a second or so each). The copies share
-this pool instead: at most ``size`` processes, started on first use, each answering one
-call at a time; a call waits for a free worker. A worker's :class:`planners.Memo` then
-sees scenes of several sessions in turn: that only costs reuse, never correctness (the
-planners are pure and the memo is keyed on the values it caches).
+Each session of the presenter's kind has worker processes of its own: one for TangentBug
+(:mod:`app.lanes`), one for a big scene's graphs (:mod:`app.big`, started on first use).
+A classroom may hold dozens of private copies; processes of their own would grow without
+bound (about 60 MB and a start-up of a second or so each, and a big scene's planning some
+hundreds of MB more). The copies share two pools instead, one for each kind of work: at
+most ``size`` processes each, started on first use, each answering one call at a time; a
+call waits for a free worker. A worker's :class:`planners.Memo` then sees scenes of
+several sessions in turn: that only costs reuse, never correctness (the planners are
+pure and the memo is keyed on the values it caches).
 
 Data flow::
 
@@ -14,15 +16,18 @@ Data flow::
       -> pool(scene, which)         # wait for a free worker (a queue of idle ones)
            worker(scene, which=...) # one ProcessLane: pickles out, result back
       -> the worker goes back to the queue
+    private session's big scene (a BigJob's thread)
+      -> with pool.lease() as worker: worker(scene, ...)   # interrupted if given up
 """
 
 from __future__ import annotations
 
 __all__ = ["WorkerPool"]
 
+import contextlib
 import queue
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from app.lanes import ProcessLane
@@ -51,9 +56,20 @@ class WorkerPool:
 
     def __call__(self, scene: Any, which: tuple[str, ...]) -> Any:
         """Compute ``fn(scene, which=which)`` on a free worker (waiting for one)."""
+        with self.lease() as worker:
+            return worker(scene, which=which)
+
+    @contextlib.contextmanager
+    def lease(self) -> Iterator[ProcessLane]:
+        """Hold a free worker (waiting for one) for the caller alone until the block ends.
+
+        The caller may :meth:`app.lanes.ProcessLane.interrupt` it while it holds it (a
+        big scene's job given up, :mod:`app.big`); the worker then restarts on its next
+        call.
+        """
         worker = self._take()
         try:
-            return worker(scene, which=which)
+            yield worker
         finally:
             self._idle.put(worker)
 

@@ -32,6 +32,7 @@ __all__ = [
     "PlanFn",
     "Scheduler",
     "SlowResults",
+    "big_plan",
     "default_plan",
     "lanes_for",
     "merge_slow",
@@ -50,7 +51,15 @@ import numpy.typing as npt
 from shapely import Polygon
 
 import planners
-from app.big import BIG_SCENE_VERTICES, PROGRESS_S, SETTLE_S, BigJob, scene_vertices
+from app.big import (
+    BIG_SCENE_VERTICES,
+    PROGRESS_S,
+    SETTLE_S,
+    BigJob,
+    BigWorkers,
+    OwnWorker,
+    scene_vertices,
+)
 from app.frames import Frame, Views, build_frame
 from app.lanes import Interrupted, ProcessLane, picklable
 from app.playback import Playback
@@ -141,8 +150,9 @@ class Lane:
     """Run only the enabled ones of :attr:`names` (False: a caller's fixed function)."""
     process: ProcessLane | None = None
     """The worker process the lane runs in, if any (closed with the scheduler)."""
-    big: ProcessLane | None = None
-    """The worker process a big scene's plans are computed in (:mod:`app.big`), if any."""
+    big: BigWorkers | None = None
+    """Where a big scene's plans are computed (:mod:`app.big`): the session's own worker
+    process or a classroom's shared pool; None: in the lane's thread."""
 
     def which(self, enabled: frozenset[str]) -> tuple[str, ...]:
         """Return the names to run when the ``enabled`` planners are switched on."""
@@ -163,6 +173,7 @@ def lanes_for(
     slow_plan: PlanFn | None = None,
     slow_names: Iterable[str] | None = None,
     slow_process: bool | Callable[[Scene, tuple[str, ...]], Any] = True,
+    big_workers: BigWorkers | None = None,
 ) -> tuple[Lane, Lane | None]:
     """Build the fast and slow lanes for ``registry`` (or the caller's plan functions).
 
@@ -171,7 +182,8 @@ def lanes_for(
     planners can be pickled (``slow_process``), else in a thread. A caller's ``plan``
     replaces the fast lane; ``slow_plan`` (computing ``slow_names``) the slow one;
     passing ``plan`` alone means no slow lane. A callable ``slow_process`` (a shared
-    :class:`app.pool.WorkerPool`) runs the slow lane instead of a process of its own.
+    :class:`app.pool.WorkerPool`) runs the slow lane instead of a process of its own,
+    and ``big_workers`` (:class:`app.big.SharedWorkers`) a big scene's fast planners.
     """
     fast_names = planners_of_kind("graph", registry=registry)
     slow = planners_of_kind("trace", registry=registry)
@@ -182,7 +194,8 @@ def lanes_for(
     else:
         memo = planners.Memo()
         run = functools.partial(_run, registry=registry, memo=memo)
-        fast = Lane(fast_names, run, big=_big_worker(fast_names, registry))
+        big = big_workers or _big_worker(fast_names, registry)
+        fast = Lane(fast_names, run, big=big)
     if slow_plan is not None:
         names = slow if slow_names is None else tuple(slow_names)
         return fast, _fixed(slow_plan, names)
@@ -200,12 +213,18 @@ def lanes_for(
     return fast, Lane(slow, functools.partial(_run, registry=registry, memo=memo))
 
 
+def big_plan(registry: Mapping[str, PlannerSpec]) -> functools.partial[Any]:
+    """Return the function a big scene's worker computes: the fast lane's planners."""
+    names = planners_of_kind("graph", registry=registry)
+    return functools.partial(default_plan, which=names, registry=dict(registry))
+
+
 def _big_worker(
     names: tuple[str, ...], registry: Mapping[str, PlannerSpec]
-) -> ProcessLane | None:
+) -> OwnWorker | None:
     """Make the worker for big scenes' fast planners (started on first use; None if unpicklable)."""
-    fn = functools.partial(default_plan, which=names, registry=dict(registry))
-    return ProcessLane(fn, start=False) if names and picklable(fn) else None
+    fn = big_plan(registry)
+    return OwnWorker(ProcessLane(fn, start=False)) if names and picklable(fn) else None
 
 
 def _run(

@@ -14,11 +14,13 @@ from __future__ import annotations
 
 import contextlib
 import inspect
+import json
 from collections.abc import Iterator
 from typing import Any
 
 import pytest
 
+import planners
 from app import start_app
 from app.classroom import (
     PRESENTER_PATH,
@@ -30,6 +32,7 @@ from app.classroom import (
 from app.gate import GatedController, Refusals
 from app.server import _is_loopback
 from tests.app.app_helpers import wait_until
+from tests.benchmarks.bench_big import circle_scene
 from tests.viser_client import ViserClient
 
 GOAL = "/handles/goal"
@@ -433,6 +436,37 @@ def test_private_copies_share_a_bounded_pool_of_workers(planner):
             assert private.wait_idle(90)
             assert private.frame.plans["dsb"].status in ("reached", "unreachable")
         assert 1 <= room.pool.processes <= room.pool.size
+    assert wait_until(lambda: room.counts()["sessions"] == 0, 20)
+
+
+def test_private_copies_plan_big_scenes_in_the_shared_pool(planner):
+    """Issue 15, item 4: students who all open a CAD-sized scene start at most
+    ``copy_workers`` processes for its graphs, not one each; an edit of one copy gives
+    its own computation up, and every copy ends with its own scene's plans."""
+    room = planner.classroom
+    big = circle_scene()  # 10,004 vertices: planned in a worker (app.big)
+    with contextlib.ExitStack() as stack:
+        students = [stack.enter_context(client(planner)) for _ in range(2)]
+        for s in students:
+            s.set_gui(s.uuid("Make my own copy"), True)
+        assert wait_until(lambda: room.counts()["sessions"] == 2, 30)
+        copies = [room.seat(s.client_id).private for s in students]
+        for k, copy in enumerate(copies):
+            copy.files.load_text(json.dumps(big), f"circle-{k}.json")
+        copies[0].edits.move_goal((37.0, 19.0))  # while both compute or wait
+        for copy in copies:
+            assert copy.wait_idle(240)
+        assert room.big_pool.processes == 1 <= room.big_pool.size
+        for copy in copies:
+            assert copy.scheduler._fast.big.pid is None  # no process of its own
+            final = copy.frame
+            assert final is not None and not final.stale and final.progress is None
+            fresh = planners.plan_all(final.scene, ("vg", "svg"))
+            for name in ("vg", "svg"):
+                assert final.plans[name].length == pytest.approx(fresh[name].length)
+                assert final.plans[name].edges == fresh[name].edges
+        assert copies[0].frame.scene.goal == (37.0, 19.0)
+        assert copies[1].frame.scene.goal == planners.load_scene(big).goal
     assert wait_until(lambda: room.counts()["sessions"] == 0, 20)
 
 

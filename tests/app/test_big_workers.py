@@ -1,0 +1,124 @@
+"""Big scenes' jobs lease their worker (app.big): a job given up stops only its own call.
+
+A classroom's private copies share a pool of workers for big scenes (issue 15, item 4:
+never one process per seat). A job interrupts the worker only while it holds it, so a
+copy's edit never stops another copy's computation; a job given up before it holds a
+worker never starts.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+from collections.abc import Iterator
+from typing import Any
+
+from shapely import Polygon
+
+import planners
+from app.big import BigJob, OwnWorker
+from app.lanes import Interrupted
+
+SQUARE = Polygon([(1, 1), (2, 1), (2, 2), (1, 2)])
+
+
+def _scene(goal: tuple[float, float]) -> planners.Scene:
+    return planners.Scene(obstacles=(SQUARE,), start=(0.0, 0.0), goal=goal)
+
+
+class FakeWorker:
+    """A worker that computes until released or interrupted, and counts both."""
+
+    def __init__(self) -> None:
+        self.started: list[Any] = []
+        self.interrupts = 0
+        self.release = threading.Event()
+        self.running = threading.Event()
+
+    def __call__(self, scene: Any, abandoned: Any, which: tuple[str, ...]) -> Any:
+        if abandoned():
+            raise Interrupted("given up before it started")
+        self.started.append(scene.goal)
+        self.running.set()
+        self.release.wait(10)
+        self.running.clear()
+        if abandoned():
+            raise Interrupted("given up")
+        return {"goal": scene.goal}
+
+    def interrupt(self) -> None:
+        self.interrupts += 1
+        self.release.set()
+
+
+class OnePool:
+    """A pool of one worker: a lease waits until the holder hands it back."""
+
+    def __init__(self, worker: FakeWorker) -> None:
+        self.worker = worker
+        self.lock = threading.Lock()
+        self.waiting = threading.Event()
+
+    @contextlib.contextmanager
+    def lease(self) -> Iterator[Any]:
+        if self.lock.locked():
+            self.waiting.set()
+        with self.lock:
+            yield self.worker
+
+    @property
+    def pid(self) -> None:
+        return None
+
+    def close(self) -> None:
+        pass
+
+
+def _job(scene: planners.Scene, workers: Any) -> BigJob:
+    return BigJob(scene.goal, scene, ("vg",), workers, lambda: None)
+
+
+def test_a_job_given_up_while_waiting_never_stops_the_holders_call():
+    worker = FakeWorker()
+    pool = OnePool(worker)
+    first = _job(_scene((3.0, 3.0)), pool)
+    assert worker.running.wait(5)
+    second = _job(_scene((4.0, 4.0)), pool)
+    assert pool.waiting.wait(5)
+    second.cancel()  # another copy's edit
+    assert worker.interrupts == 0  # the first copy's call goes on
+    worker.release.set()
+    assert first.done.wait(5) and second.done.wait(5)
+    assert first.result == {"goal": (3.0, 3.0)} and first.error is None
+    assert second.result is None and second.error is None
+    assert worker.started == [(3.0, 3.0)]  # the given-up job never started
+
+
+def test_a_job_given_up_while_it_computes_stops_its_worker():
+    worker = FakeWorker()
+    job = _job(_scene((3.0, 3.0)), OnePool(worker))
+    assert worker.running.wait(5)
+    job.cancel()
+    assert job.done.wait(5)
+    assert worker.interrupts == 1
+    assert job.result is None and job.error is None
+
+
+def test_a_job_given_up_after_it_ended_stops_nothing():
+    worker = FakeWorker()
+    worker.release.set()
+    job = _job(_scene((3.0, 3.0)), OnePool(worker))
+    assert job.done.wait(5)
+    job.cancel()  # the next edit, once the result is in: the worker is someone else's
+    assert worker.interrupts == 0
+    assert job.result == {"goal": (3.0, 3.0)}
+
+
+def test_a_sessions_own_worker_is_leased_as_itself():
+    worker = FakeWorker()
+    worker.release.set()
+    own = OwnWorker(worker)  # type: ignore[arg-type]
+    with own.lease() as held:
+        assert held is worker
+    job = _job(_scene((3.0, 3.0)), own)
+    assert job.done.wait(5) and job.result == {"goal": (3.0, 3.0)}

@@ -64,7 +64,7 @@ def _parser() -> argparse.ArgumentParser:
         default=1,
         metavar="N",
         help="presenter mode: worker processes the students' private copies share "
-        "for DSB (default 1)",
+        "for DSB, and as many for big scenes' graphs (default 1)",
     )
     parser.add_argument(
         "--snapshot",

@@ -589,10 +589,18 @@ class Scheduler:
         if lookup.must_plan:
             # The planners' layers first: planning the robot's new trajectory takes up
             # to a few ms, and meanwhile the robot stays on its previous one. The frame
-            # with the new trajectory follows at once (it sends only the robot's parts).
+            # with the new trajectory follows at once (it sends only the robot's parts),
+            # unless a newer edit already waits: its layers come first, and the robot
+            # follows the plans of the edit that is not overtaken (when the drag rests).
+            first = frame_with(self._playback.trajectory)
             with self._lock:
                 self._computed = computed
-            self._views.render(frame_with(self._playback.trajectory))
+            self._views.render(first)
+            time.sleep(0)  # a thread waiting to hand in the next edit gets to do so now
+            if self._state.version != snapshot.version:
+                with self._lock:
+                    self._last_frame = first
+                return
         trajectory = self._playback.plan(scene, lookup)
         frame = frame_with(trajectory)
         with self._lock:

@@ -588,6 +588,49 @@ def test_the_paths_are_drawn_before_the_robot_trajectory_is_planned(
         release.set()
 
 
+def test_a_newer_edit_comes_before_the_robot_of_the_one_it_overtakes(
+    make_controller, scene
+):
+    """While a drag goes on, the planners' layers of each edit are drawn, and the robot's
+    trajectory is planned only for an edit no newer one has overtaken (issue 15: the
+    next edit's layers do not wait for a trajectory nobody will see)."""
+    from app import robot
+
+    planned: list[tuple[float, float]] = []
+
+    def trajectory(s, path):
+        planned.append((float(path[-1][0]), float(path[-1][1])))
+        return robot.trajectory(s, path)
+
+    controller, view = make_controller(
+        scene, trajectory=trajectory, sample=robot.sample
+    )
+    a, b = (8.8, 6.2), (8.6, 6.0)
+
+    class NextEditWhileDrawing:
+        """The next edit arrives while the layers of goal ``a`` are drawn."""
+
+        def render(self, frame):
+            if frame.scene.goal == a and controller.scene.goal == a:
+                controller.edits.move_goal(b)
+
+        def render_robot(self, pose):
+            pass
+
+    controller.add_view(NextEditWhileDrawing())
+    planned.clear()
+    controller.edits.move_goal(a)
+    assert controller.wait_idle(10)
+    # The layers of ``a`` were drawn (its path ends there), its robot never planned.
+    drawn_a = [f for f in view.frames if f.scene.goal == a]
+    assert drawn_a and drawn_a[0].plans["vg"].path[-1].tolist() == list(a)
+    assert planned == [b]
+    last = view.last
+    assert last.scene.goal == b and last.version == controller.version
+    assert_allclose(last.trajectory.path[-1], b)
+    assert view.poses[-1] is not None
+
+
 def test_close_stops_the_threads(scene):
     controller = Controller(FakeView(), scene)
     assert controller.wait_idle(10)

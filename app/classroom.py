@@ -360,12 +360,11 @@ class Classroom:
         self.audience = Audience()
         """The followers' views, drawn by the presenter's session."""
         self.pool = WorkerPool(_slow_fn(controller), size=copy_workers)
-        """The private copies' TangentBug workers."""
+        """The slow-lane workers every private copy shares."""
         self.big_pool = WorkerPool(
             big_plan(dict(controller.registry)), size=copy_workers
         )
-        """The private copies' workers for big scenes' graphs (:mod:`app.big`)."""
-        """The slow-lane workers every private copy shares."""
+        """The workers every private copy shares for big scenes' graphs (app.big)."""
         controller.add_view(self.audience)
         server.on_client_connect(self.connect)
         server.on_client_disconnect(self.disconnect)

@@ -194,7 +194,11 @@ def lanes_for(
     else:
         memo = planners.Memo()
         run = functools.partial(_run, registry=registry, memo=memo)
-        big = big_workers or _big_worker(fast_names, registry)
+        big = (
+            big_workers
+            if big_workers is not None
+            else _big_worker(fast_names, registry)
+        )
         fast = Lane(fast_names, run, big=big)
     if slow_plan is not None:
         names = slow if slow_names is None else tuple(slow_names)

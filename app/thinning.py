@@ -134,11 +134,10 @@ def edges_counted(result: Any, all_edges: bool, limit: int = THIN_ABOVE) -> Edge
     Examples
     --------
     >>> from types import SimpleNamespace
-    >>> pts = np.array([[0.0, 0], [1, 0], [2, 0], [3, 0]])
-    >>> arrays = SimpleNamespace(points=pts, start=0, goal=1,
-    ...     i=np.array([0, 2, 1]), j=np.array([1, 3, 2]))
-    >>> edges_counted(SimpleNamespace(arrays=arrays, path=pts[:2]), False, limit=2)
-    EdgeCount(drawn=2, total=3)
+    >>> g = SimpleNamespace(points=np.arange(8.0).reshape(4, 2), start=0, goal=1,
+    ...     i=np.array([0, 2]), j=np.array([1, 3]))  # edge 2-3 is away from the path
+    >>> edges_counted(SimpleNamespace(arrays=g, path=g.points[:2]), False, limit=1)
+    EdgeCount(drawn=1, total=2)
     """
     total = len(result.arrays.i)
     if all_edges or total <= limit:

@@ -524,7 +524,11 @@ def _exact_free(
     # Each survivor is cut at the border vertices lying on it; every piece is free,
     # blocked or along an edge, and its middle tells which.
     piece_seg, mid_t = _pieces(survivors, t_seg, t_val)
-    mids = a[piece_seg] + mid_t[:, None] * (b[piece_seg] - a[piece_seg])
+    # a + t (b - a) per coordinate, from the segments' 1-D rows (the same numbers:
+    # their direction is b - a; gathers of (N, 2) rows are several times slower).
+    mids = np.empty((len(piece_seg), 2))
+    mids[:, 0] = segs.ax[piece_seg] + mid_t * segs.dx[piece_seg]
+    mids[:, 1] = segs.ay[piece_seg] + mid_t * segs.dy[piece_seg]
     blocked_piece = cspace.contains_blocked(mids)
     free[piece_seg[blocked_piece]] = False
     return free
@@ -705,7 +709,8 @@ def _candidate_pairs(
         rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, k)[None, :]
         dx, dy = x[cols] - x[rows], y[cols] - y[rows]
         out = screen(wedges, nodes[rows], nodes[cols], dx, dy)
-        out |= cols <= rows
+        # Column c is node r0 + 1 + c: at or before row r only in the first r1 - r0.
+        out[:, : r1 - r0] |= cols[:, : r1 - r0] <= rows
         r, c = np.nonzero(~out)
         found.append((nodes[r0 + r], nodes[r0 + 1 + c]))
         count += len(r)

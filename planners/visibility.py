@@ -515,9 +515,52 @@ def _exact_free(
         t_seg, t_val = t_seg[keep], t_val[keep]
         order = np.lexsort((t_val, t_seg))  # few: as the march hands them on
         t_seg, t_val = t_seg[order], t_val[order]
-    else:
-        marched = march(border.grid, border.edges, segs, cspace.eps)
-        free, t_seg, t_val = ~marched.crossed, marched.touch_seg, marched.touch_t
+        return _decide_pieces(cspace, segs, free, t_seg, t_val)
+    return _marched_free(cspace, border, segs)
+
+
+def _exact_free_pairs(
+    cspace: ConfigurationSpace,
+    border: _Border,
+    points: FloatArray,
+    i: IntArray,
+    j: IntArray,
+) -> BoolArray:
+    """Tell which segments points[i[k]] -> points[j[k]] are free: :func:`_exact_free`.
+
+    The marched segments are made from the points' coordinate columns (the same
+    numbers as :meth:`Segments.of` on the gathered rows, without gathering (N, 2) rows).
+    """
+    if len(i) * len(border.edge_a) <= _DENSE_LIMIT:
+        return _exact_free(cspace, border, points[i], points[j])
+    x, y = points[:, 0], points[:, 1]
+    ax, ay = x[i], y[i]
+    dx, dy = x[j] - ax, y[j] - ay
+    return _marched_free(cspace, border, Segments(ax, ay, dx, dy, np.hypot(dx, dy)))
+
+
+def _marched_free(
+    cspace: ConfigurationSpace, border: _Border, segs: Segments
+) -> BoolArray:
+    """Do :func:`_exact_free` with the edge grid's march."""
+    marched = march(border.grid, border.edges, segs, cspace.eps)
+    return _decide_pieces(
+        cspace, segs, ~marched.crossed, marched.touch_seg, marched.touch_t
+    )
+
+
+def _decide_pieces(
+    cspace: ConfigurationSpace,
+    segs: Segments,
+    free: BoolArray,
+    t_seg: IntArray,
+    t_val: FloatArray,
+) -> BoolArray:
+    """Cut the uncrossed segments at the vertices on them; a blocked piece blocks.
+
+    ``free`` is False where an edge crosses a segment; (``t_seg``, ``t_val``) are the
+    vertices on the others, ordered by segment, then t. Updated and returned.
+    """
     survivors = np.flatnonzero(free)
     if len(survivors) == 0:
         return free
@@ -836,7 +879,7 @@ def _sights(
         j = np.concatenate([bj, extra_j]) if last else bj
         ok = ~occluded_pairs(table, points, i, j)
         test = np.flatnonzero(ok)
-        ok[test] = _exact_free(cspace, border, points[i[test]], points[j[test]])
+        ok[test] = _exact_free_pairs(cspace, border, points, i[test], j[test])
         if last:
             extra_free = ok[count:]
         found_i.append(bi[ok[:count]])

@@ -170,3 +170,29 @@ def test_last_marked_flags_the_last_block_and_stands_in_for_none():
     assert got[1][1] is b
     (only,) = visibility._last_marked(iter([]))
     assert only[0] is True and len(only[1][0]) == len(only[1][1]) == 0
+
+
+@pytest.mark.parametrize("kind", ["dense", "grid"])
+@settings(max_examples=60, deadline=None)
+@given(scene=random_scenes(grid=True), picks=st.data())
+def test_exact_free_pairs_is_the_exact_test_and_the_reference(kind, scene, picks):
+    """Pairs of points from their coordinate columns: the same answers as from rows."""
+    space = _fresh(scene, scene.start, scene.goal)
+    border = space.derive(visibility._build_border)
+    lattice = np.array(
+        [(x / 2.0, y / 2.0) for x in range(-2, 22) for y in range(-2, 22)]
+    )
+    points = np.vstack([border.points, lattice])
+    count = picks.draw(st.integers(1, 40))
+    index = st.integers(0, len(points) - 1)
+    i = np.array([picks.draw(index) for _ in range(count)], dtype=np.intp)
+    j = np.array([picks.draw(index) for _ in range(count)], dtype=np.intp)
+    with _exact_test(kind):
+        got = visibility._exact_free_pairs(space, border, points, i, j)
+        rows = visibility._exact_free(space, border, points[i], points[j])
+    np.testing.assert_array_equal(got, rows)
+    want = [
+        reference_segment_free(space, points[a], points[b])
+        for a, b in zip(i, j, strict=True)
+    ]
+    assert got.tolist() == want

@@ -515,16 +515,63 @@ def _exact_free(
         t_seg, t_val = t_seg[keep], t_val[keep]
         order = np.lexsort((t_val, t_seg))  # few: as the march hands them on
         t_seg, t_val = t_seg[order], t_val[order]
-    else:
-        marched = march(border.grid, border.edges, segs, cspace.eps)
-        free, t_seg, t_val = ~marched.crossed, marched.touch_seg, marched.touch_t
+        return _decide_pieces(cspace, segs, free, t_seg, t_val)
+    return _marched_free(cspace, border, segs)
+
+
+def _exact_free_pairs(
+    cspace: ConfigurationSpace,
+    border: _Border,
+    points: FloatArray,
+    i: IntArray,
+    j: IntArray,
+) -> BoolArray:
+    """Tell which segments points[i[k]] -> points[j[k]] are free: :func:`_exact_free`.
+
+    The marched segments are made from the points' coordinate columns (the same
+    numbers as :meth:`Segments.of` on the gathered rows, without gathering (N, 2) rows).
+    """
+    if len(i) * len(border.edge_a) <= _DENSE_LIMIT:
+        return _exact_free(cspace, border, points[i], points[j])
+    x, y = points[:, 0], points[:, 1]
+    ax, ay = x[i], y[i]
+    dx, dy = x[j] - ax, y[j] - ay
+    return _marched_free(cspace, border, Segments(ax, ay, dx, dy, np.hypot(dx, dy)))
+
+
+def _marched_free(
+    cspace: ConfigurationSpace, border: _Border, segs: Segments
+) -> BoolArray:
+    """Do :func:`_exact_free` with the edge grid's march."""
+    marched = march(border.grid, border.edges, segs, cspace.eps)
+    return _decide_pieces(
+        cspace, segs, ~marched.crossed, marched.touch_seg, marched.touch_t
+    )
+
+
+def _decide_pieces(
+    cspace: ConfigurationSpace,
+    segs: Segments,
+    free: BoolArray,
+    t_seg: IntArray,
+    t_val: FloatArray,
+) -> BoolArray:
+    """Cut the uncrossed segments at the vertices on them; a blocked piece blocks.
+
+    ``free`` is False where an edge crosses a segment; (``t_seg``, ``t_val``) are the
+    vertices on the others, ordered by segment, then t. Updated and returned.
+    """
     survivors = np.flatnonzero(free)
     if len(survivors) == 0:
         return free
     # Each survivor is cut at the border vertices lying on it; every piece is free,
     # blocked or along an edge, and its middle tells which.
     piece_seg, mid_t = _pieces(survivors, t_seg, t_val)
-    mids = a[piece_seg] + mid_t[:, None] * (b[piece_seg] - a[piece_seg])
+    # a + t (b - a) per coordinate, from the segments' 1-D rows (the same numbers:
+    # their direction is b - a; gathers of (N, 2) rows are several times slower).
+    mids = np.empty((len(piece_seg), 2))
+    mids[:, 0] = segs.ax[piece_seg] + mid_t * segs.dx[piece_seg]
+    mids[:, 1] = segs.ay[piece_seg] + mid_t * segs.dy[piece_seg]
     blocked_piece = cspace.contains_blocked(mids)
     free[piece_seg[blocked_piece]] = False
     return free
@@ -705,7 +752,8 @@ def _candidate_pairs(
         rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, k)[None, :]
         dx, dy = x[cols] - x[rows], y[cols] - y[rows]
         out = screen(wedges, nodes[rows], nodes[cols], dx, dy)
-        out |= cols <= rows
+        # Column c is node r0 + 1 + c: at or before row r only in the first r1 - r0.
+        out[:, : r1 - r0] |= cols[:, : r1 - r0] <= rows
         r, c = np.nonzero(~out)
         found.append((nodes[r0 + r], nodes[r0 + 1 + c]))
         count += len(r)
@@ -788,35 +836,77 @@ def _vertex_visibility(cspace: ConfigurationSpace) -> _Sight:
     each query only adds its start's and goal's rows, and the SVG of a scene whose VG was
     built reads its vertex pairs from it. Visibility is a function of the two points (the
     exact segment test decides), so the rows of a vertex the start or goal sits on hold
-    for them too.
+    for them too. A cold build finds it with the start's and goal's rows
+    (:func:`_cold_sights`).
     """
     border = cspace.derive(_build_border)
+    none = np.zeros(0, dtype=np.intp)
+    return _sights(cspace, border, border.points, none, none)[0]
+
+
+def _sights(
+    cspace: ConfigurationSpace,
+    border: _Border,
+    points: FloatArray,
+    extra_i: IntArray,
+    extra_j: IntArray,
+) -> tuple[_Sight, BoolArray]:
+    """Find the border vertices that see each other, and which extra pairs are free.
+
+    ``points`` are the border vertices, then any others (start and goal); the extra
+    pairs (i, j) of ``points``, already screened by the caller, are tested with the
+    last block of border pairs (one exact test, not two). Returns the vertex visibility
+    and, per extra pair, whether it is free.
+    """
     n = len(border.points)
-    nodes = np.arange(n, dtype=np.intp)
     found_i, found_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
-    # The disks' cover around every vertex, so that each pair is looked up from both of
+    # The disks' cover around every point, so that each pair is looked up from both of
     # its ends (after the wedge screen about a quarter of the n - 1 others per vertex).
-    table = cover_table(cspace.derive(_inner_disks), border.points, sector_count(n / 4))
+    table = cover_table(cspace.derive(_inner_disks), points, sector_count(n / 4))
     rings = cspace.derive(_convex_ring_of)
     apart = bool(np.any(rings.ring >= 0))
     blocks = (
         _candidate_pairs_apart(border, rings)
         if apart
-        else _candidate_pairs(border.points, border.wedges, nodes, tangent=False)
-    )
-    for i, j in blocks:
-        ok = ~occluded_pairs(table, border.points, i, j)
-        test = np.flatnonzero(ok)
-        ok[test] = _exact_free(
-            cspace, border, border.points[i[test]], border.points[j[test]]
+        else _candidate_pairs(
+            border.points, border.wedges, np.arange(n, dtype=np.intp), tangent=False
         )
-        found_i.append(i[ok])
-        found_j.append(j[ok])
+    )
+    extra_free = np.zeros(0, dtype=bool)
+    for last, (bi, bj) in _last_marked(blocks):
+        count = len(bi)
+        i = np.concatenate([bi, extra_i]) if last else bi
+        j = np.concatenate([bj, extra_j]) if last else bj
+        ok = ~occluded_pairs(table, points, i, j)
+        test = np.flatnonzero(ok)
+        ok[test] = _exact_free_pairs(cspace, border, points, i[test], j[test])
+        if last:
+            extra_free = ok[count:]
+        found_i.append(bi[ok[:count]])
+        found_j.append(bj[ok[:count]])
     i, j = np.concatenate(found_i), np.concatenate(found_j)
     if apart:  # found ring by ring: back to row-major order
         order = np.argsort(i.astype(np.int64) * n + j)
         i, j = i[order], j[order]
-    return _Sight(n, i, j)
+    return _Sight(n, i, j), extra_free
+
+
+def _point_of(q: _Query, node: int) -> tuple[float, float]:
+    """Node ``node`` of the query as a key of :class:`_PointSights`."""
+    return float(q.points[node, 0]), float(q.points[node, 1])
+
+
+def _last_marked(
+    blocks: Iterator[tuple[IntArray, IntArray]],
+) -> Iterator[tuple[bool, tuple[IntArray, IntArray]]]:
+    """Yield (is it the last, block) for each block; one empty last block if none."""
+    none = np.zeros(0, dtype=np.intp)
+    previous = None
+    for block in blocks:
+        if previous is not None:
+            yield False, previous
+        previous = block
+    yield True, previous if previous is not None else (none, none)
 
 
 _BIG_RING = 64
@@ -948,6 +1038,8 @@ def _visibility(
     cspace: ConfigurationSpace, border: _Border, q: _Query
 ) -> tuple[IntArray, IntArray]:
     """Return the pairs (i < j, row-major) of the query's nodes that see each other."""
+    if cspace.known(_vertex_visibility) is None:
+        _cold_sights(cspace, border, q)
     base = cspace.derive(_vertex_visibility)
     n, total = base.n, len(q.points)
     if total == n:
@@ -969,6 +1061,56 @@ def _visibility(
     base_key = base.i.astype(np.int64) * total + base.j
     at = np.searchsorted(base_key, i.astype(np.int64) * total + j)
     return np.insert(base.i, at, i), np.insert(base.j, at, j)
+
+
+def _cold_sights(cspace: ConfigurationSpace, border: _Border, q: _Query) -> None:
+    """Derive the vertex visibility and the new nodes' rows together, in one exact test.
+
+    A cold build (a fresh configuration space, a new start and goal) needs the pairs of
+    border vertices, each new node's row and the start-goal pair. Tested apart, the rows'
+    few hundred segments pay the exact test's fixed costs again (a march, a cover table,
+    a point-in-polygon call each); here they join the border pairs' last block. The
+    candidates are screened as :func:`_point_rows` and :func:`_ends_see_each_other`
+    screen them, each segment's answer is the exact test's whatever it is tested with,
+    so what is kept (:meth:`ConfigurationSpace.adopt`, :class:`_PointSights`) is what
+    those would compute. Nothing is done when a start or goal sits on a border vertex
+    (its row is not kept, :func:`_point_rows`), nothing is new or there is no border.
+    """
+    n, total = len(border.points), len(q.points)
+    if total == n or not len(border.edge_a) or not np.all(q.node[:n] >= 0):
+        return
+    store = cspace.derive(_point_sights)
+    wedges = _query_wedges(border, q)
+    vertices = np.arange(n, dtype=np.intp)
+    rows: list[tuple[tuple[float, float], IntArray]] = []
+    extra_i, extra_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
+    for node in range(n, total):
+        point = _point_of(q, node)
+        if store.get(point) is not None:
+            continue
+        ends = np.full(n, node, dtype=np.intp)
+        d = q.points[ends] - q.points[vertices]
+        keep = ~_leaves_blocked(wedges, vertices, ends, d[:, 0], d[:, 1])
+        rows.append((point, vertices[keep]))
+        extra_i.append(vertices[keep])
+        extra_j.append(ends[keep])
+    ends_pair = None
+    if total == n + 2:
+        a, b = _point_of(q, n), _point_of(q, n + 1)
+        if store.pair(a, b) is None:
+            ends_pair = (a, b)
+            extra_i.append(np.array([n], dtype=np.intp))
+            extra_j.append(np.array([n + 1], dtype=np.intp))
+    sight, free = _sights(
+        cspace, border, q.points, np.concatenate(extra_i), np.concatenate(extra_j)
+    )
+    cspace.adopt(_vertex_visibility, sight)
+    at = 0
+    for point, candidates in rows:
+        store.put(point, candidates[free[at : at + len(candidates)]])
+        at += len(candidates)
+    if ends_pair is not None:
+        store.put_pair(*ends_pair, bool(free[at]))
 
 
 class _PointSights:

@@ -187,6 +187,10 @@ class Panels:
         self._scenario_titles = dict(scenarios)
         self._registry = registry
         self._plot_key: Any = None
+        # The last thinning note with the plans (held: compared by identity) and layers.
+        self._note_kept: tuple[tuple[Any, ...], dict[str, bool], str | None] | None = (
+            None
+        )
         self._last_robot_text = ""
         self.locked = False
         """Whether the controls are disabled (a classroom's watcher)."""
@@ -461,7 +465,7 @@ class Panels:
             self.results,
             "content",
             results_markdown(frame.plans, frame.lagging, self._registry)
-            + _note(frame_note(frame.plans, frame.layers)),
+            + _note(self._thinning_note(frame)),
         )
 
         # Settings are pushed only from the newest frame: while a slider is being dragged
@@ -501,6 +505,26 @@ class Panels:
         )
         _set(self.edit_buttons, "visible", frame.tool == "edit" and not self.locked)
         self._render_plot(frame)
+
+    def _thinning_note(self, frame: Frame) -> str | None:
+        """Say which graph layers are thinned; counted again only for other plans or layers.
+
+        A round draws its frame twice (the layers, then the robot): the same results.
+        """
+        plans, layers = tuple(frame.plans.items()), dict(frame.layers)
+        kept = self._note_kept
+        if (
+            kept is not None
+            and kept[1] == layers
+            and len(kept[0]) == len(plans)
+            and all(
+                a == c and b is d for (a, b), (c, d) in zip(kept[0], plans, strict=True)
+            )
+        ):
+            return kept[2]
+        note = frame_note(frame.plans, frame.layers)
+        self._note_kept = (plans, layers, note)
+        return note
 
     def _render_folder(self, frame: Frame) -> None:
         # After a save the folder holds one more file: list it again (only then).

@@ -41,6 +41,7 @@ __all__ = [
 import dataclasses
 import functools
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -76,6 +77,9 @@ PlanFn = Callable[[Scene], Mapping[str, Any]]
 # process) shares the interpreter lock with the fast lane: it starts on a new scene once
 # the fast lane has drawn it, or after this [s]. A worker process starts at once.
 _SLOW_LANE_YIELD_S = 0.03
+ROBOT_LAG_S = 0.15
+"""During a drag, the robot's trajectory may wait for the edit no newer one overtakes,
+but never longer than this after the robot was last drawn [s]."""
 
 
 def default_plan(
@@ -428,6 +432,9 @@ class Scheduler:
         self._busy = False
         self._closed = False
         self._last_frame: Frame | None = None
+        self._robot_drawn_at = -math.inf  # time.monotonic() of the last robot frame
+        self.robot_lag_s = ROBOT_LAG_S
+        """How long the robot may stay on an older edit's trajectory during a drag [s]."""
         self._job: BigJob | None = None  # a big scene's computation (app.big)
         self._slow_big = False  # the slow lane computes a big scene
         self._slow_given_up: _PlanKey | None = None  # the slow call given up on
@@ -479,10 +486,15 @@ class Scheduler:
             return True
 
     def close(self) -> None:
-        """Stop the lanes' threads and the worker process."""
+        """Stop the lanes' threads and the worker processes, and give a big job up.
+
+        A big scene's job is cancelled, not only its worker closed: a classroom's copy
+        leases a worker of a shared pool, which must go back to the others at once.
+        """
         with self._lock:
             self._closed = True
             self._lock.notify_all()
+        self._cancel_job()
         if self.process is not None:
             self.process.close()
         if self._fast.big is not None:
@@ -490,6 +502,12 @@ class Scheduler:
         for thread in self._threads:
             if thread is not threading.current_thread():
                 thread.join(timeout=5.0)
+        self._cancel_job()  # one the fast lane started as it was being closed
+
+    def _cancel_job(self) -> None:
+        job, self._job = self._job, None
+        if job is not None:
+            job.cancel()
 
     # ------------------------------------------------------------------ internals
 
@@ -594,14 +612,21 @@ class Scheduler:
             # The planners' layers first: planning the robot's new trajectory takes up
             # to a few ms, and meanwhile the robot stays on its previous one. The frame
             # with the new trajectory follows at once (it sends only the robot's parts),
-            # unless a newer edit already waits: its layers come first, and the robot
-            # follows the plans of the edit that is not overtaken (when the drag rests).
+            # unless a newer edit is already there: its layers come first, and the
+            # robot follows an edit no newer one overtakes -- or, in a long drag whose
+            # rounds take longer than the mouse's period, the newest edit at least
+            # every robot_lag_s.
             first = frame_with(self._playback.trajectory)
             with self._lock:
                 self._computed = computed
             self._views.render(first)
-            time.sleep(0)  # a thread waiting to hand in the next edit gets to do so now
-            if self._state.version != snapshot.version:
+            # Releasing the interpreter lock gives a thread that waits to hand in the
+            # next edit a chance to do so now (not a promise: it may not get the lock).
+            time.sleep(0)
+            if (
+                self._state.version != snapshot.version
+                and time.monotonic() - self._robot_drawn_at < self.robot_lag_s
+            ):
                 with self._lock:
                     self._last_frame = first
                 return
@@ -611,6 +636,7 @@ class Scheduler:
             self._computed = computed
             pose = self._playback.settle_locked()
         self._views.render_with_robot(frame, pose)
+        self._robot_drawn_at = time.monotonic()
         with self._lock:
             self._last_frame = frame
             self._drawn = _Drawn(snapshot.version, snapshot.ui_version)

@@ -618,6 +618,7 @@ def test_a_newer_edit_comes_before_the_robot_of_the_one_it_overtakes(
             pass
 
     controller.add_view(NextEditWhileDrawing())
+    controller.scheduler.robot_lag_s = 60.0  # the robot was just drawn: it may wait
     planned.clear()
     controller.edits.move_goal(a)
     assert controller.wait_idle(10)
@@ -629,6 +630,37 @@ def test_a_newer_edit_comes_before_the_robot_of_the_one_it_overtakes(
     assert last.scene.goal == b and last.version == controller.version
     assert_allclose(last.trajectory.path[-1], b)
     assert view.poses[-1] is not None
+
+
+def test_in_a_long_drag_the_robot_follows_at_least_every_robot_lag(
+    make_controller, scene
+):
+    """With no slack (robot_lag_s 0), an overtaken edit's robot is planned as before."""
+    from app import robot
+
+    planned: list[tuple[float, float]] = []
+
+    def trajectory(s, path):
+        planned.append((float(path[-1][0]), float(path[-1][1])))
+        return robot.trajectory(s, path)
+
+    controller, _ = make_controller(scene, trajectory=trajectory, sample=robot.sample)
+    a, b = (8.8, 6.2), (8.6, 6.0)
+
+    class NextEditWhileDrawing:
+        def render(self, frame):
+            if frame.scene.goal == a and controller.scene.goal == a:
+                controller.edits.move_goal(b)
+
+        def render_robot(self, pose):
+            pass
+
+    controller.add_view(NextEditWhileDrawing())
+    controller.scheduler.robot_lag_s = 0.0
+    planned.clear()
+    controller.edits.move_goal(a)
+    assert controller.wait_idle(10)
+    assert planned == [a, b]
 
 
 def test_close_stops_the_threads(scene):

@@ -16,8 +16,11 @@ from typing import Any
 from shapely import Polygon
 
 import planners
-from app.big import BigJob, OwnWorker
+from app.big import BIG_SCENE_VERTICES, BigJob, OwnWorker, scene_vertices
+from app.controller import Controller
 from app.lanes import Interrupted
+from tests.app.app_helpers import FakeView, wait_until
+from tests.benchmarks.bench_big import circle_scene
 
 SQUARE = Polygon([(1, 1), (2, 1), (2, 2), (1, 2)])
 
@@ -122,3 +125,21 @@ def test_a_sessions_own_worker_is_leased_as_itself():
         assert held is worker
     job = _job(_scene((3.0, 3.0)), own)
     assert job.done.wait(5) and job.result == {"goal": (3.0, 3.0)}
+
+
+def test_closing_a_session_gives_its_big_job_up_and_the_worker_back():
+    """A classroom copy closing while its big scene computes in the shared pool: the
+    job is cancelled at once, and the pool's worker is free for the other copies."""
+    worker = FakeWorker()
+    pool = OnePool(worker)
+    scene = planners.load_scene(circle_scene())
+    assert scene_vertices(scene) > BIG_SCENE_VERTICES
+    controller = Controller(
+        FakeView(), scene, big_workers=pool, slow_plan=lambda s: {}, slow_names=()
+    )
+    try:
+        assert worker.running.wait(30)  # the fast lane's job holds the worker
+    finally:
+        controller.close()
+    assert worker.interrupts == 1
+    assert wait_until(lambda: not pool.lock.locked(), 10)

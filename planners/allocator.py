@@ -11,11 +11,12 @@ plan on the 2-core machine of ``tests/benchmarks/README.md``; with the threshold
 2 or 3.
 
 :func:`keep_freed_memory` raises both thresholds for the calling process: blocks up to
-:data:`MMAP_THRESHOLD` come from the heap and are reused, and the heap keeps up to
-:data:`TRIM_THRESHOLD` of freed memory instead of returning it. The peak a computation
-needs is unchanged (the big scenes of ``bench_big.py`` are measured with it). The app,
-its worker processes and the command line call it at start; the planners themselves
-never do (a library does not tune its caller's process).
+:data:`MMAP_THRESHOLD` come from the heap and are reused, and each of glibc's heaps (one
+per few threads) keeps up to :data:`TRIM_THRESHOLD` of freed memory at its top instead
+of returning it. The peak a computation needs is unchanged (the big scenes of
+``bench_big.py`` are measured with it). The app's entry point (``start_app``), its
+worker processes and the command line call it at start; the planners themselves never
+do (a library does not tune its caller's process).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import sys
 
 MMAP_THRESHOLD = 32 << 20
 """Blocks up to this many bytes come from the heap (glibc's ``M_MMAP_THRESHOLD``)."""
-TRIM_THRESHOLD = 64 << 20
+TRIM_THRESHOLD = 32 << 20
 """Freed memory the heap keeps before giving it back (glibc's ``M_TRIM_THRESHOLD``)."""
 
 _M_TRIM_THRESHOLD = -1
@@ -38,14 +39,9 @@ _M_MMAP_THRESHOLD = -3
 def keep_freed_memory() -> bool:
     """Raise glibc's mmap and trim thresholds for this process (module docstring).
 
-    Returns True when they were set, False where there is no glibc (macOS, Windows,
+    Returns True when both were set, False where there is no glibc (macOS, Windows,
     musl): there the allocator is left as it is and everything works the same, with the
     page faults.
-
-    Examples
-    --------
-    >>> keep_freed_memory() in (True, False)
-    True
     """
     if not sys.platform.startswith("linux"):
         return False
@@ -56,6 +52,6 @@ def keep_freed_memory() -> bool:
         return False
     mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
     mallopt.restype = ctypes.c_int
-    return bool(mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)) and bool(
-        mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD)
-    )
+    mmap_set = mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
+    trim_set = mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD)
+    return bool(mmap_set) and bool(trim_set)

@@ -64,8 +64,8 @@ class WorkerPool:
         """Hold a free worker (waiting for one) for the caller alone until the block ends.
 
         The caller may :meth:`app.lanes.ProcessLane.interrupt` it while it holds it (a
-        big scene's job given up, :mod:`app.big`); the worker then restarts on its next
-        call.
+        big scene's job given up, :mod:`app.big`): its process is replaced by a fresh
+        one at once, and the worker goes back to the pool as usual.
         """
         worker = self._take()
         try:

@@ -192,7 +192,7 @@ class _Kept(Generic[T]):
         if not _small(polygon):
             return self.make(polygon, *args)
         drawing = self._kept(polygon, *args)
-        if len(self._recent) >= 2 * _KEPT_DRAWINGS:
+        if len(self._recent) >= _KEPT_DRAWINGS:
             self._recent.clear()
         self._recent[key] = (polygon, drawing)
         return drawing

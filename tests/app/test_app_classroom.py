@@ -22,6 +22,7 @@ import pytest
 
 import planners
 from app import start_app
+from app.big import SharedWorkers
 from app.classroom import (
     PRESENTER_PATH,
     banner_html,
@@ -458,7 +459,9 @@ def test_private_copies_plan_big_scenes_in_the_shared_pool(planner):
             assert copy.wait_idle(240)
         assert room.big_pool.processes == 1 <= room.big_pool.size
         for copy in copies:
-            assert copy.scheduler._fast.big.pid is None  # no process of its own
+            big_workers = copy.scheduler._fast.big  # no process of its own: the pool
+            assert isinstance(big_workers, SharedWorkers)
+            assert big_workers.pool is room.big_pool
             final = copy.frame
             assert final is not None and not final.stale and final.progress is None
             fresh = planners.plan_all(final.scene, ("vg", "svg"))

@@ -101,7 +101,7 @@ def test_cold_build_equals_the_build_in_steps_edge_for_edge(kind, scene, picks):
     space = _fresh(scene, start, goal)
     with _exact_test(kind):
         cold = _arrays(space, start, goal)
-    steps = _in_steps(scene, start, goal)
+        steps = _in_steps(scene, start, goal)
     np.testing.assert_array_equal(cold.points, steps.points)
     np.testing.assert_array_equal(cold.i, steps.i)
     np.testing.assert_array_equal(cold.j, steps.j)

@@ -588,12 +588,15 @@ def test_the_paths_are_drawn_before_the_robot_trajectory_is_planned(
         release.set()
 
 
-def test_a_newer_edit_comes_before_the_robot_of_the_one_it_overtakes(
-    make_controller, scene
-):
-    """While a drag goes on, the planners' layers of each edit are drawn, and the robot's
-    trajectory is planned only for an edit no newer one has overtaken (issue 15: the
-    next edit's layers do not wait for a trajectory nobody will see)."""
+_GOAL_A, _GOAL_B = (8.8, 6.2), (8.6, 6.0)
+
+
+def _goal_b_while_goal_a_is_drawn(make_controller, scene, robot_lag_s):
+    """Move the goal to A; the edit to B arrives while A's layers are drawn.
+
+    Returns the controller, its view and the goals the robot's trajectories were
+    planned for, in order.
+    """
     from app import robot
 
     planned: list[tuple[float, float]] = []
@@ -605,30 +608,40 @@ def test_a_newer_edit_comes_before_the_robot_of_the_one_it_overtakes(
     controller, view = make_controller(
         scene, trajectory=trajectory, sample=robot.sample
     )
-    a, b = (8.8, 6.2), (8.6, 6.0)
 
     class NextEditWhileDrawing:
-        """The next edit arrives while the layers of goal ``a`` are drawn."""
-
         def render(self, frame):
-            if frame.scene.goal == a and controller.scene.goal == a:
-                controller.edits.move_goal(b)
+            if frame.scene.goal == _GOAL_A and controller.scene.goal == _GOAL_A:
+                controller.edits.move_goal(_GOAL_B)
 
         def render_robot(self, pose):
             pass
 
     controller.add_view(NextEditWhileDrawing())
-    controller.scheduler.robot_lag_s = 60.0  # the robot was just drawn: it may wait
+    controller.scheduler.robot_lag_s = robot_lag_s
     planned.clear()
-    controller.edits.move_goal(a)
+    controller.edits.move_goal(_GOAL_A)
     assert controller.wait_idle(10)
-    # The layers of ``a`` were drawn (its path ends there), its robot never planned.
-    drawn_a = [f for f in view.frames if f.scene.goal == a]
-    assert drawn_a and drawn_a[0].plans["vg"].path[-1].tolist() == list(a)
-    assert planned == [b]
+    return controller, view, planned
+
+
+def test_a_newer_edit_comes_before_the_robot_of_the_one_it_overtakes(
+    make_controller, scene
+):
+    """While a drag goes on, the planners' layers of each edit are drawn, and the robot's
+    trajectory is planned only for an edit no newer one has overtaken (issue 15: the
+    next edit's layers do not wait for a trajectory nobody will see)."""
+    # The robot was just drawn: it may wait (robot_lag_s long).
+    controller, view, planned = _goal_b_while_goal_a_is_drawn(
+        make_controller, scene, robot_lag_s=60.0
+    )
+    # The layers of A were drawn (its path ends there), its robot never planned.
+    drawn_a = [f for f in view.frames if f.scene.goal == _GOAL_A]
+    assert drawn_a and drawn_a[0].plans["vg"].path[-1].tolist() == list(_GOAL_A)
+    assert planned == [_GOAL_B]
     last = view.last
-    assert last.scene.goal == b and last.version == controller.version
-    assert_allclose(last.trajectory.path[-1], b)
+    assert last.scene.goal == _GOAL_B and last.version == controller.version
+    assert_allclose(last.trajectory.path[-1], _GOAL_B)
     assert view.poses[-1] is not None
 
 
@@ -636,31 +649,8 @@ def test_in_a_long_drag_the_robot_follows_at_least_every_robot_lag(
     make_controller, scene
 ):
     """With no slack (robot_lag_s 0), an overtaken edit's robot is planned as before."""
-    from app import robot
-
-    planned: list[tuple[float, float]] = []
-
-    def trajectory(s, path):
-        planned.append((float(path[-1][0]), float(path[-1][1])))
-        return robot.trajectory(s, path)
-
-    controller, _ = make_controller(scene, trajectory=trajectory, sample=robot.sample)
-    a, b = (8.8, 6.2), (8.6, 6.0)
-
-    class NextEditWhileDrawing:
-        def render(self, frame):
-            if frame.scene.goal == a and controller.scene.goal == a:
-                controller.edits.move_goal(b)
-
-        def render_robot(self, pose):
-            pass
-
-    controller.add_view(NextEditWhileDrawing())
-    controller.scheduler.robot_lag_s = 0.0
-    planned.clear()
-    controller.edits.move_goal(a)
-    assert controller.wait_idle(10)
-    assert planned == [a, b]
+    _, _, planned = _goal_b_while_goal_a_is_drawn(make_controller, scene, 0.0)
+    assert planned == [_GOAL_A, _GOAL_B]
 
 
 def test_close_stops_the_threads(scene):

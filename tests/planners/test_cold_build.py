@@ -6,7 +6,6 @@ it to the slow reference (shapely's predicates, pair by pair) and, edge for edge
 build in steps it replaces (vertex visibility first, then each row on its own).
 """
 
-import contextlib
 import dataclasses
 
 import numpy as np
@@ -20,6 +19,7 @@ from planners.expansion import ConfigurationSpace, configuration_space
 from planners.scene import Scene
 from planners.visibility import visibility_graph
 from tests.conftest import random_scenes, reference_segment_free
+from tests.planners.test_visibility import candidate_search
 
 
 def _fresh(scene: Scene, start, goal) -> ConfigurationSpace:
@@ -75,17 +75,6 @@ def test_cold_build_has_exactly_the_reference_edges(scene, picks):
             assert graph.has_edge(a, b) == reference_segment_free(space, a, b), (a, b)
 
 
-@contextlib.contextmanager
-def _exact_test(kind):
-    """Force the exact test's bounding-box matrix ("dense") or its grid march ("grid")."""
-    saved = visibility._DENSE_LIMIT
-    visibility._DENSE_LIMIT = {"dense": 10**12, "grid": 0}[kind]
-    try:
-        yield
-    finally:
-        visibility._DENSE_LIMIT = saved
-
-
 @pytest.mark.parametrize("kind", ["dense", "grid"])
 @settings(max_examples=80, deadline=None)
 @given(scene=st.one_of(random_scenes(), random_scenes(grid=True)), picks=st.data())
@@ -99,7 +88,7 @@ def test_cold_build_equals_the_build_in_steps_edge_for_edge(kind, scene, picks):
     assume(not probe.contains_blocked([scene.start, scene.goal]).any())
     start, goal = _ends(scene, probe, picks)
     space = _fresh(scene, start, goal)
-    with _exact_test(kind):
+    with candidate_search(kind):
         cold = _arrays(space, start, goal)
         steps = _in_steps(scene, start, goal)
     np.testing.assert_array_equal(cold.points, steps.points)
@@ -187,7 +176,7 @@ def test_exact_free_pairs_is_the_exact_test_and_the_reference(kind, scene, picks
     index = st.integers(0, len(points) - 1)
     i = np.array([picks.draw(index) for _ in range(count)], dtype=np.intp)
     j = np.array([picks.draw(index) for _ in range(count)], dtype=np.intp)
-    with _exact_test(kind):
+    with candidate_search(kind):
         got = visibility._exact_free_pairs(space, border, points, i, j)
         rows = visibility._exact_free(space, border, points[i], points[j])
     np.testing.assert_array_equal(got, rows)

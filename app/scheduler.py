@@ -198,11 +198,7 @@ def lanes_for(
     else:
         memo = planners.Memo()
         run = functools.partial(_run, registry=registry, memo=memo)
-        big = (
-            big_workers
-            if big_workers is not None
-            else _big_worker(fast_names, registry)
-        )
+        big = big_workers if big_workers is not None else _big_worker(registry)
         fast = Lane(fast_names, run, big=big)
     if slow_plan is not None:
         names = slow if slow_names is None else tuple(slow_names)
@@ -227,12 +223,15 @@ def big_plan(registry: Mapping[str, PlannerSpec]) -> functools.partial[Any]:
     return functools.partial(default_plan, which=names, registry=dict(registry))
 
 
-def _big_worker(
-    names: tuple[str, ...], registry: Mapping[str, PlannerSpec]
-) -> OwnWorker | None:
-    """Make the worker for big scenes' fast planners (started on first use; None if unpicklable)."""
+def _big_worker(registry: Mapping[str, PlannerSpec]) -> OwnWorker | None:
+    """Make the worker for big scenes' fast planners (started on first use).
+
+    None when there are none, or when they cannot be sent to a process.
+    """
     fn = big_plan(registry)
-    return OwnWorker(ProcessLane(fn, start=False)) if names and picklable(fn) else None
+    if not fn.keywords["which"] or not picklable(fn):
+        return None
+    return OwnWorker(ProcessLane(fn, start=False))
 
 
 def _run(

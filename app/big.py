@@ -18,6 +18,7 @@ Data flow::
       job = BigJob(key, scene, which, workers)    # a thread leases a worker, waits
       while not job.done:  draw progress frame (old plans, stale=True); wait
         a newer edit -> return; the next round: job.cancel() -> worker.interrupt()
+                                    (still waiting for a pool's worker: the wait ends)
       plans = job.result                          # for exactly this key
 """
 
@@ -74,8 +75,18 @@ def scene_vertices(scene: Scene) -> int:
 class BigWorkers(Protocol):
     """Where a session's big scenes are computed: workers it leases one call at a time."""
 
-    def lease(self) -> contextlib.AbstractContextManager[ProcessLane]:
-        """Hold a worker for one job (it may interrupt it meanwhile)."""
+    def lease(
+        self, abandoned: Callable[[], bool]
+    ) -> contextlib.AbstractContextManager[ProcessLane]:
+        """Hold a worker for one job (it may interrupt it meanwhile).
+
+        Raises :class:`app.lanes.Interrupted` when ``abandoned`` says the job was given
+        up before it held one (it never waits for a worker it would not use).
+        """
+        ...
+
+    def wake(self) -> None:
+        """Have a lease that waits for a worker ask again (a job was given up)."""
         ...
 
     @property
@@ -95,9 +106,16 @@ class OwnWorker:
         self.worker = worker
 
     @contextlib.contextmanager
-    def lease(self) -> Iterator[ProcessLane]:
-        """Hold the session's worker: one job at a time is the scheduler's rule."""
+    def lease(self, abandoned: Callable[[], bool]) -> Iterator[ProcessLane]:
+        """Hold the session's worker: one job at a time is the scheduler's rule.
+
+        Nothing waits here; a job given up before its call never starts (the worker
+        asks ``abandoned`` first).
+        """
         yield self.worker
+
+    def wake(self) -> None:
+        """Nothing waits for the session's own worker."""
 
     @property
     def pid(self) -> int | None:
@@ -118,9 +136,15 @@ class SharedWorkers:
     def __init__(self, pool: WorkerPool) -> None:
         self.pool = pool
 
-    def lease(self) -> contextlib.AbstractContextManager[ProcessLane]:
+    def lease(
+        self, abandoned: Callable[[], bool]
+    ) -> contextlib.AbstractContextManager[ProcessLane]:
         """Hold a free worker of the pool (waiting for one) for one job."""
-        return self.pool.lease()
+        return self.pool.lease(abandoned)
+
+    def wake(self) -> None:
+        """Let the copies' jobs waiting for the pool see which were given up."""
+        self.pool.wake()
 
     @property
     def pid(self) -> int | None:
@@ -205,16 +229,19 @@ class BigJob:
 
         Only while the job holds the worker: once handed back, a shared pool's worker
         may compute another session's scene, which this must never stop. A job given up
-        before it holds one never starts (the worker asks ``abandoned`` first).
+        while it waits for a worker ends at once, without one (a student dragging a big
+        scene gives up a job per edit: none of them lingers in the pool's queue); one
+        given up as it gets one never starts (the worker asks ``abandoned`` first).
         """
         with self._held_lock:
             self._cancelled = True
             if self._held is not None:
                 self._held.interrupt()
+        self._workers.wake()
 
     def _run(self) -> None:
         try:
-            with self._workers.lease() as worker:
+            with self._workers.lease(lambda: self._cancelled) as worker:
                 with self._held_lock:
                     self._held = worker
                 try:

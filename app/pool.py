@@ -13,11 +13,12 @@ pure and the memo is keyed on the values it caches).
 Data flow::
 
     private session's slow lane (its scheduler thread)
-      -> pool(scene, which)         # wait for a free worker (a queue of idle ones)
+      -> pool(scene, which)         # wait for a free worker (the idle ones)
            worker(scene, which=...) # one ProcessLane: pickles out, result back
-      -> the worker goes back to the queue
+      -> the worker goes back to the idle ones
     private session's big scene (a BigJob's thread)
-      -> with pool.lease() as worker: worker(scene, ...)   # interrupted if given up
+      -> with pool.lease(abandoned) as worker: worker(scene, ...)  # interrupted if given up
+         given up while it waits: pool.wake() -> the lease ends at once (Interrupted)
 """
 
 from __future__ import annotations
@@ -25,12 +26,11 @@ from __future__ import annotations
 __all__ = ["WorkerPool"]
 
 import contextlib
-import queue
 import threading
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from app.lanes import ProcessLane
+from app.lanes import Interrupted, ProcessLane
 
 
 class WorkerPool:
@@ -49,9 +49,10 @@ class WorkerPool:
         self._fn = fn
         self.size = max(1, int(size))
         """Most worker processes at once."""
-        self._idle: queue.SimpleQueue[ProcessLane] = queue.SimpleQueue()
+        # Guarded by the condition: the idle workers, every worker, closed or not.
+        self._ready = threading.Condition()
+        self._idle: list[ProcessLane] = []
         self._all: list[ProcessLane] = []
-        self._lock = threading.Lock()
         self._closed = False
 
     def __call__(self, scene: Any, which: tuple[str, ...]) -> Any:
@@ -60,43 +61,64 @@ class WorkerPool:
             return worker(scene, which=which)
 
     @contextlib.contextmanager
-    def lease(self) -> Iterator[ProcessLane]:
+    def lease(
+        self, abandoned: Callable[[], bool] | None = None
+    ) -> Iterator[ProcessLane]:
         """Hold a free worker (waiting for one) for the caller alone until the block ends.
 
         The caller may :meth:`app.lanes.ProcessLane.interrupt` it while it holds it (a
         big scene's job given up, :mod:`app.big`): its process is replaced by a fresh
         one at once, and the worker goes back to the pool as usual.
+
+        ``abandoned`` (optional) tells whether the caller has given up: one that gives up
+        while it waits calls :meth:`wake`, and the lease raises
+        :class:`app.lanes.Interrupted` at once instead of waiting for a worker only to
+        hand it back (a student dragging a big scene gives a job up per edit).
         """
-        worker = self._take()
+        worker = self._take(abandoned or _never)
         try:
             yield worker
         finally:
-            self._idle.put(worker)
+            with self._ready:
+                self._idle.append(worker)
+                self._ready.notify_all()
 
-    def _take(self) -> ProcessLane:
-        try:
-            return self._idle.get_nowait()
-        except queue.Empty:
-            pass
-        with self._lock:
-            if self._closed:
-                raise RuntimeError("the worker pool is closed")
-            if len(self._all) < self.size:
-                worker = ProcessLane(self._fn)
-                self._all.append(worker)
-                return worker
-        return self._idle.get()
+    def wake(self) -> None:
+        """Have the leases that wait ask their ``abandoned`` again."""
+        with self._ready:
+            self._ready.notify_all()
+
+    def _take(self, abandoned: Callable[[], bool]) -> ProcessLane:
+        with self._ready:
+            while True:
+                if self._closed:
+                    raise RuntimeError("the worker pool is closed")
+                if abandoned():
+                    raise Interrupted("given up while waiting for a worker")
+                if self._idle:
+                    return self._idle.pop()
+                if len(self._all) < self.size:
+                    worker = ProcessLane(self._fn)
+                    self._all.append(worker)
+                    return worker
+                self._ready.wait()
 
     @property
     def processes(self) -> int:
         """Worker processes started so far (never more than :attr:`size`)."""
-        with self._lock:
+        with self._ready:
             return len(self._all)
 
     def close(self) -> None:
-        """Stop every worker (a call in progress ends with an error)."""
-        with self._lock:
+        """Stop every worker: a call in progress and a lease that waits end with errors."""
+        with self._ready:
             self._closed = True
             workers, self._all = self._all, []
+            self._ready.notify_all()
         for worker in workers:
             worker.close()
+
+
+def _never() -> bool:
+    """Nobody gives this lease up."""
+    return False

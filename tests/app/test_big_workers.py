@@ -10,15 +10,23 @@ from __future__ import annotations
 
 import contextlib
 import threading
+import time
 from collections.abc import Iterator
 from typing import Any
 
 from shapely import Polygon
 
 import planners
-from app.big import BIG_SCENE_VERTICES, BigJob, OwnWorker, scene_vertices
+from app.big import (
+    BIG_SCENE_VERTICES,
+    BigJob,
+    OwnWorker,
+    SharedWorkers,
+    scene_vertices,
+)
 from app.controller import Controller
 from app.lanes import Interrupted
+from app.pool import WorkerPool
 from tests.app.app_helpers import FakeView, wait_until
 from tests.benchmarks.bench_big import circle_scene
 
@@ -55,19 +63,34 @@ class FakeWorker:
 
 
 class OnePool:
-    """A pool of one worker: a lease waits until the holder hands it back."""
+    """A pool of one worker: a lease waits until the holder hands it back or its job
+    is given up (the protocol of app.big.BigWorkers, as app.pool.WorkerPool keeps it)."""
 
     def __init__(self, worker: FakeWorker) -> None:
         self.worker = worker
-        self.lock = threading.Lock()
+        self.held = False
+        self.ready = threading.Condition()
         self.waiting = threading.Event()
 
     @contextlib.contextmanager
-    def lease(self) -> Iterator[Any]:
-        if self.lock.locked():
-            self.waiting.set()
-        with self.lock:
+    def lease(self, abandoned: Any) -> Iterator[Any]:
+        with self.ready:
+            while self.held:
+                if abandoned():
+                    raise Interrupted("given up while waiting")
+                self.waiting.set()
+                self.ready.wait()
+            self.held = True
+        try:
             yield self.worker
+        finally:
+            with self.ready:
+                self.held = False
+                self.ready.notify_all()
+
+    def wake(self) -> None:
+        with self.ready:
+            self.ready.notify_all()
 
     @property
     def pid(self) -> None:
@@ -89,9 +112,10 @@ def test_a_job_given_up_while_waiting_never_stops_the_holders_call():
     second = _job(_scene((4.0, 4.0)), pool)
     assert pool.waiting.wait(5)
     second.cancel()  # another copy's edit
-    assert worker.interrupts == 0  # the first copy's call goes on
+    assert second.done.wait(5)  # at once: it does not wait for the worker it gave up
+    assert worker.interrupts == 0 and not first.done.is_set()  # the first call goes on
     worker.release.set()
-    assert first.done.wait(5) and second.done.wait(5)
+    assert first.done.wait(5)
     assert first.result == {"goal": (3.0, 3.0)} and first.error is None
     assert second.result is None and second.error is None
     assert worker.started == [(3.0, 3.0)]  # the given-up job never started
@@ -121,7 +145,7 @@ def test_a_sessions_own_worker_is_leased_as_itself():
     worker = FakeWorker()
     worker.release.set()
     own = OwnWorker(worker)  # type: ignore[arg-type]
-    with own.lease() as held:
+    with own.lease(lambda: False) as held:
         assert held is worker
     job = _job(_scene((3.0, 3.0)), own)
     assert job.done.wait(5) and job.result == {"goal": (3.0, 3.0)}
@@ -142,4 +166,47 @@ def test_closing_a_session_gives_its_big_job_up_and_the_worker_back():
     finally:
         controller.close()
     assert worker.interrupts == 1
-    assert wait_until(lambda: not pool.lock.locked(), 10)
+    assert wait_until(lambda: not pool.held, 10)
+
+
+def slow_answer(scene: planners.Scene, memo: Any = None, which: Any = ()) -> Any:
+    """A worker's function that computes for goal.x seconds (a big scene's stand-in)."""
+    time.sleep(scene.goal[0])
+    return {"goal": scene.goal}
+
+
+def test_in_a_real_pool_jobs_given_up_while_waiting_end_at_once():
+    """A student drags a big scene while another copy's computation holds the only
+    worker: each edit gives a job up; none of them waits for the worker (threads and
+    scenes would pile up, one per edit), and the holder's call goes on to its result."""
+    pool = WorkerPool(slow_answer, size=1)
+    workers = SharedWorkers(pool)
+    try:
+        holder = _job(_scene((3.0, 3.0)), workers)
+        assert wait_until(lambda: pool.processes == 1, 10)  # the holder has it
+        dragged = [_job(_scene((0.1 * k, 9.0)), workers) for k in range(1, 6)]
+        for job in dragged:
+            job.cancel()
+        assert all(job.done.wait(2.0) for job in dragged)
+        assert all(job.result is None and job.error is None for job in dragged)
+        assert not holder.done.is_set()  # still computing: nobody interrupted it
+        assert holder.done.wait(30)
+        assert holder.result == {"goal": (3.0, 3.0)} and holder.error is None
+        # The worker went back to the pool: the next job gets it.
+        after = _job(_scene((0.0, 1.0)), workers)
+        assert after.done.wait(30) and after.result == {"goal": (0.0, 1.0)}
+        assert pool.processes == 1
+    finally:
+        pool.close()
+
+
+def test_closing_a_pool_ends_the_leases_that_wait():
+    pool = WorkerPool(slow_answer, size=1)
+    workers = SharedWorkers(pool)
+    holder = _job(_scene((30.0, 3.0)), workers)
+    assert wait_until(lambda: pool.processes == 1, 10)
+    waiting = _job(_scene((0.0, 1.0)), workers)
+    pool.close()  # the classroom closes
+    assert holder.done.wait(10) and waiting.done.wait(10)
+    assert holder.result is None and waiting.result is None
+    assert isinstance(waiting.error, RuntimeError)

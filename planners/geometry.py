@@ -6,9 +6,10 @@ rows of vectors are arrays of shape (N, 2).
 
 from __future__ import annotations
 
-__all__ = ["as_point", "cross", "segment_closest", "unit", "unit_rows"]
+__all__ = ["as_point", "cross", "segment_closest", "take_rows", "unit", "unit_rows"]
 
 import math
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -27,6 +28,23 @@ def as_point(p: npt.ArrayLike) -> Point:
     """
     x, y = np.asarray(p, dtype=np.float64).reshape(2)
     return (float(x), float(y))
+
+
+def take_rows(a: npt.NDArray[Any], index: npt.ArrayLike) -> npt.NDArray[Any]:
+    """Return ``a[index]`` for integer indices of any shape: the rows of ``a`` they name.
+
+    The same values as fancy indexing, by :func:`numpy.take`: numpy copies an (N, 2)
+    array's rows one at a time when indexed with an array, some twenty times slower
+    than ``take`` (the pairs of a visibility graph gather points and wedges by the
+    thousand on every edit). ``index`` must hold integers, never booleans.
+
+    Examples
+    --------
+    >>> take_rows(np.array([[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]]), np.array([2, 0]))
+    array([[4., 5.],
+           [0., 1.]])
+    """
+    return a.take(index, axis=0)
 
 
 def cross(u: FloatArray, v: FloatArray) -> FloatArray:

@@ -40,6 +40,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry as Geometry
 
 from planners.expansion import ConfigurationSpace
+from planners.geometry import take_rows
 from planners.visibility import (
     _ANGLE_TOL,
     _Border,
@@ -140,7 +141,7 @@ def _carried(
     tests = [*_pairs_to_test(new_b, change.stable, change.box)]
     ti = np.concatenate([np.zeros(0, dtype=np.intp), *(t[0] for t in tests)])
     tj = np.concatenate([np.zeros(0, dtype=np.intp), *(t[1] for t in tests)])
-    a, b = [new_b.points[ti]], [new_b.points[tj]]
+    a, b = [take_rows(new_b.points, ti)], [take_rows(new_b.points, tj)]
     from_j = [np.zeros(0, dtype=bool), *(t[2] for t in tests)]
     # The points old kept: rows of stable vertices clear of the box stay.
     kept = old.known(_point_sights)
@@ -148,7 +149,7 @@ def _carried(
     for point, rows in kept.items() if kept is not None else []:
         stay, again = _point_change(new_b, change, point, rows)
         carried.append((point, stay, again))
-        a.append(new_b.points[again])
+        a.append(take_rows(new_b.points, again))
         b.append(np.broadcast_to(np.asarray(point), (len(again), 2)))
         from_j.append(np.ones(len(again), dtype=bool))
     ok = _free_from(new, new_b, np.vstack(a), np.vstack(b), np.concatenate(from_j))
@@ -172,7 +173,9 @@ def _kept_pairs(
     i, j = i[keep], j[keep]
     keep = change.stable[i] & change.stable[j]
     i, j = i[keep], j[keep]
-    keep = ~_meets_box(new_b.points[i], new_b.points[j], change.box)
+    keep = ~_meets_box(
+        take_rows(new_b.points, i), take_rows(new_b.points, j), change.box
+    )
     return np.minimum(i, j)[keep], np.maximum(i, j)[keep]
 
 
@@ -189,12 +192,13 @@ def _point_change(
     v = change.to_new[rows]
     v = v[v >= 0]
     v = v[change.stable[v]]
-    stay = v[~_meets_box(new_b.points[v], np.broadcast_to(p, (len(v), 2)), change.box)]
+    ends = np.broadcast_to(p, (len(v), 2))
+    stay = v[~_meets_box(take_rows(new_b.points, v), ends, change.box)]
     again = ~change.stable
     if change.box is not None:
         again |= _meets_box(new_b.points, np.broadcast_to(p, (n, 2)), change.box)
     again = np.flatnonzero(again)
-    d = p - new_b.points[again]
+    d = p - take_rows(new_b.points, again)
     ends = np.full(len(again), n, dtype=np.intp)  # the point: no wedge
     keep = ~_leaves_blocked(new_b.wedges.extended(1), again, ends, d[:, 0], d[:, 1])
     return stay, again[keep]
@@ -215,8 +219,8 @@ def _stable(old_b: _Border, new_b: _Border, match: IntArray) -> BoolArray:
     o = match[k]
     ow, nw = old_b.wedges, new_b.wedges
     same = (
-        np.all(ow.nxt[o] == nw.nxt[k], axis=1)
-        & np.all(ow.prv[o] == nw.prv[k], axis=1)
+        np.all(take_rows(ow.nxt, o) == take_rows(nw.nxt, k), axis=1)
+        & np.all(take_rows(ow.prv, o) == take_rows(nw.prv, k), axis=1)
         & (ow.narrow[o] == nw.narrow[k])
         & (old_b.pinch_nodes[o] == new_b.pinch_nodes[k])
         & (old_b.convex_nodes[o] == new_b.convex_nodes[k])
@@ -326,7 +330,7 @@ def _crossing_box(
     """
     points = new_b.points
     nodes = np.flatnonzero(stable & _facing(new_b, box))
-    code = _outcodes(points[nodes], box)
+    code = _outcodes(take_rows(points, nodes), box)
     k = len(nodes)
     r0 = 0
     while r0 < k - 1:
@@ -336,7 +340,7 @@ def _crossing_box(
         maybe = ((code[rows] & code[cols]) == 0) & (cols > rows)
         r, c = np.nonzero(maybe)
         i, j = nodes[r0 + r], nodes[r0 + 1 + c]
-        meets = _line_meets_box(points[i], points[j], box)
+        meets = _line_meets_box(take_rows(points, i), take_rows(points, j), box)
         i, j = _screened(new_b, i[meets], j[meets])
         yield i, j, np.zeros(len(i), dtype=bool)
         r0 = r1
@@ -400,6 +404,6 @@ def _outcodes(points: FloatArray, box: FloatArray) -> npt.NDArray[np.uint8]:
 
 def _screened(new_b: _Border, i: IntArray, j: IntArray) -> tuple[IntArray, IntArray]:
     """Leave out the pairs whose segment leaves an end into its blocked wedge."""
-    d = new_b.points[j] - new_b.points[i]
+    d = take_rows(new_b.points, j) - take_rows(new_b.points, i)
     keep = ~_leaves_blocked(new_b.wedges, i, j, d[:, 0], d[:, 1])
     return i[keep], j[keep]

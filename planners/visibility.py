@@ -65,7 +65,7 @@ import shapely
 
 from planners.border import ring_geometry
 from planners.expansion import ConfigurationSpace
-from planners.geometry import cross, unit_rows
+from planners.geometry import cross, take_rows, unit_rows
 from planners.sightlines import (
     Disks,
     EdgeGrid,
@@ -124,7 +124,9 @@ class GraphArrays:
     @functools.cached_property
     def weight(self) -> FloatArray:
         """Edge lengths, shape (m,) [m]."""
-        return np.hypot(*(self.points[self.j] - self.points[self.i]).T)
+        return np.hypot(
+            *(take_rows(self.points, self.j) - take_rows(self.points, self.i)).T
+        )
 
     @property
     def nodes(self) -> int:
@@ -138,7 +140,9 @@ class GraphArrays:
 
     def segments(self) -> FloatArray:
         """Every edge as a segment, shape (m, 2, 2) [m]."""
-        return np.stack([self.points[self.i], self.points[self.j]], axis=1)
+        return np.stack(
+            [take_rows(self.points, self.i), take_rows(self.points, self.j)], axis=1
+        )
 
     def kind(self, node: int) -> str:
         """``"start"``, ``"goal"`` or ``"vertex"`` (``"start"`` when start is goal)."""
@@ -474,7 +478,7 @@ def _segments_free(
     # Cheap first: segments that certainly pass through a disk inside an obstacle.
     free = ~occluded(cspace.derive(_inner_disks), a, b, starts)
     test = np.flatnonzero(free)
-    free[test] = _exact_free(cspace, border, a[test], b[test])
+    free[test] = _exact_free(cspace, border, take_rows(a, test), take_rows(b, test))
     return free
 
 
@@ -532,7 +536,7 @@ def _exact_free_pairs(
     numbers as :meth:`Segments.of` on the gathered rows, without gathering (N, 2) rows).
     """
     if len(i) * len(border.edge_a) <= _DENSE_LIMIT:
-        return _exact_free(cspace, border, points[i], points[j])
+        return _exact_free(cspace, border, take_rows(points, i), take_rows(points, j))
     x, y = points[:, 0], points[:, 1]
     ax, ay = x[i], y[i]
     dx, dy = x[j] - ax, y[j] - ay
@@ -686,10 +690,11 @@ def _leaves_blocked(
     columns for a block of pairs).
     """
     tol = _ANGLE_TOL * np.hypot(dx, dy)
+    nxt, prv, narrow = wedges.nxt, wedges.prv, wedges.narrow
     return _into_wedge(
-        wedges.nxt[i], wedges.prv[i], wedges.narrow[i], dx, dy, tol
+        take_rows(nxt, i), take_rows(prv, i), narrow.take(i), dx, dy, tol
     ) | _into_wedge(
-        wedges.nxt[j], wedges.prv[j], wedges.narrow[j], dx, dy, tol, backward=True
+        take_rows(nxt, j), take_rows(prv, j), narrow.take(j), dx, dy, tol, backward=True
     )
 
 
@@ -706,7 +711,7 @@ def _not_tangent(
     tol = _ANGLE_TOL * np.hypot(dx, dy)
     enters = np.zeros(np.broadcast_shapes(np.shape(dx), np.shape(i), np.shape(j)), bool)
     for k in (i, j):
-        nxt, prv = wedges.nxt[k], wedges.prv[k]
+        nxt, prv = take_rows(wedges.nxt, k), take_rows(wedges.prv, k)
         a = nxt[..., 0] * dy - nxt[..., 1] * dx  # cross(nxt, d)
         b = dx * prv[..., 1] - dy * prv[..., 0]  # cross(d, prv)
         enters |= ((a > tol) & (b > tol)) | ((a < -tol) & (b < -tol))
@@ -722,10 +727,12 @@ def _visible(
     This only saves work (the exact test decides the rest) and skips the vertices
     where rings touch.
     """
-    d = q.points[j] - q.points[i]
+    d = take_rows(q.points, j) - take_rows(q.points, i)
     ok = ~_leaves_blocked(_query_wedges(border, q), i, j, d[:, 0], d[:, 1])
     idx = np.flatnonzero(ok)
-    ok[idx] = _segments_free(cspace, border, q.points[i[idx]], q.points[j[idx]])
+    ok[idx] = _segments_free(
+        cspace, border, take_rows(q.points, i[idx]), take_rows(q.points, j[idx])
+    )
     return ok
 
 
@@ -997,7 +1004,7 @@ def _candidate_pairs_apart(
                 found, count = [], 0
     # The rings' own edges, screened like every other pair.
     i, j = rings.edge_i, rings.edge_j
-    d = points[j] - points[i]
+    d = take_rows(points, j) - take_rows(points, i)
     keep = ~_leaves_blocked(wedges, i, j, d[:, 0], d[:, 1])
     found.append((i[keep], j[keep]))
     yield _joined(found)
@@ -1089,7 +1096,7 @@ def _cold_sights(cspace: ConfigurationSpace, border: _Border, q: _Query) -> None
         if store.get(point) is not None:
             continue
         ends = np.full(n, node, dtype=np.intp)
-        d = q.points[ends] - q.points[vertices]
+        d = take_rows(q.points, ends) - take_rows(q.points, vertices)
         keep = ~_leaves_blocked(wedges, vertices, ends, d[:, 0], d[:, 1])
         rows.append((point, vertices[keep]))
         extra_i.append(vertices[keep])
@@ -1195,7 +1202,7 @@ def _point_rows(
     if rows is None:
         vertices = np.arange(n, dtype=np.intp)
         ends = np.full(n, node, dtype=np.intp)
-        d = q.points[ends] - q.points[vertices]
+        d = take_rows(q.points, ends) - take_rows(q.points, vertices)
         keep = ~_leaves_blocked(
             _query_wedges(border, q), vertices, ends, d[:, 0], d[:, 1]
         )
@@ -1203,7 +1210,7 @@ def _point_rows(
         ok = _free_from(
             cspace,
             border,
-            q.points[vertices],
+            take_rows(q.points, vertices),
             np.broadcast_to(q.points[node], (len(vertices), 2)),
             np.ones(len(vertices), dtype=bool),
         )
@@ -1251,13 +1258,13 @@ def _free_from(
     src = np.where(from_b[:, None], b, a)
     dst = np.where(from_b[:, None], a, b)
     order = np.lexsort((src[:, 1], src[:, 0]))
-    src, dst = src[order], dst[order]
+    src, dst = take_rows(src, order), take_rows(dst, order)
     free = np.ones(len(a), dtype=bool)
     free[order] = ~occluded(
         cspace.derive(_inner_disks), src, dst, _runs_of_equal_starts(src)
     )
     test = np.flatnonzero(free)
-    free[test] = _exact_free(cspace, border, a[test], b[test])
+    free[test] = _exact_free(cspace, border, take_rows(a, test), take_rows(b, test))
     return free
 
 
@@ -1415,12 +1422,13 @@ def _tangents_of_known(
     i, j = known.i, known.j
     both = np.flatnonzero(is_candidate[i] & is_candidate[j])
     i, j = i[both], j[both]
-    d = q.points[j] - q.points[i]
+    d = take_rows(q.points, j) - take_rows(q.points, i)
     yield _tangent_only(wedges, i, j, d)
     for new in range(known.n, len(q.points)):
         before = candidate[candidate < new]
         rows = np.full(len(before), new, dtype=np.intp)
-        yield _tangent_only(wedges, before, rows, q.points[rows] - q.points[before])
+        d = take_rows(q.points, rows) - take_rows(q.points, before)
+        yield _tangent_only(wedges, before, rows, d)
 
 
 def _tangent_only(

@@ -30,7 +30,9 @@ def as_point(p: npt.ArrayLike) -> Point:
     return (float(x), float(y))
 
 
-def take_rows(a: npt.NDArray[Any], index: npt.ArrayLike) -> npt.NDArray[Any]:
+def take_rows(
+    a: npt.NDArray[Any], index: npt.NDArray[np.integer[Any]]
+) -> npt.NDArray[Any]:
     """Return ``a[index]`` for integer indices of any shape: the rows of ``a`` they name.
 
     The same values as fancy indexing, by :func:`numpy.take`: numpy copies an (N, 2)

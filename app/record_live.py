@@ -58,7 +58,7 @@ import numpy as np
 import numpy.typing as npt
 
 from app.frames import RobotPose
-from app.headless import SnapshotError, scene_bounds
+from app.headless import scene_bounds
 from app.live import step_pose
 from app.pictures import FirstPicture, open_studio
 from app.record import Recording, _pixels, _writer, frame_times
@@ -162,6 +162,10 @@ class LiveFilm:
     trace: LiveTrace
     memo: Memo = dataclasses.field(default_factory=Memo)
     options: LiveOptions = dataclasses.field(default_factory=LiveOptions)
+
+    def __post_init__(self) -> None:
+        if not self.trace.steps:
+            raise ValueError("a live run of no step has nothing to draw")
 
     @functools.cached_property
     def wheel_turns(self) -> FloatArray:
@@ -342,8 +346,6 @@ def _base_slide(
     options: SlideOptions,
 ) -> Slide:
     """Lay out what every frame shares: camera, title, legend (of the whole run), stamp."""
-    if not film.trace.steps:
-        raise SnapshotError("no live run to record: the robot took no step")
     controller = planner_app.controller
     last = film.frame(times[-1] if times else 0.0)
     whole = dataclasses.replace(last.walk, events=film.walk(film.trace.duration).events)

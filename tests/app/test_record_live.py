@@ -9,6 +9,7 @@ pixels where the moving obstacle is, and that a second recording is the same.
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -26,7 +27,7 @@ from app.jobs import JobFailure
 from app.record import LIVE_FOLLOW, record, record_video
 from app.record_live import FIGURE_EVENTS, LiveFilm, live_trace, show_live
 from app.server import resolve_scenario
-from app.slides import SlideOptions, project
+from app.slides import SlideOptions, layout, project, relabel
 from app.style import COLORS, HEIGHTS
 from app.view import prism_mesh
 from planners.live import LiveOptions, live_space
@@ -159,6 +160,8 @@ def test_a_robot_at_rest_and_a_run_of_one_step() -> None:
     assert len(short.trace.steps) >= 1 and short.frame(0.0).pose.xy == moving.start
     # Past the end of the run the robot stays where the run ended.
     assert short.pose_at(5.0)[0] == tuple(short.trace.poses[-1])
+    with pytest.raises(ValueError, match="no step"):
+        LiveFilm(moving, dataclasses.replace(short.trace, steps=()))
 
 
 # --------------------------------------------------------------------------- the app
@@ -323,3 +326,38 @@ def test_the_command_line_says_it_in_one_line(tmp_path) -> None:
     )  # fmt: skip
     assert result.returncode == 2 and result.stdout == ""
     assert result.stderr.count("\n") == 1 and "recorded live" in result.stderr
+
+
+# --------------------------------------------------------------------------- layout
+
+
+def test_relabel_keeps_the_layout_and_moves_the_moving_obstacles_number() -> None:
+    scene = shipped("09_sliding_door")
+    base = layout(scene, {}, {}, 640, 400)
+    assert relabel(base, scene, {}, {}) == base  # layout places its labels so
+    later = scene_at(scene, 6.0)  # the door has slid down 1.2 m
+    moved = relabel(base, later, {}, {})
+    assert (moved.camera, moved.legend, moved.title, moved.stamp) == (
+        base.camera, base.legend, base.title, base.stamp,
+    )  # fmt: skip
+    number = {p.request.text: p.request.anchor for p in base.labels.placed}
+    after = {p.request.text: p.request.anchor for p in moved.labels.placed}
+    door = later.obstacles[2].representative_point()
+    expected = project(base.camera, 640, 400, [[door.x, door.y, HEIGHTS["obstacle"]]])[
+        0
+    ]
+    assert after["3"] == pytest.approx(tuple(expected))
+    assert after["3"][1] - number["3"][1] > 20  # [px] lower on the picture
+    assert after["1"] == number["1"] and after["2"] == number["2"]
+
+
+def test_layout_frames_the_bounds_it_is_given() -> None:
+    scene = shipped(PERSON)
+    wide = (-5.0, -5.0, 15.0, 13.0)
+    slide = layout(scene, {}, {}, 640, 400, bounds=wide, options=BARE)
+    corners = project(slide.camera, 640, 400, [[-5.0, -5.0, 0.0], [15.0, 13.0, 0.0]])
+    assert (
+        corners.min() >= 0 and corners[:, 0].max() <= 640 and corners[:, 1].max() <= 400
+    )
+    own = layout(scene, {}, {}, 640, 400, options=BARE)
+    assert own.camera != slide.camera

@@ -114,7 +114,9 @@ def _media_arguments(parser: argparse.ArgumentParser) -> None:
         "--record",
         metavar="OUT.mp4|OUT.gif",
         default=None,
-        help="record the robot following the path, at the trajectory's real time",
+        help="record the robot following the path, at the trajectory's real time; a "
+        "scenario with moving obstacles (09, 10) is recorded live: the DSB robot sensing "
+        "as it drives while they move (no --follow)",
     )
     group.add_argument(
         "--fps",
@@ -125,7 +127,8 @@ def _media_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--follow",
         default=None,
-        help="the planner whose path the robot follows (vg, svg, dsb, bug2)",
+        help="the planner whose path the robot follows (vg, svg, dsb, bug2; "
+        "--record: scenarios without moving obstacles only)",
     )
     group.add_argument(
         "--time-stamp",

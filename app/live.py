@@ -32,6 +32,7 @@ __all__ = [
     "live_pose",
     "live_pose_at",
     "live_status_markdown",
+    "step_pose",
 ]
 
 import dataclasses
@@ -125,6 +126,16 @@ def live_pose_at(
         motions=(),
     )
     return _robot_pose(step, sensed, memo, playing=False)
+
+
+def step_pose(step: LiveStep, scene: Scene, memo: Memo | None = None) -> RobotPose:
+    """Describe the robot of one recorded step in ``scene``, the scene it senses there.
+
+    Pose and wheel rates are the step's, r_next its aim; the sensing picture is the
+    sensor's reading at the step's pose in ``scene`` (:func:`planners.sensor.sense`).
+    A recording of moving obstacles (:mod:`app.record_live`) draws its frames so.
+    """
+    return _robot_pose(step, scene, memo, playing=False)
 
 
 def _robot_pose(

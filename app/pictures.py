@@ -132,9 +132,15 @@ class Studio:
         self,
         view: str = "top",
         options: SlideOptions = SlideOptions(),  # noqa: B008
+        slide: Slide | None = None,
     ) -> Slide:
-        """Lay out the picture of what the app shows now and draw its overlay."""
-        slide = _layout(self.app, self.width, self.height, view, options)
+        """Lay out the picture of what the app shows now and draw its overlay.
+
+        ``slide``: a layout made elsewhere (a recording of moving obstacles,
+        :mod:`app.record_live`) to use instead.
+        """
+        if slide is None:
+            slide = _layout(self.app, self.width, self.height, view, options)
         deadline = time.monotonic() + self.timeout
         # Camera, line widths and overlay first, the page's full size last: the software
         # renderer draws the intermediate frames at the small loading size. What
@@ -174,6 +180,21 @@ class Studio:
         """
         self.app.set_robot_time(float(t))
         self._wait_idle()
+        return self.shot(t, image_format=image_format)
+
+    def shot(
+        self,
+        t: float,
+        extra: Sequence[tuple[str, Sequence[float]]] = (),
+        image_format: str = "png",
+    ) -> bytes:
+        """Take the frame at time ``t`` once the browser shows what the server drew.
+
+        That is: the robot's frame and wheels where the server put them, and each
+        ``extra`` node (name, position) at its position (a node set last, after a
+        frame's other changes: viser's messages arrive in order), then two more
+        animation frames. The time stamp, when the layout has one, says ``t``.
+        """
         view = self.app.view
         want = [
             ["/robot", list(view.robot.position), list(view.robot.wxyz)],
@@ -181,6 +202,7 @@ class Studio:
                 [spin.name, None, list(np.asarray(spin.wxyz, dtype=float))]
                 for spin, _ in view.wheel_spins
             ),
+            *([name, [float(v) for v in at], None] for name, at in extra),
         ]
         page = self.shown.page
         if self.slide is not None and self.slide.stamp is not None:

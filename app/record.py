@@ -12,11 +12,23 @@ through ``imageio-ffmpeg`` (a PyPI wheel that bundles the ffmpeg binary) for MP4
 (H.264, yuv420p, so it plays in every browser and in slide software), and by Pillow
 through ``imageio`` for GIF (which stores frame times in hundredths of a second: a frame
 rate that does not divide 100 is played slightly off).
+
+A scenario with moving obstacles is recorded live (:mod:`app.record_live`): the DSB robot
+sensing as it drives while the obstacles move, as the app's *Live DSB* mode shows it,
+frame ``k`` again at ``t_k = k / fps`` of that run. ``follow`` is then an error (one
+line, exit code 2): the planners that plan once see only the scene at t = 0.
 """
 
 from __future__ import annotations
 
-__all__ = ["FORMATS", "Recording", "frame_times", "record", "record_video"]
+__all__ = [
+    "FORMATS",
+    "LIVE_FOLLOW",
+    "Recording",
+    "frame_times",
+    "record",
+    "record_video",
+]
 
 import contextlib
 import dataclasses
@@ -31,16 +43,23 @@ import numpy as np
 import numpy.typing as npt
 
 from app.headless import CameraPose, SnapshotError
-from app.jobs import run_job
+from app.jobs import JobFailure, run_job
 from app.pictures import FirstPicture, open_studio
 from app.slides import SlideOptions
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
 
+    from planners.live import LiveTrace
+
 FORMATS = (".mp4", ".gif")
 """File suffixes :func:`record` writes."""
 MAX_FPS = 60
+LIVE_FOLLOW = (
+    "--follow {follow}: this scenario's obstacles move, so it is recorded live (the DSB"
+    " robot sensing as it drives); --follow is for scenarios without moving obstacles"
+)
+"""The one-line error for ``--follow`` on a scenario with moving obstacles."""
 _MP4_QUALITY = 8  # imageio-ffmpeg's scale 0..10 (10: near lossless)
 
 
@@ -58,6 +77,8 @@ class Recording:
     """The camera of every frame."""
     width: int
     height: int
+    live: LiveTrace | None = None
+    """The live run recorded (a scenario with moving obstacles), else None."""
 
 
 def frame_times(duration: float, fps: float) -> tuple[float, ...]:
@@ -91,12 +112,34 @@ def record_video(
 ) -> Recording:
     """Record the robot of a running app following ``follow``'s path into ``out``.
 
+    A scene with moving obstacles is recorded live instead: the DSB robot sensing as it
+    drives among them (:func:`app.record_live.record_live_video`); ``follow`` must then
+    be None.
+
     Raises
     ------
     SnapshotError
         If there is no trajectory to record (the planner found no path) or the browser
         fails.
+    JobFailure
+        ``follow`` given for a scene with moving obstacles (exit code 2).
     """
+    if planner_app.controller.scene.motions:
+        from app.record_live import record_live_video  # noqa: PLC0415
+
+        if follow is not None:
+            raise JobFailure(LIVE_FOLLOW.format(follow=follow), 2)
+        return record_live_video(
+            planner_app,
+            browser,
+            out,
+            width=width,
+            height=height,
+            fps=fps,
+            until=until,
+            options=options,
+            timeout=timeout,
+        )
     path = Path(out)
     if follow is not None:  # before the page opens: it loads the final scene once
         planner_app.controller.playback.set_follow(follow)
@@ -193,6 +236,22 @@ def _check(
     return None
 
 
+def _moves(scenario: Any) -> bool:
+    """Tell whether ``scenario`` has moving obstacles.
+
+    False when it cannot be read: starting the app then says why, in one line.
+    """
+    from app.server import resolve_scenario  # noqa: PLC0415
+    from planners.scene import Scene, load_scene  # noqa: PLC0415
+
+    try:
+        if isinstance(scenario, Scene):
+            return bool(scenario.motions)
+        return bool(load_scene(resolve_scenario(scenario)[1]).motions)
+    except Exception:  # any unreadable scenario: the app's start says why
+        return False
+
+
 def record(
     scenario: Any,
     out: str | os.PathLike[str],
@@ -218,6 +277,8 @@ def record(
 
         if follow not in planners.REGISTRY:
             problem = f"unknown planner {follow!r} to follow (known: {', '.join(planners.REGISTRY)})"
+        elif _moves(scenario):
+            problem = LIVE_FOLLOW.format(follow=follow)
 
     def work(planner_app: Any, browser: Browser) -> Recording:
         return record_video(

@@ -31,6 +31,7 @@ __all__ = [
     "legend_rows",
     "line_scale",
     "project",
+    "relabel",
     "slide_camera",
 ]
 
@@ -339,6 +340,7 @@ def layout(
     view: str = "top",
     options: SlideOptions = SlideOptions(),  # noqa: B008 - frozen
     registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
+    bounds: tuple[float, float, float, float] | None = None,
 ) -> Slide:
     """Decide the camera, the title, the legend and the labels of a W x H picture.
 
@@ -355,6 +357,10 @@ def layout(
         Legend, title and labels on or off.
     registry
         The planners drawn.
+    bounds
+        The floor area to frame (xmin, ymin, xmax, ymax) [m]; None: the scene's
+        (:func:`app.headless.scene_bounds`). A video whose obstacles move frames the
+        area they cover over the whole run, so that every frame has the same camera.
 
     Returns
     -------
@@ -370,7 +376,7 @@ def layout(
         else ()
     )
     legend_font = font * _LEGEND_FONT
-    bounds = scene_bounds(scene)
+    bounds = scene_bounds(scene) if bounds is None else bounds
     full = Box(margin, top, width - margin, height - margin)
     legend_box, columns, area = _place_legend(
         rows, legend_font, bounds, full, margin=margin, view=view
@@ -380,34 +386,66 @@ def layout(
         camera = slide_camera(bounds, width, height, area)
     else:
         camera = _perspective_clear_of(bounds, width, height, reserved)
-    requests, markers, colors = (
-        _label_requests(
-            scene, plans, layers, camera, (width, height), registry=registry
-        )
-        if options.labels
-        else ([], [], {})
-    )
-    placement = place_labels(
-        requests,
-        font_px=font,
-        picture=(width, height),
-        markers=markers,
-        reserved=reserved,
-    )
-    return Slide(
+    slide = Slide(
         width=width,
         height=height,
         camera=camera,
         font_px=font,
         line_scale=line_scale(height),
+        labels=Placement((), ()),
+        markers=(),
+        label_colors=(),
+        title=(title_text, title_box) if title_box is not None else None,
+        legend=(rows, legend_box, columns) if legend_box is not None else None,
+        stamp=stamp_box,
+    )
+    return relabel(slide, scene, plans, layers, options=options, registry=registry)
+
+
+def relabel(
+    slide: Slide,
+    scene: Scene,
+    plans: Mapping[str, Any],
+    layers: Mapping[str, bool],
+    *,
+    options: SlideOptions = SlideOptions(),  # noqa: B008 - frozen
+    registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
+) -> Slide:
+    """Place the labels of ``scene`` and ``plans`` on ``slide``'s picture.
+
+    The camera, title, legend and time stamp box stay: a video whose obstacles move
+    (:mod:`app.record_live`) keeps one layout and places each frame's labels (the moving
+    obstacle's number, the events so far) anew. :func:`layout` places its labels so.
+    """
+    size = (slide.width, slide.height)
+    reserved = [
+        b
+        for b in (
+            slide.title[1] if slide.title else None,
+            slide.stamp,
+            slide.legend[1] if slide.legend else None,
+        )
+        if b is not None
+    ]
+    requests, markers, colors = (
+        _label_requests(scene, plans, layers, slide.camera, size, registry=registry)
+        if options.labels
+        else ([], [], {})
+    )
+    placement = place_labels(
+        requests,
+        font_px=slide.font_px,
+        picture=size,
+        markers=markers,
+        reserved=reserved,
+    )
+    return dataclasses.replace(
+        slide,
         labels=placement,
         markers=tuple(markers),
         label_colors=tuple(
             colors.get(id(p.request), "#222222") for p in placement.placed
         ),
-        title=(title_text, title_box) if title_box is not None else None,
-        legend=(rows, legend_box, columns) if legend_box is not None else None,
-        stamp=stamp_box,
     )
 
 

@@ -23,6 +23,7 @@ MODULES = [
     "app.labels",
     "app.slides",
     "app.record",
+    "app.record_live",
 ]
 
 

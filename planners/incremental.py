@@ -155,7 +155,9 @@ def _carried(
     ok = _free_from(new, new_b, np.vstack(a), np.vstack(b), np.concatenate(from_j))
     i = np.concatenate([kept_i, ti[ok[: len(ti)]]])
     j = np.concatenate([kept_j, tj[ok[: len(ti)]]])
-    order = np.lexsort((j, i))
+    # Row-major: one key per pair (each pair comes once); the kept pairs come in
+    # order already, and a stable sort runs through such runs fast.
+    order = np.argsort(i * len(new_b.points) + j, kind="stable")
     at, points = len(ti), []
     for point, stay, again in carried:
         seen = again[ok[at : at + len(again)]]

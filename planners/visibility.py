@@ -496,6 +496,21 @@ def _inner_disks(cspace: ConfigurationSpace) -> Disks:
     return inner_disks([*expanded, *merged], 8.0 * cspace.eps)
 
 
+def _lexicographic(points: FloatArray) -> IntArray:
+    """Order points by x, then y, equal ones as they come: ``np.lexsort((y, x))``.
+
+    Sorted as complex numbers (x + iy, which numpy orders by the real part, then the
+    imaginary one), a view of the same bits, twice as fast as ``lexsort``.
+
+    Examples
+    --------
+    >>> _lexicographic(np.array([[1.0, 0.0], [0.0, 2.0], [0.0, 1.0], [0.0, 1.0]]))
+    array([2, 3, 1, 0])
+    """
+    z = np.ascontiguousarray(points, dtype=np.float64).view(np.complex128)[:, 0]
+    return np.argsort(z, kind="stable")
+
+
 def _runs_of_equal_starts(a: FloatArray) -> IntArray:
     """Boundaries of the runs of consecutive segments that start at the same point."""
     change = np.flatnonzero(np.any(a[1:] != a[:-1], axis=1)) + 1
@@ -1257,7 +1272,7 @@ def _free_from(
         return np.ones(len(a), dtype=bool)
     src = np.where(from_b[:, None], b, a)
     dst = np.where(from_b[:, None], a, b)
-    order = np.lexsort((src[:, 1], src[:, 0]))
+    order = _lexicographic(src)
     src, dst = take_rows(src, order), take_rows(dst, order)
     free = np.ones(len(a), dtype=bool)
     free[order] = ~occluded(
@@ -1403,7 +1418,7 @@ def _svg_build(
         found_i.append(i[ok])
         found_j.append(j[ok])
     i, j = np.concatenate(found_i), np.concatenate(found_j)
-    order = np.lexsort((j, i))
+    order = np.argsort(i * len(q.points) + j, kind="stable")  # row-major, as lexsort
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
     return _graph_arrays(q, i[order], j[order], drop_isolated=True), border, q
 

@@ -533,12 +533,13 @@ def configuration_space(
     >>> len(space.merged.geoms), space.merged.geoms[0].bounds  # the gap closed
     (1, (-0.2, -0.2, 2.2, 1.2))
     """
-    coords = [np.asarray(o.exterior.coords) for o in obstacles]
-    if boundary is not None:
-        coords.append(np.asarray(boundary.exterior.coords))
+    # Every ring's coordinates in one call (a polygon's largest |coordinate| is on its
+    # exterior, so the holes change nothing).
+    shapes = [*obstacles, *([boundary] if boundary is not None else [])]
+    coords = [shapely.get_coordinates(np.asarray(shapes, dtype=object))]
     if extra_points is not None:
         coords.append(np.atleast_2d(np.asarray(extra_points, dtype=np.float64)))
-    scale = _scale(np.vstack(coords)) if coords else 1.0
+    scale = _scale(np.vstack(coords))
     # The tolerance grows with the coordinates' magnitude, in powers of two so that
     # moving the start a little keeps the same (cached) configuration space.
     eps = EPS * 2.0 ** math.ceil(math.log2(scale))

@@ -177,11 +177,13 @@ class GraphArrays:
         """
         u = np.concatenate([self.j, self.i])
         v = np.concatenate([self.i, self.j])
-        order = np.argsort(u, kind="stable")
+        # Small node numbers sort stably by radix, in one pass (same order).
+        keys = u.astype(np.uint16) if len(self.points) <= 1 << 16 else u
+        order = np.argsort(keys, kind="stable")
         first = np.zeros(len(self.points) + 1, dtype=np.intp)
         np.cumsum(np.bincount(u, minlength=len(self.points)), out=first[1:])
-        weight = np.concatenate([self.weight, self.weight])[order]
-        return first.tolist(), v[order], weight
+        weight = np.concatenate([self.weight, self.weight]).take(order)
+        return first.tolist(), v.take(order), weight
 
     def shortest_path(
         self, settled: list[tuple[int, int, float]] | None = None

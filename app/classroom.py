@@ -681,6 +681,8 @@ def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
     --------
     >>> "Watching the presenter" in banner_html("watching", {}, False)
     True
+    >>> "2 presenter browsers" in banner_html("presenter", {"presenter": 2}, False)
+    True
     """
     colour, title, text = MODES[mode]
     if mode == "presenter":
@@ -689,6 +691,12 @@ def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
             f"{text}<br>{counts.get('watching', 0) + counts.get('together', 0)} "
             f"following, {counts.get('private', 0)} on their own copy; {lab}."
         )
+        browsers = counts.get("presenter", 1)
+        if browsers > 1:
+            text += (
+                f"<br>{browsers} presenter browsers: one scene, one Explain, "
+                "one live robot."
+            )
     return (
         f'<div style="background:{colour};color:white;padding:8px 10px;'
         f'border-radius:6px;margin:2px 0">'

@@ -98,16 +98,23 @@ def _banner(c: ViserClient) -> str:
 
 def test_both_presenter_browsers_are_presenters_and_counted(planner):
     room = planner.classroom
-    with client(planner, presenter=True) as a, client(planner, presenter=True) as b:
-        assert room.mode(a.client_id) == room.mode(b.client_id) == "presenter"
-        assert room.counts()["presenter"] == 2
-        for c in (a, b):
-            assert c.wait_for(lambda c=c: "2 presenter browsers" in _banner(c), 20)
-        with client(planner) as watcher:
+    with client(planner, presenter=True) as b:
+        with client(planner, presenter=True) as a:
+            assert room.mode(a.client_id) == room.mode(b.client_id) == "presenter"
+            assert room.counts()["presenter"] == 2
             for c in (a, b):
-                assert c.wait_for(lambda c=c: "1 following" in _banner(c), 20)
-            assert room.mode(watcher.client_id) == "watching"
-        # A's tab closes: B's banner says it is the only one left.
+                assert c.wait_for(lambda c=c: "2 presenter browsers" in _banner(c), 20)
+            with client(planner) as watcher:
+                for c in (a, b):
+                    assert c.wait_for(lambda c=c: "1 following" in _banner(c), 20)
+                assert room.mode(watcher.client_id) == "watching"
+            assert b.wait_for(lambda: "0 following" in _banner(b), 20)
+            aid = a.client_id
+        # A's tab closed: B's banner says B is the one presenter browser left.
+        assert wait_until(lambda: room.seat(aid) is None, 20)
+        assert room.counts()["presenter"] == 1
+        assert b.wait_for(lambda: "presenter browsers" not in _banner(b), 20)
+        assert "Presenter</div>" in _banner(b)
     assert wait_until(lambda: room.counts()["presenter"] == 0, 20)
 
 
@@ -252,3 +259,22 @@ def test_a_reloaded_presenter_browser_has_every_tool(planner):
             a.set_gui(a.uuid("Radius [m]"), 0.5)
             assert wait_until(lambda: planner.controller.scene.robot.radius == 0.5, 20)
             assert b.wait_for(lambda: _value(b, "Radius [m]") == 0.5, 20)
+
+
+def _own_goal(c: ViserClient) -> Any:
+    return (c.nodes.get((str(c.client_id), "/own" + GOAL)) or {}).get("position")
+
+
+def test_the_other_presenter_browser_sees_a_drag_as_it_goes(planner):
+    """The projector's tab moves the goal while the laptop's mouse still holds it."""
+    with client(planner, presenter=True) as a, client(planner, presenter=True) as b:
+        owner = str(a.client_id)
+        a.drag("/own" + GOAL, (8.0, 1.5), "start", owner)
+        a.drag("/own" + GOAL, (8.0, 1.5), "update", owner)
+        assert b.wait_for(lambda: _own_goal(b) == (8.0, 1.5, 0.0), 20), _own_goal(b)
+        assert planner.controller.frame.dragging == frozenset({("goal",)})
+        a.drag("/own" + GOAL, (8.2, 1.6), "update", owner)
+        assert b.wait_for(lambda: _own_goal(b) == (8.2, 1.6, 0.0), 20), _own_goal(b)
+        a.drag("/own" + GOAL, (8.2, 1.6), "end", owner)
+        assert wait_until(lambda: planner.controller.frame.dragging == frozenset(), 20)
+        assert planner.controller.scene.goal == (8.2, 1.6)

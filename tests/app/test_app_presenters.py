@@ -278,3 +278,22 @@ def test_the_other_presenter_browser_sees_a_drag_as_it_goes(planner):
         a.drag("/own" + GOAL, (8.2, 1.6), "end", owner)
         assert wait_until(lambda: planner.controller.frame.dragging == frozenset(), 20)
         assert planner.controller.scene.goal == (8.2, 1.6)
+
+
+def test_the_live_robot_drives_on_when_every_presenter_browser_left(planner):
+    live = planner.live
+    with client(planner, presenter=True) as a:
+        a.set_gui(a.uuid("Live"), "Start live")
+        assert wait_until(lambda: live.running, 20)
+        assert _updates(a)
+        aid = a.client_id
+    assert wait_until(lambda: planner.classroom.seat(aid) is None, 20)
+    state = live.state
+    assert state is not None and live.running
+    # Nobody's folder is told, and the robot goes on for the class.
+    assert wait_until(lambda: (live.state or state).t > state.t + 0.5, 20)
+    with client(planner, presenter=True) as back:
+        assert back.wait_for(lambda: bool(_texts(back, "**Live (running)")), 20)
+        assert _updates(back)
+        back.set_gui(back.uuid("Live"), "Stop")
+        assert wait_until(lambda: not live.running, 20)

@@ -571,10 +571,13 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
         watch.set_gui(watch.uuid("Follow the presenter again"), True)
         assert wait_until(lambda: room.mode(sid) == "watching", 20)
         assert watch.wait_for(lambda: (str(sid), "/explain") not in watch.nodes, 20)
-    # The presenter's browser left while explaining: its Explain closed, left the
-    # audience, gave the plans' layers back and hid its drawing.
+    # The presenter's browser left while explaining: it left the audience, and the last
+    # presenter's Explain folder gone, Explain went off, gave the plans' layers back and
+    # hid its drawing.
     assert wait_until(lambda: len(room.audience) == 0, 20)
-    assert planner.wait_idle(30)
+    explainer = planner.explain.explainer
+    assert wait_until(lambda: explainer.method == "off", 20)
+    assert explainer.wait_ready(30) and planner.wait_idle(30)
     frame = planner.controller.frame
     assert frame is not None and frame.layers["svg_edges"]
     with client(planner) as late:

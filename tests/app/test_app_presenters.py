@@ -14,6 +14,7 @@ presenter mode, and checks what each browser is sent:
 
 from __future__ import annotations
 
+import contextlib
 import re
 from collections.abc import Iterator
 from typing import Any
@@ -48,6 +49,19 @@ def planner(room_app: Any) -> Iterator[Any]:
         app.explain.choose("off")
     app.controller.files.load_scenario("01_two_convex")
     assert app.wait_idle(30)
+
+
+@contextlib.contextmanager
+def _presenter(app: Any) -> Iterator[ViserClient]:
+    """A presenter's browser whose seat, panel and Explain and Live folders are built."""
+    with client(app, presenter=True) as c:
+        labels = ("Step no.", "Live", "Replay t [s]")
+        assert c.wait_for(lambda: all(_has(c, label) for label in labels), 30)
+        yield c
+
+
+def _has(c: ViserClient, label: str) -> bool:
+    return any(e["label"] == label for e in c.gui.values())
 
 
 def _value(c: ViserClient, label: str) -> Any:
@@ -98,8 +112,8 @@ def _banner(c: ViserClient) -> str:
 
 def test_both_presenter_browsers_are_presenters_and_counted(planner):
     room = planner.classroom
-    with client(planner, presenter=True) as b:
-        with client(planner, presenter=True) as a:
+    with _presenter(planner) as b:
+        with _presenter(planner) as a:
             assert room.mode(a.client_id) == room.mode(b.client_id) == "presenter"
             assert room.counts()["presenter"] == 2
             for c in (a, b):
@@ -119,7 +133,7 @@ def test_both_presenter_browsers_are_presenters_and_counted(planner):
 
 
 def test_explain_is_one_for_both_presenter_browsers(planner):
-    with client(planner, presenter=True) as a, client(planner, presenter=True) as b:
+    with _presenter(planner) as a, _presenter(planner) as b:
         a.set_gui(a.uuid("Method"), SVG)
         assert a.wait_for(lambda: "step 1 of" in _step_text(a), 30), _markdown(a)
         # B's folder shows A's choice and its first step, and the class sees it.
@@ -141,8 +155,8 @@ def test_explain_is_one_for_both_presenter_browsers(planner):
 
 def test_closing_one_presenter_browser_leaves_the_others_explain(planner):
     explainer = planner.explain.explainer
-    with client(planner, presenter=True) as b:
-        with client(planner, presenter=True) as a:
+    with _presenter(planner) as b:
+        with _presenter(planner) as a:
             a.set_gui(a.uuid("Method"), SVG)
             assert wait_until(lambda: explainer.method == "svg", 20)
             assert explainer.wait_ready(30)
@@ -169,7 +183,7 @@ def test_closing_one_presenter_browser_leaves_the_others_explain(planner):
 
 def test_the_last_presenter_browser_leaving_turns_explain_off(planner):
     explainer = planner.explain.explainer
-    with client(planner, presenter=True) as a:
+    with _presenter(planner) as a:
         a.set_gui(a.uuid("Method"), SVG)
         assert wait_until(lambda: explainer.method == "svg", 20)
         assert explainer.wait_ready(30) and planner.wait_idle(30)
@@ -178,7 +192,7 @@ def test_the_last_presenter_browser_leaving_turns_explain_off(planner):
     assert wait_until(lambda: explainer.method == "off", 20)
     assert explainer.wait_ready(30) and planner.wait_idle(30)
     assert planner.controller.frame.layers["svg_edges"]
-    with client(planner, presenter=True) as again:
+    with _presenter(planner) as again:
         assert _value(again, "Method") == METHOD_TITLES["off"]
         assert not _explanation_shown(again)
 
@@ -194,8 +208,8 @@ def _updates(c: ViserClient, timeout: float = 20.0) -> bool:
 
 def test_the_live_robot_reaches_every_presenter_browser_whichever_closes(planner):
     live = planner.live
-    with client(planner, presenter=True) as a:
-        with client(planner, presenter=True) as b:
+    with _presenter(planner) as a:
+        with _presenter(planner) as b:
             # A (the first to connect) starts the robot: both see it run.
             a.set_gui(a.uuid("Live"), "Start live")
             assert wait_until(lambda: live.running, 20)
@@ -206,7 +220,7 @@ def test_the_live_robot_reaches_every_presenter_browser_whichever_closes(planner
         assert live.running
         assert _updates(a)
         # B reloads: its new panel shows the running robot at once and follows it.
-        with client(planner, presenter=True) as b2:
+        with _presenter(planner) as b2:
             assert b2.wait_for(lambda: bool(_texts(b2, "**Live (running)")), 20), (
                 _markdown(b2)
             )
@@ -226,10 +240,10 @@ def test_the_live_robot_reaches_every_presenter_browser_whichever_closes(planner
 def test_a_reloaded_presenter_browser_has_every_tool(planner):
     """Close B, open it again: it edits, explains and sees A's edits; A sees B's."""
     explainer = planner.explain.explainer
-    with client(planner, presenter=True) as a:
-        with client(planner, presenter=True):
+    with _presenter(planner) as a:
+        with _presenter(planner):
             pass
-        with client(planner, presenter=True) as b:
+        with _presenter(planner) as b:
             assert planner.classroom.counts()["presenter"] == 2
             # B drags the goal with its own gizmo: the scene changes, A's copy follows.
             owner = str(b.client_id)
@@ -267,7 +281,7 @@ def _own_goal(c: ViserClient) -> Any:
 
 def test_the_other_presenter_browser_sees_a_drag_as_it_goes(planner):
     """The projector's tab moves the goal while the laptop's mouse still holds it."""
-    with client(planner, presenter=True) as a, client(planner, presenter=True) as b:
+    with _presenter(planner) as a, _presenter(planner) as b:
         owner = str(a.client_id)
         a.drag("/own" + GOAL, (8.0, 1.5), "start", owner)
         a.drag("/own" + GOAL, (8.0, 1.5), "update", owner)
@@ -282,7 +296,7 @@ def test_the_other_presenter_browser_sees_a_drag_as_it_goes(planner):
 
 def test_the_live_robot_drives_on_when_every_presenter_browser_left(planner):
     live = planner.live
-    with client(planner, presenter=True) as a:
+    with _presenter(planner) as a:
         a.set_gui(a.uuid("Live"), "Start live")
         assert wait_until(lambda: live.running, 20)
         assert _updates(a)
@@ -292,7 +306,7 @@ def test_the_live_robot_drives_on_when_every_presenter_browser_left(planner):
     assert state is not None and live.running
     # Nobody's folder is told, and the robot goes on for the class.
     assert wait_until(lambda: (live.state or state).t > state.t + 0.5, 20)
-    with client(planner, presenter=True) as back:
+    with _presenter(planner) as back:
         assert back.wait_for(lambda: bool(_texts(back, "**Live (running)")), 20)
         assert _updates(back)
         back.set_gui(back.uuid("Live"), "Stop")

@@ -444,7 +444,7 @@ class LivePanels:
     A classroom's presenter may have several browsers (the laptop and the projector):
     each has its own folder, added when it connects and removed when it leaves, so
     closing one never silences the others. A folder added while the robot drives shows
-    its state at once.
+    its state at once; the replay slider scrubbed in one moves in the others.
     """
 
     def __init__(self, run: LiveRun) -> None:
@@ -459,10 +459,25 @@ class LivePanels:
     def add(self, server: Any) -> LivePanel:
         """Build a *Live DSB* folder on ``server.gui`` (a browser's handle) and tell it."""
         panel = LivePanel(server, self._run)
+
+        @panel.replay.on_update
+        def _(event: Any) -> None:
+            if event.client is not None:  # a browser scrubs: the others' sliders follow
+                self._show_replay(panel, float(event.target.value))
+
         with self._lock:
             self._panels = (*self._panels, panel)
         panel(self._run.state, self._run.running)
         return panel
+
+    def _show_replay(self, moved: LivePanel, t: float) -> None:
+        with self._lock:
+            others = [p for p in self._panels if p is not moved]
+        for panel in others:
+            try:
+                panel.replay.value = min(t, panel.replay.max)
+            except Exception:
+                logger.exception("a Live DSB folder failed to update")
 
     def remove(self, panel: LivePanel) -> None:
         """Stop telling ``panel`` (its browser left)."""

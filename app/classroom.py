@@ -23,15 +23,39 @@ and a big scene's graphs (:mod:`app.big`) in a second pool, also shared: a room 
 students who all open a CAD floor plan starts at most ``copy_workers`` processes of each
 kind, not one per seat.
 
+Several presenter browsers. A lecturer often opens the presenter's URL twice: on the
+laptop and on the projector's screen (or again after a reload). Every browser with the
+token is a presenter, with its own panel, banner, gizmos and *Explain* and *Live DSB*
+folders, and they share everything else:
+
+- **one scene**: each presenter's own view (``/own``, its client scope) draws the same
+  session, and a gizmo held in one browser moves in the other as the drag goes (a view
+  leaves alone only the gizmos its own user holds: :class:`app.view.PlannerView`);
+- **one Explain**: a single :class:`app.explain_panel.ExplainPanel` (the method, the
+  step, the layers it hid, its drawing under ``/explain``); each presenter's folder
+  shows that state and calls its commands, so a step taken on the laptop is the step on
+  the projector. When the last presenter's folder goes, nobody could switch it off:
+  Explain goes off and gives the plans' layers back;
+- **one live robot**: one :class:`app.live.LiveRun`, whose every step reaches every
+  presenter's folder (:class:`app.live.LivePanels`). It keeps driving for the class when
+  all presenter browsers have gone; one that comes back shows it at once;
+- the *Let everyone edit* switch, shown ticked or not in every presenter's browser.
+
+Closing or reloading one presenter browser removes only its seat, panel and folders
+(:class:`PresenterTools`); the others keep working. The presenter's banner counts the
+presenter browsers when there is more than one.
+
 Data flow::
 
-    presenter's drag (its /own gizmo)  -> Classroom._drag: may this seat edit?
+    presenter's drag (its /own gizmo)  -> Classroom._shared_drag: may this seat edit?
       -> controller.edits.drag_handle  -> scheduler -> frame
            -> shared view (/shared, every browser)   # drawn once
            -> Audience: own views of editors, panels of followers
     watcher's crafted message          -> its gate says no: refused, nothing changes
     "Make my own copy"                 -> Classroom.make_copy: a Controller of its own
     browser closed                     -> Classroom.disconnect: its copy is closed
+    presenter's Explain / Live folder  -> the one ExplainPanel / LiveRun
+      -> /explain, /live (every browser) and every presenter's folders
 """
 
 from __future__ import annotations
@@ -299,7 +323,9 @@ class PresenterTools:
 
     ``views`` follow the presenter's session (through the :class:`Audience`); ``close``
     runs when that browser leaves. What they draw goes to every browser, under roots a
-    private copy's browser hides (``Classroom(broadcast_roots=...)``).
+    private copy's browser hides (``Classroom(broadcast_roots=...)``). The app's tools
+    (``server._presenter_tools``) are folders of one Explain and one live robot shared
+    by every presenter's browser: ``close`` removes that browser's folders only.
     """
 
     views: tuple[View, ...]
@@ -681,6 +707,8 @@ def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
     --------
     >>> "Watching the presenter" in banner_html("watching", {}, False)
     True
+    >>> "2 presenter browsers" in banner_html("presenter", {"presenter": 2}, False)
+    True
     """
     colour, title, text = MODES[mode]
     if mode == "presenter":
@@ -689,6 +717,12 @@ def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
             f"{text}<br>{counts.get('watching', 0) + counts.get('together', 0)} "
             f"following, {counts.get('private', 0)} on their own copy; {lab}."
         )
+        browsers = counts.get("presenter", 1)
+        if browsers > 1:
+            text += (
+                f"<br>{browsers} presenter browsers: one scene, one Explain, "
+                "one live robot."
+            )
     return (
         f'<div style="background:{colour};color:white;padding:8px 10px;'
         f'border-radius:6px;margin:2px 0">'

@@ -11,6 +11,11 @@ never while Explain is off, never on the scheduler's drag path. The panel is a v
 the controller (:meth:`render` keeps the newest frame and wakes the thread); while a
 handle is dragged the overlay is hidden and nothing is computed; once the drag ends the
 new scene is explained and shown at the same step number where it still exists.
+
+One :class:`ExplainPanel` holds the state (the explainer, the drawing, the layers it
+hid); its folders (:class:`ExplainFolder`) only show that state and call its commands.
+A classroom has one panel and one folder per presenter's browser (the laptop and the
+projector): a step taken in one is the step shown in all (:mod:`app.classroom`).
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from __future__ import annotations
 __all__ = [
     "HIDDEN_LAYERS",
     "METHOD_TITLES",
+    "ExplainFolder",
     "ExplainPanel",
     "Explainer",
     "flowchart_html",
@@ -26,6 +32,7 @@ __all__ = [
 ]
 
 import html
+import logging
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -45,6 +52,8 @@ if TYPE_CHECKING:
 
     from app.frames import Frame, RobotPose
     from planners.scene import Scene
+
+logger = logging.getLogger(__name__)
 
 METHOD_TITLES: Mapping[str, str] = MappingProxyType(
     {
@@ -157,6 +166,11 @@ class Explainer:
     def method(self) -> str:
         """The method explained, or ``"off"``."""
         return self._method
+
+    @property
+    def obstacle(self) -> int:
+        """The obstacle whose expansion is explained (1-based)."""
+        return self._obstacle
 
     @property
     def step(self) -> int:
@@ -292,31 +306,15 @@ def _explain(scene: Scene, method: str, obstacle: int, memo: Memo) -> Explanatio
     return functions[method](scene, options, plans=plans)
 
 
-class ExplainPanel:
-    """The *Explain* folder of the GUI and the explanation's layer in the scene.
+class ExplainFolder:
+    """One browser's *Explain* folder: its widgets, each calling one panel command.
 
-    A view of the controller (``render``, ``render_robot``); each callback calls one
-    method of its :class:`Explainer` (choosing a method also hides the plans' layers,
-    restored when Explain goes off). It draws on ``server.scene``; its folder goes to
-    ``gui`` when given (a classroom's presenter: one browser's panel), else ``server.gui``.
+    It holds no state of its own: :meth:`show` puts the panel's state into the widgets
+    (the method, the obstacle, the step's line, slider, table and flowchart), so several
+    folders of one :class:`ExplainPanel` (a lecturer's laptop and projector) always agree.
     """
 
-    def __init__(
-        self,
-        server: viser.ViserServer,
-        controller: Any,
-        *,
-        gui: viser.GuiApi | None = None,
-    ) -> None:
-        self._controller = controller
-        self._view = ExplainView(server.scene)
-        self._saved_layers: dict[str, bool] | None = None
-        self._layers: Mapping[str, bool] = {}
-        self._scene: Scene | None = None
-        self.caption_bounds: tuple[float, float, float, float] | None = None
-        """Where the caption goes: the top-left of these bounds (xmin, ymin, xmax, ymax)
-        [m] when set (a picture that frames part of the scene), else the scene's."""
-        gui = server.gui if gui is None else gui
+    def __init__(self, gui: viser.GuiApi, panel: ExplainPanel) -> None:
         with gui.add_folder("Explain", expand_by_default=False):
             self.method = gui.add_dropdown("Method", list(METHOD_TITLES.values()))
             self.obstacle = gui.add_number("Obstacle", 1, min=1, max=99, step=1)
@@ -326,46 +324,140 @@ class ExplainPanel:
             self.text = gui.add_markdown("*Choose a method to step through it.*")
             self.flowchart = gui.add_html("")
             self.table = gui.add_html("")
-        self.explainer = Explainer(self._draw)
-        self._bind()
+        self._bind(panel)
 
-    def _bind(self) -> None:
+    def _bind(self, panel: ExplainPanel) -> None:
         titles = {v: k for k, v in METHOD_TITLES.items()}
+        explainer = panel.explainer
 
+        # A widget the server sets calls back with no client: only a browser's counts.
         @self.method.on_update
         def _(event: Any) -> None:
             if event.client is not None:
-                self.choose(titles[event.target.value])
+                panel.choose(titles[event.target.value])
 
         @self.obstacle.on_update
         def _(event: Any) -> None:
             if event.client is not None:
-                self.explainer.choose(self.explainer.method, int(event.target.value))
+                panel.choose(explainer.method, int(event.target.value))
 
         @self.nav.on_click
         def _(event: Any) -> None:
             actions = {
-                "|<": lambda: self.explainer.go(0),
-                "<": lambda: self.explainer.move(-1),
-                ">": lambda: self.explainer.move(1),
-                ">|": self.explainer.to_end,
+                "|<": lambda: explainer.go(0),
+                "<": lambda: explainer.move(-1),
+                ">": lambda: explainer.move(1),
+                ">|": explainer.to_end,
             }
             actions[event.target.value]()
 
         @self.slider.on_update
         def _(event: Any) -> None:
             if event.client is not None:
-                self.explainer.go(int(event.target.value) - 1)
+                explainer.go(int(event.target.value) - 1)
+
+    def show_choice(self, method: str, obstacle: int) -> None:
+        """Show the method and obstacle chosen (in this browser or another)."""
+        self.method.value = METHOD_TITLES[method]
+        self.obstacle.value = obstacle
+
+    def show(
+        self,
+        step: Step | None,
+        explanation: Explanation | None,
+        n: int,
+        words: str,
+    ) -> None:
+        """Show step ``n`` of ``explanation`` (None: ``words`` say why there is none)."""
+        if explanation is None or step is None:
+            self.text.content = words
+            self.table.content = self.flowchart.content = ""
+            return
+        self.slider.max = max(2, len(explanation.steps))
+        self.slider.value = n + 1
+        self.text.content = f"**{explanation.title}**, step {n + 1} of {len(explanation.steps)}\n\n{step.text}"
+        self.table.content = table_html(step)
+        dsb = explanation.method == "dsb"
+        box = step.kind.split(":", 1)[1] if dsb and ":" in step.kind else None
+        self.flowchart.content = flowchart_html(box) if dsb else ""
+
+
+class ExplainPanel:
+    """The explanation's state and layer in the scene, and the *Explain* folders showing it.
+
+    A view of the controller (``render``, ``render_robot``). One :class:`Explainer`, one
+    drawing on ``server.scene`` and one set of layers it hid, however many folders: each
+    folder's callbacks call the panel's commands (choosing a method also hides the plans'
+    layers, restored when Explain goes off), and every folder shows the same state.
+
+    Alone (one session), its folder is built on ``server.gui`` (or ``gui``). In a
+    classroom (``folder=False``) each presenter's browser adds its own with
+    :meth:`add_folder` and takes it away with :meth:`remove_folder`; when the last one
+    goes, nobody could switch Explain off, so it goes off.
+    """
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        controller: Any,
+        *,
+        gui: viser.GuiApi | None = None,
+        folder: bool = True,
+    ) -> None:
+        self._controller = controller
+        self._view = ExplainView(server.scene)
+        self._saved_layers: dict[str, bool] | None = None
+        self._layers: Mapping[str, bool] = {}
+        self._scene: Scene | None = None
+        self.caption_bounds: tuple[float, float, float, float] | None = None
+        """Where the caption goes: the top-left of these bounds (xmin, ymin, xmax, ymax)
+        [m] when set (a picture that frames part of the scene), else the scene's."""
+        self._lock = threading.RLock()  # guards the folders, the layers saved, _shown
+        self._folders: tuple[ExplainFolder, ...] = ()
+        self._shown: tuple[Step | None, Explanation | None] = (None, None)
+        self.explainer = Explainer(self._draw)
+        self.folder = (
+            self.add_folder(server.gui if gui is None else gui) if folder else None
+        )
+        """The folder built with the panel (None in a classroom: one per presenter)."""
+
+    # ---------------------------------------------------------------- folders
+
+    @property
+    def folders(self) -> tuple[ExplainFolder, ...]:
+        """The folders showing this panel (one per presenter's browser in a classroom)."""
+        return self._folders
+
+    def add_folder(self, gui: viser.GuiApi) -> ExplainFolder:
+        """Build an *Explain* folder on ``gui`` showing the panel's state as it is now."""
+        folder = ExplainFolder(gui, self)
+        with self._lock:
+            self._folders = (*self._folders, folder)
+            step, explanation = self._shown
+            _safely(folder.show_choice, self.explainer.method, self.explainer.obstacle)
+            _safely(folder.show, step, explanation, self.explainer.step, self._words())
+        return folder
+
+    def remove_folder(self, folder: ExplainFolder) -> None:
+        """Stop showing ``folder`` (its browser left); the last one turns Explain off."""
+        with self._lock:
+            self._folders = tuple(f for f in self._folders if f is not folder)
+            last = not self._folders
+        if last:
+            self.choose("off")
 
     # ---------------------------------------------------------------- commands
 
     def choose(self, method: str, obstacle: int | None = None) -> None:
         """Explain ``method`` (a key of :data:`METHOD_TITLES`), hiding the plans' layers."""
-        self._restore_layers()
-        if method != "off":
-            self._hide_layers(hidden_layers(method))
-        self.explainer.choose(method, obstacle)
-        self.method.value = METHOD_TITLES[method]
+        with self._lock:
+            if method != self.explainer.method:
+                self._restore_layers()
+                if method != "off":
+                    self._hide_layers(hidden_layers(method))
+            self.explainer.choose(method, obstacle)
+            for folder in self._folders:
+                _safely(folder.show_choice, method, self.explainer.obstacle)
 
     def _hide_layers(self, keys: tuple[str, ...]) -> None:
         self._saved_layers = {k: bool(self._layers.get(k, True)) for k in keys}
@@ -393,12 +485,9 @@ class ExplainPanel:
         """Nothing: the explanation does not move with the robot."""
 
     def close(self) -> None:
-        """Give the plans' layers back, stop the explanation thread and hide its drawing.
-
-        A classroom closes a presenter's panel when that browser leaves: the session (and
-        the class) must not keep the layers Explain hid, nor its last step.
-        """
-        self._restore_layers()
+        """Give the plans' layers back, stop the explanation thread and hide its drawing."""
+        with self._lock:
+            self._restore_layers()
         self.explainer.close()
         self._view.show(None)
 
@@ -415,35 +504,31 @@ class ExplainPanel:
         )
         n = self.explainer.step
         if step is None or explanation is None:
+            step, explanation = None, None
             self._view.show(None)
-            self._show_text(None, None, n)
-            return
-        caption = f"{n + 1}/{len(explanation.steps)}  {step.text}"
-        self._view.show(step, caption, at)
-        self._show_text(step, explanation, n)
+        else:
+            caption = f"{n + 1}/{len(explanation.steps)}  {step.text}"
+            self._view.show(step, caption, at)
+        with self._lock:
+            self._shown = (step, explanation)
+            words = self._words()
+            for folder in self._folders:
+                _safely(folder.show, step, explanation, n, words)
 
-    def _show_text(
-        self, step: Step | None, explanation: Explanation | None, n: int
-    ) -> None:
-        if explanation is None or step is None:
-            error = self.explainer.error
-            off = self.explainer.method == "off"
-            self.text.content = (
-                "*Choose a method to step through it.*"
-                if off
-                else f"*{error}*"
-                if error
-                else "*Explaining the scene...*"
-            )
-            self.table.content = self.flowchart.content = ""
-            return
-        self.slider.max = max(2, len(explanation.steps))
-        self.slider.value = n + 1
-        self.text.content = f"**{explanation.title}**, step {n + 1} of {len(explanation.steps)}\n\n{step.text}"
-        self.table.content = table_html(step)
-        dsb = explanation.method == "dsb"
-        box = step.kind.split(":", 1)[1] if dsb and ":" in step.kind else None
-        self.flowchart.content = flowchart_html(box) if dsb else ""
+    def _words(self) -> str:
+        """Return what a folder says when no step is shown (off, failed, computing)."""
+        error = self.explainer.error
+        if self.explainer.method == "off":
+            return "*Choose a method to step through it.*"
+        return f"*{error}*" if error else "*Explaining the scene...*"
+
+
+def _safely(show: Callable[..., None], *args: Any) -> None:
+    """Update one browser's folder: a browser that just left must not stop the others."""
+    try:
+        show(*args)
+    except Exception:
+        logger.exception("an Explain folder failed to update")
 
 
 def _caption_at(scene: Scene) -> tuple[float, float, float]:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 __all__ = [
     "LivePanel",
+    "LivePanels",
     "LiveRun",
     "MotionPaths",
     "add_live_panel",
@@ -446,6 +447,63 @@ def add_live_panel(server: Any, run: LiveRun) -> LivePanel:
     panel = LivePanel(server, run)
     run.on_change = panel
     return panel
+
+
+class LivePanels:
+    """Every *Live DSB* folder of one run: each is told of every step (``run.on_change``).
+
+    A classroom's presenter may have several browsers (the laptop and the projector):
+    each has its own folder, added when it connects and removed when it leaves, so
+    closing one never silences the others. A folder added while the robot drives shows
+    its state at once; the replay slider scrubbed in one moves in the others.
+    """
+
+    def __init__(self, run: LiveRun) -> None:
+        self._run = run
+        self._lock = threading.Lock()
+        self._panels: tuple[LivePanel, ...] = ()
+        run.on_change = self
+
+    def __len__(self) -> int:
+        return len(self._panels)
+
+    def add(self, server: Any) -> LivePanel:
+        """Build a *Live DSB* folder on ``server.gui`` (a browser's handle) and tell it."""
+        panel = LivePanel(server, self._run)
+
+        @panel.replay.on_update
+        def _(event: Any) -> None:
+            if event.client is not None:  # a browser scrubs: the others' sliders follow
+                self._show_replay(panel, float(event.target.value))
+
+        with self._lock:
+            self._panels = (*self._panels, panel)
+        panel(self._run.state, self._run.running)
+        return panel
+
+    def _show_replay(self, moved: LivePanel, t: float) -> None:
+        with self._lock:
+            others = [p for p in self._panels if p is not moved]
+        for panel in others:
+            try:
+                panel.replay.value = min(t, panel.replay.max)
+            except Exception:
+                logger.exception("a Live DSB folder failed to update")
+
+    def remove(self, panel: LivePanel) -> None:
+        """Stop telling ``panel`` (its browser left)."""
+        with self._lock:
+            self._panels = tuple(p for p in self._panels if p is not panel)
+
+    def __call__(self, state: LiveState | None, running: bool) -> None:
+        """Tell every folder; one that fails (its browser just left) stops no other."""
+        with self._lock:
+            panels = self._panels
+        for panel in panels:
+            try:
+                panel(state, running)
+            except Exception:
+                logger.exception("a Live DSB folder failed to update")
 
 
 class LivePanel:

@@ -33,7 +33,7 @@ from app.classroom import Classroom, PresenterTools, new_token, presenter_url
 from app.controller import Controller
 from app.explain_panel import ExplainPanel
 from app.files import ScenesFolder
-from app.live import LiveRun, MotionPaths, add_live_panel
+from app.live import LivePanels, LiveRun, MotionPaths, add_live_panel
 from app.panels import Panels
 from app.scoped import ScopedTarget
 from app.view import PlannerView, scene_bounds
@@ -124,7 +124,8 @@ class PlannerApp:
     live: LiveRun | None = None
     """The *Live* DSB robot (:mod:`app.live`)."""
     explain: ExplainPanel | None = None
-    """The Explain panel (issue 13): ``explain.choose("svg")``, ``explain.explainer.go(3)``."""
+    """The Explain panel (issue 13): ``explain.choose("svg")``, ``explain.explainer.go(3)``;
+    in a classroom, the one every presenter's browser shows."""
 
     @property
     def presenter_url(self) -> str | None:
@@ -329,6 +330,9 @@ def _wire_classroom(
     )
     live = LiveRun(lambda: controller.scene, server, [controller.views])
     controller.add_view(MotionPaths(server))
+    # One Explain and one live robot, shown in every presenter's browser (app.classroom).
+    explain = ExplainPanel(server, controller, folder=False)
+    controller.add_view(explain)
     classroom = Classroom(
         server,
         controller,
@@ -337,7 +341,7 @@ def _wire_classroom(
         scenarios,
         folder=folder,
         copy_workers=workers,
-        tools=functools.partial(_presenter_tools, server, controller, live),
+        tools=functools.partial(_presenter_tools, explain, LivePanels(live)),
         broadcast_roots=("/explain", "/live"),
     )
     return PlannerApp(
@@ -348,25 +352,22 @@ def _wire_classroom(
         host=host,
         classroom=classroom,
         live=live,
+        explain=explain,
     )
 
 
 def _presenter_tools(
-    server: viser.ViserServer,
-    controller: Controller,
-    live: LiveRun,
-    client: viser.ClientHandle,
+    explain: ExplainPanel, live: LivePanels, client: viser.ClientHandle
 ) -> PresenterTools:
-    """Explain and Live DSB on a presenter's panel, drawn for the whole class."""
-    explain = ExplainPanel(server, controller, gui=client.gui)
-    panel = add_live_panel(client, live)
+    """Folders of the one Explain and the one live robot on a presenter's browser."""
+    folder = explain.add_folder(client.gui)
+    panel = live.add(client)
 
     def close() -> None:
-        if live.on_change is panel:
-            live.on_change = None
-        explain.close()
+        live.remove(panel)
+        explain.remove_folder(folder)
 
-    return PresenterTools(views=(explain,), close=close)
+    return PresenterTools(views=(), close=close)
 
 
 def _is_loopback(host: str) -> bool:

@@ -688,7 +688,9 @@ class PlannerView:
     ) -> None:
         self.target = target
         self.scene = target.scene
-        self._on_drag = on_drag
+        self._held: frozenset[Handle] = frozenset()
+        """Handles a user holds now with this view's gizmos (another view's are placed)."""
+        self._on_drag = self._holding(on_drag) if on_drag is not None else None
         self._last: dict[str, Any] = {}
         self.rendered_version = -1
         self.place_dragged = False
@@ -828,6 +830,16 @@ class PlannerView:
         atomic = getattr(self.target, "atomic", None)
         return atomic() if atomic is not None else contextlib.nullcontext()
 
+    def _holding(self, on_drag: HandleCallback) -> HandleCallback:
+        """Wrap ``on_drag`` to note which handles this view's gizmos hold."""
+
+        def drag(handle: Handle, xy: tuple[float, float], phase: str) -> None:
+            held = self._held - {handle} if phase == "end" else self._held | {handle}
+            self._held = held
+            on_drag(handle, xy, phase)
+
+        return drag
+
     def _drag_callback(self, handle: Handle) -> Callable[[Any], Any]:
         async def callback(event: Any) -> None:
             # async: viser runs these on its event loop in order, so "start", "update"
@@ -963,7 +975,8 @@ class PlannerView:
         scene = frame.scene
         # Gizmos are left alone while a user drags them here, unless this view's are
         # dragged by nobody (place_dragged: a classroom's shared view), so watchers see it.
-        dragging = frozenset() if self.place_dragged else frame.dragging
+        # A drag held in another view (a second presenter's browser) is placed here.
+        dragging = frozenset() if self.place_dragged else frame.dragging & self._held
         key = (scene.start, scene.goal, scene.obstacles, frame.tool, dragging)
         if not self._changed("handles", key):
             return

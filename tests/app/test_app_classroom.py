@@ -543,7 +543,8 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
         assert pres.wait_for(lambda: _has(pres, "Step no.") and _has(pres, "Live"))
         # A watcher has neither folder: nothing to step, nothing to start.
         assert not _has(watch, "Step no.") and not _has(watch, "Live")
-        assert planner.explain is None and planner.live is not None
+        # One Explain and one live robot for the classroom (every presenter's browser).
+        assert planner.explain is not None and planner.live is not None
         # The presenter chooses the SVG: every browser sees the explanation's nodes.
         pres.set_gui(pres.uuid("Method"), "Simplified VG (9.5)")
         assert planner.wait_idle(30)
@@ -570,10 +571,13 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
         watch.set_gui(watch.uuid("Follow the presenter again"), True)
         assert wait_until(lambda: room.mode(sid) == "watching", 20)
         assert watch.wait_for(lambda: (str(sid), "/explain") not in watch.nodes, 20)
-    # The presenter's browser left while explaining: its Explain closed, left the
-    # audience, gave the plans' layers back and hid its drawing.
+    # The presenter's browser left while explaining: it left the audience, and the last
+    # presenter's Explain folder gone, Explain went off, gave the plans' layers back and
+    # hid its drawing.
     assert wait_until(lambda: len(room.audience) == 0, 20)
-    assert planner.wait_idle(30)
+    explainer = planner.explain.explainer
+    assert wait_until(lambda: explainer.method == "off", 20)
+    assert explainer.wait_ready(30) and planner.wait_idle(30)
     frame = planner.controller.frame
     assert frame is not None and frame.layers["svg_edges"]
     with client(planner) as late:

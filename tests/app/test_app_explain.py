@@ -195,9 +195,11 @@ def test_the_app_hides_the_plans_layers_and_restores_them():
         assert shown is not None and shown.method == "dsb"
         # The flowchart of Fig. 9.15 with the first decision's box highlighted.
         first = shown.tags[0]
-        assert app.explain.flowchart.content == flowchart_html(first.box)
-        assert app.explain.flowchart.content.count("background:#E69F00") == 1
-        assert "step 1 of" in app.explain.text.content
+        folder = app.explain.folder
+        assert folder is not None
+        assert folder.flowchart.content == flowchart_html(first.box)
+        assert folder.flowchart.content.count("background:#E69F00") == 1
+        assert "step 1 of" in folder.text.content
         app.explain.choose("off")
         assert app.wait_idle(30) and app.explain.explainer.wait_ready(30)
         assert app.wait_idle(30)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import asyncio
 import math
 from collections.abc import Iterator
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -24,6 +26,7 @@ from app.panels import (
     status_markdown,
     wheel_rate_plot_data,
 )
+from app.scoped import ScopedTarget
 from app.style import planner_look
 from app.view import (
     PlannerView,
@@ -258,18 +261,37 @@ def test_view_follows_edits_and_hides_what_has_no_path(drawn):
     )
 
 
+def _gizmo_drag(
+    view: PlannerView, handle: Any, xy: tuple[float, float], phase: str
+) -> None:
+    """What a gizmo of ``view`` reports when a user drags it (its callback, run as viser
+    runs it: a coroutine on the event loop)."""
+    event = SimpleNamespace(target=SimpleNamespace(position=(*xy, 0.0)), phase=phase)
+    asyncio.run(view._drag_callback(handle)(event))
+
+
 def test_dragged_handle_is_left_alone_until_the_drag_ends(drawn):
-    view, controller = drawn
+    """A gizmo held in one view is left alone there, and placed in every other view (a
+    second presenter's browser sees the drag as it goes, like the class does)."""
+    other, controller = drawn
+    held = PlannerView(
+        ScopedTarget(other.target, "/held"), on_drag=controller.edits.drag_handle
+    )
+    controller.add_view(held)
+    assert controller.wait_idle(10)
     goal = controller.scene.goal
-    controller.edits.drag_handle(("goal",), goal, "start")
+    _gizmo_drag(held, ("goal",), goal, "start")
     # The browser has moved the gizmo further than the controller has seen.
-    view.handles["goal"].position = (goal[0] - 1.0, goal[1], 0.0)
-    controller.edits.drag_handle(("goal",), (goal[0] - 0.5, goal[1]), "update")
+    held.handles["goal"].position = (goal[0] - 1.0, goal[1], 0.0)
+    _gizmo_drag(held, ("goal",), (goal[0] - 0.5, goal[1]), "update")
     assert controller.wait_idle(10)
-    assert_allclose(view.handles["goal"].position[:2], (goal[0] - 1.0, goal[1]))
-    controller.edits.drag_handle(("goal",), (goal[0] - 0.5, goal[1]), "end")
+    assert controller.frame.dragging == frozenset({("goal",)})
+    assert_allclose(held.handles["goal"].position[:2], (goal[0] - 1.0, goal[1]))
+    assert_allclose(other.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
+    _gizmo_drag(held, ("goal",), (goal[0] - 0.5, goal[1]), "end")
     assert controller.wait_idle(10)
-    assert_allclose(view.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
+    assert_allclose(held.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
+    assert_allclose(other.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
 
 
 def test_robot_is_posed_and_wheels_spin(drawn):

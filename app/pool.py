@@ -53,6 +53,7 @@ class WorkerPool:
         self._ready = threading.Condition()
         self._idle: list[ProcessLane] = []
         self._all: list[ProcessLane] = []
+        self._waiting = 0
         self._closed = False
 
     def __call__(self, scene: Any, which: tuple[str, ...]) -> Any:
@@ -101,7 +102,17 @@ class WorkerPool:
                     worker = ProcessLane(self._fn)
                     self._all.append(worker)
                     return worker
-                self._ready.wait()
+                self._waiting += 1
+                try:
+                    self._ready.wait()
+                finally:
+                    self._waiting -= 1
+
+    @property
+    def waiting(self) -> int:
+        """Leases waiting for a free worker right now."""
+        with self._ready:
+            return self._waiting
 
     @property
     def processes(self) -> int:

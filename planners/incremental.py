@@ -157,7 +157,7 @@ def _carried(
     j = np.concatenate([kept_j, tj[ok[: len(ti)]]])
     # Row-major: one key per pair (each pair comes once); the kept pairs come in
     # order already, and a stable sort runs through such runs fast.
-    order = np.argsort(i * len(new_b.points) + j, kind="stable")
+    order = np.argsort(i.astype(np.int64) * len(new_b.points) + j, kind="stable")
     at, points = len(ti), []
     for point, stay, again in carried:
         seen = again[ok[at : at + len(again)]]

@@ -501,7 +501,8 @@ def _unique_points(points: FloatArray) -> tuple[FloatArray, IntArray]:
     """Return ``np.unique(points, axis=0, return_inverse=True)``, ten times faster.
 
     The rows as complex numbers x + iy (a view of the same bits; numpy orders them by
-    x, then y, as ``unique`` orders rows).
+    x, then y, as ``unique`` orders rows). For finite coordinates, as
+    :func:`_lexicographic`.
 
     Examples
     --------
@@ -518,7 +519,9 @@ def _lexicographic(points: FloatArray) -> IntArray:
     """Order points by x, then y, equal ones as they come: ``np.lexsort((y, x))``.
 
     Sorted as complex numbers (x + iy, which numpy orders by the real part, then the
-    imaginary one), a view of the same bits, twice as fast as ``lexsort``.
+    imaginary one), a view of the same bits, twice as fast as ``lexsort``. For finite
+    coordinates (a scene's are: :func:`planners.scene.scene_problems`); NaN would sort
+    differently.
 
     Examples
     --------
@@ -1436,7 +1439,8 @@ def _svg_build(
         found_i.append(i[ok])
         found_j.append(j[ok])
     i, j = np.concatenate(found_i), np.concatenate(found_j)
-    order = np.argsort(i * len(q.points) + j, kind="stable")  # row-major, as lexsort
+    keys = i.astype(np.int64) * len(q.points) + j
+    order = np.argsort(keys, kind="stable")  # row-major, as lexsort
     # Reflex vertices cannot be on a shortest path: leave them out of the picture.
     return _graph_arrays(q, i[order], j[order], drop_isolated=True), border, q
 

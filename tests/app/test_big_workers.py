@@ -185,6 +185,7 @@ def test_in_a_real_pool_jobs_given_up_while_waiting_end_at_once():
         holder = _job(_scene((3.0, 3.0)), workers)
         assert wait_until(lambda: pool.processes == 1, 10)  # the holder has it
         dragged = [_job(_scene((0.1 * k, 9.0)), workers) for k in range(1, 6)]
+        assert wait_until(lambda: pool.waiting == 5, 10)  # each waits for the worker
         for job in dragged:
             job.cancel()
         assert all(job.done.wait(2.0) for job in dragged)
@@ -201,12 +202,15 @@ def test_in_a_real_pool_jobs_given_up_while_waiting_end_at_once():
 
 
 def test_closing_a_pool_ends_the_leases_that_wait():
+    """The classroom closes while a copy's job waits for the only worker (held, with no
+    call running that could hand it back): the wait ends with the pool's error."""
     pool = WorkerPool(slow_answer, size=1)
     workers = SharedWorkers(pool)
-    holder = _job(_scene((30.0, 3.0)), workers)
-    assert wait_until(lambda: pool.processes == 1, 10)
-    waiting = _job(_scene((0.0, 1.0)), workers)
-    pool.close()  # the classroom closes
-    assert holder.done.wait(10) and waiting.done.wait(10)
-    assert holder.result is None and waiting.result is None
+    with pool.lease():  # another copy holds the worker
+        waiting = _job(_scene((0.0, 1.0)), workers)
+        assert wait_until(lambda: pool.waiting == 1, 10)
+        pool.close()
+        assert waiting.done.wait(5)
+    assert waiting.result is None
     assert isinstance(waiting.error, RuntimeError)
+    assert "pool is closed" in str(waiting.error)

@@ -47,7 +47,7 @@ def test_lexicographic_is_lexsort(points):
 def test_unique_points_is_unique_rows(points):
     want, want_inverse = np.unique(points, axis=0, return_inverse=True)
     got, inverse = _unique_points(points)
-    assert np.array_equal(got, want)  # equal values (+0.0 == -0.0)
+    assert np.array_equal(got.view(np.uint64), want.view(np.uint64))  # bit for bit
     assert np.array_equal(inverse, want_inverse.reshape(-1))
     assert np.array_equal(got[inverse], points)  # every row is found again
 
@@ -101,3 +101,17 @@ def test_adjacency_is_a_stable_sort_by_node(n, data):
     assert np.array_equal(other, v[order])
     assert np.array_equal(weight, np.concatenate([graph.weight, graph.weight])[order])
     assert first == [0, *np.cumsum(np.bincount(u, minlength=n)).tolist()]
+
+
+def test_adjacency_at_the_radix_sorts_bound():
+    """Node numbers up to 65,535 sort as uint16; one node more, as they are."""
+    for n in (1 << 16, (1 << 16) + 1):
+        i = np.array([0, 5, n - 2, 7], dtype=np.intp)
+        j = np.array([n - 1, n - 1, n - 1, 9], dtype=np.intp)
+        order = np.lexsort((j, i))
+        i, j = i[order], j[order]
+        points = np.column_stack([np.arange(n, dtype=np.float64), np.zeros(n)])
+        graph = GraphArrays(points, 0, n - 1, i, j, np.ones(n, dtype=bool))
+        first, other, _ = graph._adjacency()
+        assert other[first[n - 1] : first[n]].tolist() == [0, 5, n - 2]
+        assert other[first[7] : first[8]].tolist() == [9]

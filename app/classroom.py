@@ -18,7 +18,8 @@ by frames nobody can drag: :mod:`app.scoped`) and, through one :class:`Audience`
 panels of the seats that follow it and on the *own views* of those that edit (a full 3-D
 view with live gizmos in the seat's client scope under ``/own``, which hides ``/shared``
 for that browser). A private copy is a second controller whose views are the seat's own
-view and panel; its slow lane runs in a :class:`app.pool.WorkerPool` shared by every copy,
+view and panel, with an *Explain* folder of its own drawn in that browser's scope only
+(:class:`PrivateExplain`; no *Live DSB* for copies); its slow lane runs in a :class:`app.pool.WorkerPool` shared by every copy,
 and a big scene's graphs (:mod:`app.big`) in a second pool, also shared: a room of
 students who all open a CAD floor plan starts at most ``copy_workers`` processes of each
 kind, not one per seat.
@@ -64,6 +65,7 @@ __all__ = [
     "Audience",
     "Classroom",
     "PresenterTools",
+    "PrivateExplain",
     "Seat",
     "connection_path",
     "presenter_url",
@@ -84,6 +86,7 @@ import viser
 from app import robot as robot_model
 from app.big import SharedWorkers
 from app.controller import Controller, Frame, RobotPose
+from app.explain_panel import ExplainPanel
 from app.files import ScenesFolder
 from app.frames import View
 from app.gate import GatedController, Refusals
@@ -310,11 +313,41 @@ class Seat:
     """The presenter's own folders (Explain, Live), on a presenter's browser only."""
     shadows: tuple[Any, ...] = ()
     """Client-scoped hidden nodes over the presenter's broadcast drawings (a copy)."""
+    explain: PrivateExplain | None = None
+    """The Explain mode of its own copy (drawn in its scope only), else None."""
 
     @property
     def client_id(self) -> int:
         """The browser's client id."""
         return self.client.client_id
+
+
+@dataclasses.dataclass(frozen=True)
+class PrivateExplain:
+    """A private copy's Explain mode: its panel, its folder, the scope it draws in."""
+
+    panel: ExplainPanel
+    target: ScopedTarget
+
+    @classmethod
+    def open(cls, client: viser.ClientHandle, controller: Controller) -> PrivateExplain:
+        """Give ``client``'s copy (``controller``) an Explain folder and drawing of its own.
+
+        The drawing goes to the browser's own scope (``/own_explain``), never to the
+        class: the presenter's broadcast ``/explain`` is hidden for this browser while it
+        works on its copy (the seat's shadows).
+        """
+        target = ScopedTarget(client, "/own_explain")
+        panel = ExplainPanel(cast(Any, target), controller, gui=client.gui)
+        controller.add_view(panel)
+        return cls(panel, target)
+
+    def close(self) -> None:
+        """Stop the explanation, take its folder off the panel and its drawing away."""
+        self.panel.close()
+        if self.panel.folder is not None:
+            self.panel.folder.remove()
+        self.target.remove()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -482,10 +515,13 @@ class Classroom:
             if seat.private is not None:
                 seat.private.close()
                 seat.private = None
+            explain, seat.explain = seat.explain, None
         # Outside the lock: closing waits for the tools' threads, and every edit asks
         # the classroom (may_edit) meanwhile.
         if tools is not None:
             tools.close()
+        if explain is not None:
+            explain.close()
         self._refresh_banners()
 
     def set_open(self, value: bool) -> None:
@@ -534,6 +570,7 @@ class Classroom:
             )
             panels.attach(cast(Controller, gated))
             _lock(panels, editable=True, presenter=False)
+            seat.explain = PrivateExplain.open(seat.client, private)
         self._refresh_banners()
         return True
 
@@ -544,12 +581,16 @@ class Classroom:
             if seat is None or seat.private is None:
                 return False
             private, seat.private = seat.private, None
+            explain, seat.explain = seat.explain, None
             private.close()
             self._drop_own_view(seat)
             for shadow in seat.shadows:
                 shadow.remove()
             seat.shadows = ()
             self._follow(seat)
+        # Outside the lock: closing waits for the explanation's thread.
+        if explain is not None:
+            explain.close()
         self._refresh_banners()
         return True
 
@@ -563,6 +604,8 @@ class Classroom:
                 seat.private.close()
             if seat.tools is not None:
                 seat.tools.close()
+            if seat.explain is not None:
+                seat.explain.close()
         self.audience.close()
         self.pool.close()
         self.big_pool.close()

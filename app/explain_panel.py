@@ -315,7 +315,9 @@ class ExplainFolder:
     """
 
     def __init__(self, gui: viser.GuiApi, panel: ExplainPanel) -> None:
-        with gui.add_folder("Explain", expand_by_default=False):
+        self.handle = gui.add_folder("Explain", expand_by_default=False)
+        """The folder itself (:meth:`remove` takes it off its browser's panel)."""
+        with self.handle:
             self.method = gui.add_dropdown("Method", list(METHOD_TITLES.values()))
             self.obstacle = gui.add_number("Obstacle", 1, min=1, max=99, step=1)
             self.nav = gui.add_button_group("Step", ["|<", "<", ">", ">|"])
@@ -325,6 +327,10 @@ class ExplainFolder:
             self.flowchart = gui.add_html("")
             self.table = gui.add_html("")
         self._bind(panel)
+
+    def remove(self) -> None:
+        """Take the folder and its widgets off the browser's panel."""
+        self.handle.remove()
 
     def _bind(self, panel: ExplainPanel) -> None:
         titles = {v: k for k, v in METHOD_TITLES.items()}

@@ -30,6 +30,7 @@ from app.classroom import (
     is_presenter_path,
     presenter_url,
 )
+from app.explain_panel import METHOD_TITLES
 from app.gate import GatedController, Refusals
 from app.server import _is_loopback
 from tests.app.app_helpers import wait_until
@@ -589,3 +590,77 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
         # The label pools' roots are plain frames; what they hold is hidden.
         shown = [n for n in shown if n not in ("/explain/labels", "/explain/caption")]
         assert not shown, shown
+
+
+def _scoped_explain_nodes(c: ViserClient, owner: str) -> list[str]:
+    """Names of the visible Explain drawing nodes ``c`` holds under ``owner``'s scope."""
+    with c._lock:  # the client's reader thread adds nodes meanwhile
+        nodes = list(c.nodes.items())
+    return [
+        name
+        for (who, name), node in nodes
+        if who == owner and name.startswith("/own_explain/explain/") and node["visible"]
+    ]
+
+
+def test_a_private_copy_has_an_explain_mode_of_its_own(planner):
+    """A student explains the SVG on its copy: the folder and the drawing are its own
+    (in its browser's scope, never broadcast), the presenter's Explain and layers are
+    untouched, and following the presenter again takes both away."""
+    room = planner.classroom
+    svg = METHOD_TITLES["svg"]
+    with client(planner, presenter=True) as pres, client(planner) as student:
+        sid = student.client_id
+        assert not _has(student, "Step no.")  # a follower has no Explain folder
+        student.set_gui(student.uuid("Make my own copy"), True)
+        assert wait_until(lambda: room.mode(sid) == "private", 20)
+        assert student.wait_for(lambda: _has(student, "Step no."))
+        private = room.seat(sid).private
+        assert private is not None and private.wait_idle(60)
+        student.set_gui(student.uuid("Method"), svg)
+        assert student.wait_for(lambda: bool(_scoped_explain_nodes(student, str(sid))))
+        assert student.wait_for(
+            lambda: any(", step 1 of" in h for h in _markdowns(student))
+        )
+        # The copy's plan layers are hidden while it explains; the presenter's are not.
+        assert wait_until(lambda: not private.frame.layers["svg_edges"], 20)
+        assert planner.controller.frame.layers["svg_edges"]
+        assert planner.explain is None or planner.explain.explainer.method == "off"
+        # Nothing of it reaches the presenter's browser.
+        assert not _scoped_explain_nodes(pres, str(sid))
+        with pres._lock:
+            assert not any(n.startswith("/own_explain") for _, n in pres.nodes)
+        # Following the presenter again closes the copy and its Explain mode.
+        student.set_gui(student.uuid("Follow the presenter again"), True)
+        assert wait_until(lambda: room.mode(sid) == "watching", 20)
+        assert student.wait_for(lambda: not _has(student, "Step no."))
+        assert student.wait_for(lambda: not _scoped_explain_nodes(student, str(sid)))
+        assert room.seat(sid).explain is None
+        assert planner.controller.frame.layers["svg_edges"]
+
+
+def test_a_copys_explain_mode_stops_when_its_browser_leaves(planner):
+    room = planner.classroom
+    with client(planner) as student:
+        sid = student.client_id
+        student.set_gui(student.uuid("Make my own copy"), True)
+        assert wait_until(lambda: room.mode(sid) == "private", 20)
+        assert student.wait_for(lambda: _has(student, "Step no."))
+        explain = room.seat(sid).explain
+        assert explain is not None
+        student.set_gui(student.uuid("Method"), METHOD_TITLES["vg"])
+        assert wait_until(lambda: explain.panel.explainer.method == "vg", 20)
+        thread = explain.panel.explainer._thread
+        assert thread.is_alive()
+    assert wait_until(lambda: room.seat(sid) is None, 20)
+    assert wait_until(lambda: not thread.is_alive(), 20)  # its thread ended with it
+
+
+def _markdowns(c: ViserClient) -> list[str]:
+    with c._lock:
+        elements = [dict(e) for e in c.gui.values()]
+    return [
+        str(e["props"].get("_markdown", ""))
+        for e in elements
+        if e["type"] == "GuiMarkdownMessage"
+    ]

@@ -92,6 +92,19 @@ def _shot(page: Any, name: str) -> None:
         page.screenshot(path=str(Path(folder) / f"{name}.png"))
 
 
+def _explain_on_the_copy(planner: Any, seat: Any, page: Any, presenter: Any) -> None:
+    """The copy explains the SVG (its own Explain folder): drawn in its page only."""
+    page.get_by_text("Explain", exact=True).first.click()
+    seat.explain.panel.choose("svg")
+    _wait_node(page, "/own_explain/explain/caption")
+    _shot(page, "private_explain")
+    assert planner.explain is None or planner.explain.explainer.method == "off"
+    assert not presenter.evaluate(
+        "() => Object.keys(window.__viserMutable.nodeRefFromName)"
+        ".some(n => n.startsWith('/own_explain'))"
+    )
+
+
 def _close_to(a: Any, b: Any, tolerance: float) -> bool:
     return a is not None and bool(np.allclose(a, b, atol=tolerance))
 
@@ -152,6 +165,7 @@ def test_watcher_sees_the_presenter_drag_and_edits_only_its_own_copy(browser, pl
         assert shared.scene == before_shared
         _shot(pres.page, "presenter_after")
         threads = private.scheduler._threads
+        _explain_on_the_copy(planner, room.seat(sid), watch.page, pres.page)
 
         # Another student, watching, tries to drag the goal with the mouse: nothing moves
         # (its mouse turns its camera: there is no gizmo to hold).

@@ -73,6 +73,7 @@ __all__ = [
 
 import dataclasses
 import functools
+import itertools
 import logging
 import secrets
 import threading
@@ -328,26 +329,39 @@ class PrivateExplain:
 
     panel: ExplainPanel
     target: ScopedTarget
+    root: str
+    """Where it draws in the browser's scope (one root per copy)."""
 
     @classmethod
-    def open(cls, client: viser.ClientHandle, controller: Controller) -> PrivateExplain:
+    def open(
+        cls,
+        client: viser.ClientHandle,
+        controller: Controller,
+        root: str,
+        turns: threading.Semaphore,
+    ) -> PrivateExplain:
         """Give ``client``'s copy (``controller``) an Explain folder and drawing of its own.
 
-        The drawing goes to the browser's own scope (``/own_explain``), never to the
-        class: the presenter's broadcast ``/explain`` is hidden for this browser while it
-        works on its copy (the seat's shadows).
+        The drawing goes to the browser's own scope under ``root``, never to the class:
+        the presenter's broadcast ``/explain`` is hidden for this browser while it works
+        on its copy (the seat's shadows). A root of its own per copy: a copy's Explain
+        closing after the next copy opened never touches the new one's nodes. The
+        explanations compute in the server's process, ``turns`` at a time over all the
+        copies (as their planners share ``copy_workers`` processes).
         """
-        target = ScopedTarget(client, "/own_explain")
-        panel = ExplainPanel(cast(Any, target), controller, gui=client.gui)
+        target = ScopedTarget(client, root)
+        panel = ExplainPanel(cast(Any, target), controller, gui=client.gui, turns=turns)
         controller.add_view(panel)
-        return cls(panel, target)
+        return cls(panel, target, root)
 
     def close(self) -> None:
         """Stop the explanation, take its folder off the panel and its drawing away."""
-        self.panel.close()
-        if self.panel.folder is not None:
-            self.panel.folder.remove()
-        self.target.remove()
+        try:
+            self.panel.close(hide=False)  # its nodes are removed below
+        finally:
+            if self.panel.folder is not None:
+                self.panel.folder.remove()
+            self.target.remove()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -424,6 +438,9 @@ class Classroom:
             big_plan(dict(controller.registry)), size=copy_workers
         )
         """The workers every private copy shares for big scenes' graphs (app.big)."""
+        self.explain_turns = threading.Semaphore(max(1, copy_workers))
+        """How many copies' explanations may compute at once (in this process)."""
+        self._copies = itertools.count(1)  # numbers each copy's Explain root
         controller.add_view(self.audience)
         server.on_client_connect(self.connect)
         server.on_client_disconnect(self.disconnect)
@@ -570,7 +587,12 @@ class Classroom:
             )
             panels.attach(cast(Controller, gated))
             _lock(panels, editable=True, presenter=False)
-            seat.explain = PrivateExplain.open(seat.client, private)
+            seat.explain = PrivateExplain.open(
+                seat.client,
+                private,
+                f"/own_explain/{next(self._copies)}",
+                self.explain_turns,
+            )
         self._refresh_banners()
         return True
 

@@ -31,6 +31,7 @@ __all__ = [
     "table_html",
 ]
 
+import contextlib
 import html
 import logging
 import threading
@@ -143,8 +144,15 @@ class Explainer:
     blocks the scheduler.
     """
 
-    def __init__(self, draw: Callable[[Step | None, Explanation | None], None]) -> None:
+    def __init__(
+        self,
+        draw: Callable[[Step | None, Explanation | None], None],
+        turns: threading.Semaphore | None = None,
+    ) -> None:
         self._draw = draw
+        self._turns = (
+            turns  # computations allowed at once, shared (a classroom's copies)
+        )
         self._cond = threading.Condition()
         self._frame: Frame | None = None
         self._method = "off"
@@ -275,7 +283,8 @@ class Explainer:
             return
         key = (frame.version, method, obstacle)
         if key != self._key:
-            explanation = self._compute(frame.scene, method, obstacle)
+            with self._turns or contextlib.nullcontext():
+                explanation = self._compute(frame.scene, method, obstacle)
             with self._cond:
                 self._key, self._explanation = key, explanation
                 # The same step number on the new scene, where it still exists.
@@ -409,6 +418,7 @@ class ExplainPanel:
         *,
         gui: viser.GuiApi | None = None,
         folder: bool = True,
+        turns: threading.Semaphore | None = None,
     ) -> None:
         self._controller = controller
         self._view = ExplainView(server.scene)
@@ -421,7 +431,7 @@ class ExplainPanel:
         self._lock = threading.RLock()  # guards the folders, the layers saved, _shown
         self._folders: tuple[ExplainFolder, ...] = ()
         self._shown: tuple[Step | None, Explanation | None] = (None, None)
-        self.explainer = Explainer(self._draw)
+        self.explainer = Explainer(self._draw, turns)
         self.folder = (
             self.add_folder(server.gui if gui is None else gui) if folder else None
         )
@@ -490,12 +500,17 @@ class ExplainPanel:
     def render_robot(self, pose: RobotPose | None) -> None:
         """Nothing: the explanation does not move with the robot."""
 
-    def close(self) -> None:
-        """Give the plans' layers back, stop the explanation thread and hide its drawing."""
+    def close(self, *, hide: bool = True) -> None:
+        """Give the plans' layers back, stop the explanation thread and hide its drawing.
+
+        ``hide=False`` leaves the drawing to its owner, which removes it (a private copy's
+        browser may be gone: nothing should be sent to it).
+        """
         with self._lock:
             self._restore_layers()
         self.explainer.close()
-        self._view.show(None)
+        if hide:
+            self._view.show(None)
 
     # ---------------------------------------------------------------- drawing
 

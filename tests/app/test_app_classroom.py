@@ -599,7 +599,10 @@ def _scoped_explain_nodes(c: ViserClient, owner: str) -> list[str]:
     return [
         name
         for (who, name), node in nodes
-        if who == owner and name.startswith("/own_explain/explain/") and node["visible"]
+        if who == owner
+        and name.startswith("/own_explain/")
+        and "/explain/" in name
+        and node["visible"]
     ]
 
 
@@ -615,8 +618,10 @@ def test_a_private_copy_has_an_explain_mode_of_its_own(planner):
         student.set_gui(student.uuid("Make my own copy"), True)
         assert wait_until(lambda: room.mode(sid) == "private", 20)
         assert student.wait_for(lambda: _has(student, "Step no."))
-        private = room.seat(sid).private
+        private, first = room.seat(sid).private, room.seat(sid).explain
         assert private is not None and private.wait_idle(60)
+        # Its explanations take turns with the other copies' (the classroom's bound).
+        assert first is not None and first.panel.explainer._turns is room.explain_turns
         student.set_gui(student.uuid("Method"), svg)
         assert student.wait_for(lambda: bool(_scoped_explain_nodes(student, str(sid))))
         assert student.wait_for(
@@ -637,6 +642,12 @@ def test_a_private_copy_has_an_explain_mode_of_its_own(planner):
         assert student.wait_for(lambda: not _scoped_explain_nodes(student, str(sid)))
         assert room.seat(sid).explain is None
         assert planner.controller.frame.layers["svg_edges"]
+        # A new copy draws under a root of its own: the old one's closing never
+        # touches it.
+        student.set_gui(student.uuid("Make my own copy"), True)
+        assert wait_until(lambda: room.mode(sid) == "private", 20)
+        again = room.seat(sid).explain
+        assert again is not None and again.root != first.root
 
 
 def test_a_copys_explain_mode_stops_when_its_browser_leaves(planner):

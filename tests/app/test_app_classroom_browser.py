@@ -96,7 +96,7 @@ def _explain_on_the_copy(planner: Any, seat: Any, page: Any, presenter: Any) -> 
     """The copy explains the SVG (its own Explain folder): drawn in its page only."""
     page.get_by_text("Explain", exact=True).first.click()
     seat.explain.panel.choose("svg")
-    _wait_node(page, "/own_explain/explain/caption")
+    _wait_node(page, f"{seat.explain.root}/explain/caption")
     _shot(page, "private_explain")
     assert planner.explain is None or planner.explain.explainer.method == "off"
     assert not presenter.evaluate(

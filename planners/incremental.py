@@ -194,8 +194,8 @@ def _point_change(
     v = change.to_new[rows]
     v = v[v >= 0]
     v = v[change.stable[v]]
-    ends = np.broadcast_to(p, (len(v), 2))
-    stay = v[~_meets_box(take_rows(new_b.points, v), ends, change.box)]
+    to_point = np.broadcast_to(p, (len(v), 2))
+    stay = v[~_meets_box(take_rows(new_b.points, v), to_point, change.box)]
     again = ~change.stable
     if change.box is not None:
         again |= _meets_box(new_b.points, np.broadcast_to(p, (n, 2)), change.box)

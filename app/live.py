@@ -126,7 +126,7 @@ def live_pose_at(
         goal=step.goal or scene.goal,
         motions=(),
     )
-    return _robot_pose(step, sensed, memo, playing=False)
+    return step_pose(step, sensed, memo)
 
 
 def step_pose(step: LiveStep, scene: Scene, memo: Memo | None = None) -> RobotPose:

@@ -114,6 +114,16 @@ class Scene:
     """Moving obstacles (:mod:`planners.motion`), at most one per obstacle, by obstacle
     index; ``obstacles`` is the scene at time 0."""
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickle the fields only, not what :func:`scene_problems` kept on the scene.
+
+        One copy of the attributes first (a single C call under the GIL): another thread
+        may keep the problems on this scene while it is being sent to a worker.
+        """
+        state = dict(self.__dict__)
+        state.pop("_problems", None)
+        return state
+
 
 Scenario = Scene  # the file format's name for the same value
 
@@ -581,7 +591,18 @@ def scene_problems(scene: Scene) -> list[str]:
     >>> bowtie = Polygon([(0, 0), (1, 1), (1, 0), (0, 1)])
     >>> scene_problems(Scene(obstacles=(bowtie,), start=(2, 2), goal=(3, 3)))
     ['obstacle 1: polygon intersects itself [0.5 0.5]']
+
+    A scene never changes, so its list is made once and kept on the scene (an edit
+    makes a new scene): the app asks three times per edit (the edit, the planners, the
+    frame), and the validity test of every polygon is the cost.
     """
+    kept = scene.__dict__.get("_problems")
+    if kept is None:
+        kept = scene.__dict__["_problems"] = tuple(_problems_of(scene))
+    return list(kept)
+
+
+def _problems_of(scene: Scene) -> list[str]:
     problems = []
     named = [(f"obstacle {i + 1}", o) for i, o in enumerate(scene.obstacles)]
     if scene.boundary is not None:

@@ -285,3 +285,58 @@ def test_scene_problems_name_what_a_polygon_by_polygon_check_names(rings, bounda
     walls = Polygon([(-1, -1), (5, -1), (5, 5), (-1, 5)]) if boundary else None
     scene = Scene(obstacles=obstacles, start=(4, 4), goal=(4.5, 4.5), boundary=walls)
     assert [p for p in scene_problems(scene) if ":" in p] == _problems_one_by_one(scene)
+
+
+def test_scene_problems_are_kept_per_scene_and_each_edit_asks_afresh():
+    """The list is made once per scene (the app asks three times per edit): the same
+    words each time, a copy the caller may change, and a new answer after an edit."""
+    from planners.scene import Scene, move_vertex
+
+    square = Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])
+    scene = Scene(obstacles=(square,), start=(2, 2), goal=(3, 3))
+    first = scene_problems(scene)
+    assert first == [] and scene_problems(scene) == []
+    first.append("changed by the caller")
+    assert scene_problems(scene) == []
+    bowtie = move_vertex(scene, 0, 2, (1.0, -1.0))  # the ring now crosses itself
+    assert scene_problems(bowtie) == ["obstacle 1: polygon intersects itself [0.5 0]"]
+    assert scene_problems(scene) == []
+    assert bowtie == move_vertex(scene, 0, 2, (1.0, -1.0))  # the kept list is no field
+
+
+def test_a_scene_pickles_without_its_kept_problems_while_another_thread_asks():
+    """The app sends scenes to a worker process (pickle) while its fast lane asks for
+    the problems of the same scene: the state is copied before it is written, and the
+    kept list is not part of it."""
+    import pickle
+    import threading
+
+    from planners.scene import Scene
+
+    square = Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])
+    scenes = [
+        Scene(obstacles=(square,) * 20, start=(2, 2 + k), goal=(3, 3))
+        for k in range(300)
+    ]
+    failures = []
+
+    def ask():
+        for scene in scenes:
+            scene_problems(scene)
+
+    def send():
+        for scene in scenes:
+            try:
+                back = pickle.loads(pickle.dumps(scene))
+            except RuntimeError as error:  # "dictionary changed size during iteration"
+                failures.append(error)
+            else:
+                assert back == scene and "_problems" not in back.__dict__
+
+    threads = [threading.Thread(target=ask), threading.Thread(target=send)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert failures == []
+    assert "_problems" not in pickle.loads(pickle.dumps(scenes[0])).__dict__

@@ -30,11 +30,21 @@ Examples
 
 from __future__ import annotations
 
-__all__ = ["METHODS", "ROLES", "Explanation", "Mark", "Step", "explain", "marks"]
+__all__ = [
+    "METHODS",
+    "ROLES",
+    "Explanation",
+    "Lazy",
+    "Mark",
+    "Step",
+    "explain",
+    "marks",
+]
 
 import dataclasses
-from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any
+import functools
+from collections.abc import Callable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any, TypeVar, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -44,6 +54,7 @@ if TYPE_CHECKING:
     from planners.scene import Scene
 
 FloatArray = npt.NDArray[np.float64]
+T = TypeVar("T")
 
 ROLES = (
     "done",
@@ -123,6 +134,46 @@ class Step:
         return found.segments if found is not None else np.zeros((0, 2, 2))
 
 
+class Lazy(Sequence[T]):
+    """A sequence whose items are made when asked for; the last few are kept.
+
+    The visibility graph of a big scene has thousands of steps, each with thousands of
+    segments: made all at once they would fill the memory (a scene of 400 vertices took
+    seconds and a quarter of a gigabyte, one of 10,000 could not finish). Each item is
+    ``make(k)``, a pure function of its position, so an item made again is the same.
+
+    Examples
+    --------
+    >>> squares = Lazy(4, lambda k: k * k)
+    >>> len(squares), squares[3], squares[-1], list(squares[1:3])
+    (4, 9, 9, [1, 4])
+    """
+
+    def __init__(self, count: int, make: Callable[[int], T], keep: int = 16) -> None:
+        self._count = int(count)
+        self._make = functools.lru_cache(maxsize=keep)(make)
+
+    def __len__(self) -> int:
+        return self._count
+
+    @overload
+    def __getitem__(self, k: int) -> T: ...
+
+    @overload
+    def __getitem__(self, k: slice) -> tuple[T, ...]: ...
+
+    def __getitem__(self, k: int | slice) -> T | tuple[T, ...]:
+        if isinstance(k, slice):
+            return tuple(self[i] for i in range(*k.indices(self._count)))
+        i = k + self._count if k < 0 else k
+        if not 0 <= i < self._count:
+            raise IndexError(k)
+        return self._make(i)
+
+    def __iter__(self) -> Iterator[T]:
+        return (self[i] for i in range(self._count))
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class Explanation:
     """A method as a sequence of steps."""
@@ -131,8 +182,9 @@ class Explanation:
     """One of :data:`METHODS`."""
     title: str
     """What is explained, e.g. ``"Simplified visibility graph (section 9.5)"``."""
-    steps: tuple[Step, ...]
-    """The steps in order (at least one)."""
+    steps: Sequence[Step]
+    """The steps in order (at least one): a tuple, or :class:`Lazy` when there are
+    many (the visibility graph's, one per node)."""
     tags: tuple[Any, ...] = ()
     """Per-element records of the method (the SVG's tagged segments, for instance)."""
     data: Any = None

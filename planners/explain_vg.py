@@ -8,6 +8,12 @@ path. :func:`explain_vg` steps through the same graph the planner built
 segments it sees and those an obstacle blocks, with the edge that blocks each one; then
 the nodes in the order the planner's A* search settles them
 (:meth:`planners.visibility.GraphArrays.shortest_path`), then the path.
+
+A step is made when it is shown (:class:`planners.explain.Lazy`): one step per node,
+each with a segment to every other node, is quadratic in the scene, and a student's
+scene of 32 obstacles has 500 nodes. What blocks a segment is found among the border
+edges near it (:func:`planners.sightlines.near_pairs` on a grid of the edges), not
+among all of them: one step costs about the work of its own segments.
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ from __future__ import annotations
 __all__ = ["VertexLook", "explain_vg"]
 
 import dataclasses
+import functools
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -22,7 +29,8 @@ import numpy.typing as npt
 import shapely
 
 from planners.border import ring_geometry
-from planners.explain import Explanation, Step, as_segments, marks, point_mark
+from planners.explain import Explanation, Lazy, Step, as_segments, marks, point_mark
+from planners.sightlines import EdgeGrid, edge_grid, near_pairs
 
 if TYPE_CHECKING:
     from planners.expansion import ConfigurationSpace
@@ -32,8 +40,12 @@ if TYPE_CHECKING:
 
 FloatArray = npt.NDArray[np.float64]
 
+IntArray = npt.NDArray[np.intp]
+
 # Points along a blocked segment tested to find where it first enters an obstacle.
 _SAMPLES = 129
+_TOUCH = 10.0
+"""A segment within this many eps of a border edge touches it."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -74,7 +86,8 @@ def explain_vg(
     -------
     Explanation
         One step per node (start, the obstacles' vertices, goal), one per node the search
-        settles, and the path. ``data`` holds the :class:`VertexLook` records.
+        settles, and the path, each made when asked for. ``data`` holds the
+        :class:`VertexLook` records, in the same order, also made when asked for.
 
     Examples
     --------
@@ -99,13 +112,19 @@ def explain_vg(
         )
     arrays = result.arrays
     order = _stepping_order(arrays)
-    looks = tuple(_look(cspace, arrays, n) for n in order)
-    steps = [
-        *_vertex_steps(arrays, looks),
-        *_search_steps(arrays),
-        _path_step(arrays, result),
-    ]
-    return Explanation("vg", title, tuple(steps), data=looks)
+    border = _BorderEdges.of(cspace)
+    looks = Lazy(len(order), lambda k: _look(cspace, border, arrays, order[k]))
+    story = _Story.of(arrays, order)
+    count = len(order) + len(story.settled) + 1
+
+    def step(k: int) -> Step:
+        if k < len(order):
+            return _vertex_step(arrays, looks[k], story.done_before(k))
+        if k < count - 1:
+            return _search_step(arrays, story, k - len(order))
+        return _path_step(arrays, result, story.graph)
+
+    return Explanation("vg", title, Lazy(count, step), data=looks)
 
 
 def _stepping_order(arrays: GraphArrays) -> list[int]:
@@ -121,22 +140,88 @@ def _name(arrays: GraphArrays, n: int) -> str:
     return kind if kind != "vertex" else f"vertex {n + 1}"
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Story:
+    """What the steps draw besides a node's own lines: the graph and the search."""
+
+    graph: FloatArray
+    """The VG's edges as segments (E, 2, 2), in the graph's order [m]."""
+    first: IntArray
+    """Per edge, the vertex step that draws it first (its earlier end's)."""
+    settled: tuple[tuple[int, int, float], ...]
+    """(node, parent, cost) in the order the A* search settles them."""
+
+    @classmethod
+    def of(cls, arrays: GraphArrays, order: list[int]) -> _Story:
+        rank = np.empty(len(arrays.points), dtype=np.intp)
+        rank[np.asarray(order, dtype=np.intp)] = np.arange(len(order))
+        settled: list[tuple[int, int, float]] = []
+        arrays.shortest_path(settled)
+        return cls(
+            arrays.segments(),
+            np.minimum(rank[arrays.i], rank[arrays.j]),
+            tuple(settled),
+        )
+
+    def done_before(self, k: int) -> FloatArray:
+        """Return the edges that the vertex steps before step ``k`` drew, each once."""
+        return self.graph[self.first < k]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _BorderEdges:
+    """The border's edges, their grid and their shapes: where blockers are looked for."""
+
+    start: FloatArray
+    end: FloatArray
+    grid: EdgeGrid
+    eps: float
+
+    @classmethod
+    def of(cls, cspace: ConfigurationSpace) -> _BorderEdges:
+        geo = ring_geometry(cspace, cleaned=False)
+        margin = 2.0 * _TOUCH * cspace.eps
+        grid = edge_grid(geo.start, geo.end, margin)
+        return cls(geo.start, geo.end, grid, cspace.eps)
+
+    @functools.cached_property
+    def lines(self) -> npt.NDArray[np.object_]:
+        """The edges as shapely line strings (for the distance test of touching)."""
+        return np.asarray(
+            shapely.linestrings(np.stack([self.start, self.end], axis=1)), dtype=object
+        )
+
+    def near(self, segs: FloatArray) -> tuple[IntArray, IntArray]:
+        """(segment, edge) pairs: every edge within the touching distance, and more."""
+        margin = 2.0 * _TOUCH * self.eps
+        return near_pairs(self.grid, segs[:, 0], segs[:, 1], margin)
+
+
 def _neighbours(arrays: GraphArrays, n: int) -> np.ndarray:
     return np.concatenate([arrays.j[arrays.i == n], arrays.i[arrays.j == n]])
 
 
-def _look(cspace: ConfigurationSpace, arrays: GraphArrays, n: int) -> VertexLook:
+def _look(
+    cspace: ConfigurationSpace, border: _BorderEdges, arrays: GraphArrays, n: int
+) -> VertexLook:
     """Return what node n sees (read from the graph) and what blocks the rest."""
     seen = _neighbours(arrays, n)
     others = np.setdiff1d(np.arange(len(arrays.points)), np.append(seen, n))
     p = arrays.points[n]
-    visible = as_segments([(p, arrays.points[m]) for m in seen.tolist()])
-    blocked = as_segments([(p, arrays.points[m]) for m in others.tolist()])
-    blockers = _blockers(cspace, blocked)
+    visible = _from_point(p, arrays.points[seen])
+    blocked = _from_point(p, arrays.points[others])
+    blockers = _blockers(cspace, border, blocked)
     return VertexLook(n, _name(arrays, n), visible, blocked, blockers)
 
 
-def _blockers(cspace: ConfigurationSpace, blocked: FloatArray) -> FloatArray:
+def _from_point(p: FloatArray, ends: FloatArray) -> FloatArray:
+    """Segments (k, 2, 2) from ``p`` to each of ``ends``."""
+    return np.stack([np.broadcast_to(p, ends.shape), ends], axis=1).astype(np.float64)
+
+
+def _blockers(
+    cspace: ConfigurationSpace, border: _BorderEdges, blocked: FloatArray
+) -> FloatArray:
     """For each blocked segment, the border edge where it first enters blocked space.
 
     The first edge it properly crosses; a segment that crosses none enters blocked space
@@ -145,140 +230,145 @@ def _blockers(cspace: ConfigurationSpace, blocked: FloatArray) -> FloatArray:
     """
     if len(blocked) == 0:
         return np.zeros((0, 2, 2))
-    geo = ring_geometry(cspace, cleaned=False)
-    edge = _first_crossing(blocked, geo.start, geo.end, cspace.eps)
+    edge = _first_crossing(blocked, border)
     rest = np.flatnonzero(edge < 0)
     if len(rest):
-        edge[rest] = _entry_edges(cspace, blocked[rest], geo.start, geo.end)
-    return np.stack([geo.start[edge], geo.end[edge]], axis=1)
+        edge[rest] = _entry_edges(cspace, border, blocked[rest])
+    return np.stack([border.start[edge], border.end[edge]], axis=1)
 
 
-def _first_crossing(
-    segs: FloatArray, start: FloatArray, end: FloatArray, eps: float
-) -> npt.NDArray[np.intp]:
-    """Per segment, the edge it properly crosses nearest its first end (-1: none)."""
-    p, r = segs[:, None, 0], (segs[:, 1] - segs[:, 0])[:, None, :]  # (s, 1, 2)
-    q, e = start[None], (end - start)[None]  # (1, m, 2)
-    denom = r[..., 0] * e[..., 1] - r[..., 1] * e[..., 0]
+def _first_crossing(segs: FloatArray, border: _BorderEdges) -> IntArray:
+    """Per segment, the edge it properly crosses nearest its first end (-1: none).
+
+    Of equally near ones, the edge listed first. Only the edges near a segment can
+    cross it, so only those pairs are computed.
+    """
+    seg, edge = border.near(segs)
+    p, r = segs[seg, 0], segs[seg, 1] - segs[seg, 0]
+    q, e = border.start[edge], border.end[edge] - border.start[edge]
+    denom = r[:, 0] * e[:, 1] - r[:, 1] * e[:, 0]
     qp = q - p
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = (qp[..., 0] * e[..., 1] - qp[..., 1] * e[..., 0]) / denom
-        u = (qp[..., 0] * r[..., 1] - qp[..., 1] * r[..., 0]) / denom
-    tol = eps / np.maximum(np.hypot(*segs[:, 1].T - segs[:, 0].T), eps)[:, None]
+        t = (qp[:, 0] * e[:, 1] - qp[:, 1] * e[:, 0]) / denom
+        u = (qp[:, 0] * r[:, 1] - qp[:, 1] * r[:, 0]) / denom
+    eps = border.eps
+    tol = (eps / np.maximum(np.hypot(*segs[:, 1].T - segs[:, 0].T), eps))[seg]
     crossing = (
         (np.abs(denom) > 0) & (t > tol) & (t < 1 - tol) & (u > 1e-12) & (u < 1 - 1e-12)
     )
-    t = np.where(crossing, t, np.inf)
-    best = np.argmin(t, axis=1)
-    return np.where(np.isfinite(t[np.arange(len(segs)), best]), best, -1).astype(
-        np.intp
+    found = np.full(len(segs), -1, dtype=np.intp)
+    seg, edge, t = seg[crossing], edge[crossing], t[crossing]
+    first = np.lexsort((edge, t, seg))  # by segment, then t, then edge
+    leads = (
+        first[np.r_[True, seg[first][1:] != seg[first][:-1]]] if len(first) else first
     )
+    found[seg[leads]] = edge[leads]
+    return found
 
 
 def _entry_edges(
-    cspace: ConfigurationSpace, segs: FloatArray, start: FloatArray, end: FloatArray
-) -> npt.NDArray[np.intp]:
+    cspace: ConfigurationSpace, border: _BorderEdges, segs: FloatArray
+) -> IntArray:
     """Return, per segment that crosses no edge, the border edge where it enters blocked space.
 
     Such a segment passes through a vertex (or leaves one) into an obstacle: of the edges
-    it touches, the one nearest its first blocked point.
+    it touches, the one nearest its first blocked point (of equally near ones, the edge
+    listed first).
     """
     t = np.linspace(0.0, 1.0, _SAMPLES)[1:-1]
     pts = segs[:, None, 0] + t[None, :, None] * (segs[:, 1] - segs[:, 0])[:, None, :]
     inside = cspace.contains_blocked(pts.reshape(-1, 2)).reshape(len(segs), -1)
     entry = pts[np.arange(len(segs)), np.argmax(inside, axis=1)]  # (f, 2)
+    seg, edge = border.near(segs)
     lines = np.asarray(shapely.linestrings(segs), dtype=object)
-    edges = np.asarray(
-        shapely.linestrings(np.stack([start, end], axis=1)), dtype=object
-    )
     touching = np.asarray(
-        shapely.dwithin(lines[:, None], edges[None, :], 10.0 * cspace.eps), dtype=bool
+        shapely.dwithin(lines[seg], border.lines[edge], _TOUCH * cspace.eps), dtype=bool
     )
-    gap = _point_edge_distances(entry, start, end)  # (f, m)
+    seg, edge = seg[touching], edge[touching]
+    gap = _point_edge_distances(entry[seg], border.start[edge], border.end[edge])
+    found = np.full(len(segs), -1, dtype=np.intp)
+    first = np.lexsort((edge, gap, seg))  # by segment, then gap, then edge
+    leads = (
+        first[np.r_[True, seg[first][1:] != seg[first][:-1]]] if len(first) else first
+    )
+    found[seg[leads]] = edge[leads]
     # A blocked segment touches the border; should none be found, the nearest edge.
-    gap = np.where(touching | ~touching.any(axis=1, keepdims=True), gap, np.inf)
-    return np.argmin(gap, axis=1).astype(np.intp)
+    lone = np.flatnonzero(found < 0)
+    if len(lone):
+        gaps = _point_edge_distances(
+            entry[lone, None], border.start[None], border.end[None]
+        )
+        found[lone] = np.argmin(gaps, axis=1)
+    return found
 
 
 def _point_edge_distances(
     p: FloatArray, start: FloatArray, end: FloatArray
 ) -> FloatArray:
-    """Return the distance of each point to each edge, shape (points, edges) [m]."""
+    """Return the distance of each point to each edge [m], broadcasting (..., 2) rows.
+
+    Points (k, 2) with edges (k, 2): one distance per row; points (k, 1, 2) with edges
+    (1, m, 2): the (k, m) table. Either way the same arithmetic for a (point, edge) pair.
+    """
     d = end - start
-    len2 = np.maximum((d * d).sum(axis=1), 1e-300)
-    rel = p[:, None, :] - start[None, :, :]
-    u = np.clip((rel * d[None]).sum(axis=2) / len2, 0.0, 1.0)
-    closest = start[None] + u[..., None] * d[None]
-    return np.hypot(*np.moveaxis(p[:, None, :] - closest, -1, 0))
+    len2 = np.maximum(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1], 1e-300)
+    rel = p - start
+    u = np.clip((rel[..., 0] * d[..., 0] + rel[..., 1] * d[..., 1]) / len2, 0.0, 1.0)
+    closest = start + u[..., None] * d
+    return np.hypot(*np.moveaxis(p - closest, -1, 0))
 
 
-def _vertex_steps(arrays: GraphArrays, looks: tuple[VertexLook, ...]) -> list[Step]:
-    steps = []
-    found: list[FloatArray] = []
-    for look in looks:
-        p = arrays.points[look.node]
-        text = (
-            f"Section 9.4: from {_the(look.name)}, draw a segment to every vertex it sees: "
-            f"{len(look.visible)} visible, {len(look.blocked)} intercepted by an obstacle."
-        )
-        done = np.concatenate(found) if found else np.zeros((0, 2, 2))
-        steps.append(
-            Step(
-                "vg:vertex",
-                text,
-                marks(
-                    done=done,
-                    blocked=look.blocked,
-                    blocker=look.blockers,
-                    current=look.visible,
-                    focus=point_mark(
-                        "focus", [p], ((look.name, (float(p[0]), float(p[1]))),)
-                    ),
-                ),
-                (
-                    ("visible", str(len(look.visible))),
-                    ("blocked", str(len(look.blocked))),
-                ),
-            )
-        )
-        found.append(look.visible)
-    return steps
+def _vertex_step(arrays: GraphArrays, look: VertexLook, done: FloatArray) -> Step:
+    p = arrays.points[look.node]
+    text = (
+        f"Section 9.4: from {_the(look.name)}, draw a segment to every vertex it sees: "
+        f"{len(look.visible)} visible, {len(look.blocked)} intercepted by an obstacle."
+    )
+    return Step(
+        "vg:vertex",
+        text,
+        marks(
+            done=done,
+            blocked=look.blocked,
+            blocker=look.blockers,
+            current=look.visible,
+            focus=point_mark("focus", [p], ((look.name, (float(p[0]), float(p[1]))),)),
+        ),
+        (
+            ("visible", str(len(look.visible))),
+            ("blocked", str(len(look.blocked))),
+        ),
+    )
 
 
-def _search_steps(arrays: GraphArrays) -> list[Step]:
-    settled: list[tuple[int, int, float]] = []
-    arrays.shortest_path(settled)
-    graph = arrays.segments()
-    steps = []
-    tree: list[tuple[Any, Any]] = []
-    for count, (node, parent, cost) in enumerate(settled, start=1):
-        p = arrays.points[node]
-        if parent >= 0:
-            tree.append((arrays.points[parent], p))
-        text = (
-            f"Search (section 9.4): settle {_the(_name(arrays, node))} at path length "
-            f"{cost:.2f} m from the start ({count} of the nodes settled so far)."
-        )
-        steps.append(
-            Step(
-                "vg:search",
-                text,
-                marks(
-                    done=graph,
-                    current=as_segments(tree),
-                    focus=point_mark(
-                        "focus",
-                        [p],
-                        ((_name(arrays, node), (float(p[0]), float(p[1]))),),
-                    ),
-                ),
-                (("settled", str(count)), ("cost [m]", f"{cost:.2f}")),
-            )
-        )
-    return steps
+def _search_step(arrays: GraphArrays, story: _Story, k: int) -> Step:
+    """Make the search's step ``k``: settle one more node; the tree so far in bold."""
+    node, _, cost = story.settled[k]
+    p = arrays.points[node]
+    tree = [
+        (arrays.points[parent], arrays.points[child])
+        for child, parent, _ in story.settled[: k + 1]
+        if parent >= 0
+    ]
+    text = (
+        f"Search (section 9.4): settle {_the(_name(arrays, node))} at path length "
+        f"{cost:.2f} m from the start ({k + 1} of the nodes settled so far)."
+    )
+    return Step(
+        "vg:search",
+        text,
+        marks(
+            done=story.graph,
+            current=as_segments(tree),
+            focus=point_mark(
+                "focus", [p], ((_name(arrays, node), (float(p[0]), float(p[1]))),)
+            ),
+        ),
+        (("settled", str(k + 1)), ("cost [m]", f"{cost:.2f}")),
+    )
 
 
-def _path_step(arrays: GraphArrays, result: Any) -> Step:
+def _path_step(arrays: GraphArrays, result: Any, graph: FloatArray) -> Step:
     path = np.asarray(result.path, dtype=np.float64).reshape(-1, 2)
     if result.status == "ok" and result.length is not None:
         text = (
@@ -292,7 +382,7 @@ def _path_step(arrays: GraphArrays, result: Any) -> Step:
         if len(path) > 1
         else np.zeros((0, 2, 2))
     )
-    return Step("vg:path", text, marks(done=arrays.segments(), path=segs))
+    return Step("vg:path", text, marks(done=graph, path=segs))
 
 
 def _the(name: str) -> str:

@@ -49,6 +49,7 @@ __all__ = [
     "edge_grid",
     "inner_disks",
     "march",
+    "near_pairs",
     "occluded",
     "occluded_pairs",
     "sector_count",
@@ -263,6 +264,33 @@ def _edge_cells(
         np.repeat(edge, rows),
         np.repeat(ix, rows),
         np.repeat(r0.astype(np.intp), rows) + _ramp(rows),
+    )
+
+
+def near_pairs(
+    grid: EdgeGrid, a: FloatArray, b: FloatArray, margin: float
+) -> tuple[IntArray, IntArray]:
+    """Return (segment, edge) pairs: each segment a[k] -> b[k] with the edges near it.
+
+    Every edge listed in a cell that has a point within ``margin`` of the segment: all
+    the edges closer to it than the grid's own margin, and some farther ones (a
+    superset, for an exact test to decide). Memory in proportion to the pairs.
+
+    Examples
+    --------
+    >>> ring = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
+    >>> grid = edge_grid(ring, np.roll(ring, -1, axis=0), 0.1)
+    >>> seg, edge = near_pairs(grid, np.array([[1.0, -1.0]]), np.array([[1.0, 1.0]]), 0.1)
+    >>> 0 in edge[seg == 0]  # the segment crosses edge 0, the bottom
+    True
+    """
+    shape = (grid.nx, grid.ny)
+    k, ix, iy = _edge_cells(a, b, grid.lo, grid.cell, margin=margin, shape=shape)
+    found = list(_pairs_in_cells(grid, k, ix * grid.ny + iy))
+    empty = np.zeros(0, dtype=np.intp)
+    return (
+        np.concatenate([empty, *(seg for seg, _ in found)]),
+        np.concatenate([empty, *(edge for _, edge in found)]),
     )
 
 

@@ -124,6 +124,41 @@ class _Setting:
     owner: tuple[int, ...]  # per graph node: obstacle index, -1 start/goal, -2 walls
     hulls: tuple[ObstacleHull, ...]
     hull_polygons: tuple[Any, ...]  # Polygon, or a line for a degenerate obstacle
+    outlines: _Outlines
+
+
+class _Outlines:
+    """Each obstacle's and each hull's outline, and the band ``tol`` around it.
+
+    Made once per explanation, when first asked for, and prepared: a segment is tested
+    against them once per SVG edge, and an outline of 10,000 vertices buffered again
+    for every edge took minutes. The same geometry as made for each edge, so the same
+    answers.
+    """
+
+    def __init__(
+        self, comps: list[Polygon], hull_polygons: tuple[Any, ...], tol: float
+    ) -> None:
+        self._shapes = {"obstacle": comps, "hull": hull_polygons}
+        self.tol = tol
+        self._outlines: dict[tuple[str, int], Any] = {}
+        self._bands: dict[tuple[str, int], Any] = {}
+
+    def outline(self, kind: str, k: int) -> Any:
+        """Return the boundary of obstacle (``kind="obstacle"``) or hull ``k``."""
+        key = (kind, k)
+        if key not in self._outlines:
+            self._outlines[key] = self._shapes[kind][k].boundary
+        return self._outlines[key]
+
+    def band(self, kind: str, k: int) -> Any:
+        """Return that outline buffered by ``tol``, prepared for ``covers``."""
+        key = (kind, k)
+        if key not in self._bands:
+            band = self.outline(kind, k).buffer(self.tol)
+            shapely.prepare(band)
+            self._bands[key] = band
+        return self._bands[key]
 
 
 def explain_svg(
@@ -217,7 +252,8 @@ def _setting(
         for k, comp in enumerate(comps)
     )
     owner = _owners(cspace, arrays, comps)
-    return _Setting(cspace, arrays, reasons, owner, hulls, hull_polygons)
+    outlines = _Outlines(comps, hull_polygons, 10 * cspace.eps)
+    return _Setting(cspace, arrays, reasons, owner, hulls, hull_polygons, outlines)
 
 
 def _members(cspace: ConfigurationSpace, comp: Polygon) -> list[int]:
@@ -304,18 +340,23 @@ def _addition(rule: str, name: str) -> str:
 
 def _on_hull(setting: _Setting, k: int, *points: tuple[float, float]) -> bool:
     """Whether every point lies on obstacle k's hull boundary (within the tolerance)."""
-    boundary = setting.hull_polygons[k].boundary
-    tol = 10 * setting.cspace.eps
+    boundary = setting.outlines.outline("hull", k)
+    tol = setting.outlines.tol
     return all(boundary.distance(Point(p)) <= tol for p in points)
 
 
 def _along(
-    boundary: Any, a: tuple[float, float], b: tuple[float, float], tol: float
+    outlines: _Outlines,
+    kind: str,
+    k: int,
+    a: tuple[float, float],
+    b: tuple[float, float],
 ) -> bool:
-    """Whether the segment a-b runs along ``boundary`` (its middle and ends on it)."""
+    """Whether the segment a-b runs along an outline (its middle and ends on it)."""
+    boundary, tol = outlines.outline(kind, k), outlines.tol
     mid = (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))
     return all(boundary.distance(Point(p)) <= tol for p in (a, mid, b)) and bool(
-        boundary.buffer(tol).covers(LineString([a, b]))
+        outlines.band(kind, k).covers(LineString([a, b]))
     )
 
 
@@ -356,10 +397,8 @@ def _same_obstacle_tag(
     setting: _Setting, a: tuple[float, float], b: tuple[float, float], k: int
 ) -> SvgTag:
     hull = setting.hulls[k]
-    tol = 10 * setting.cspace.eps
-    comp = setting.cspace.merged.geoms[hull.merged_index]
-    obstacle_edge = _along(comp.boundary, a, b, tol)
-    hull_edge = _along(setting.hull_polygons[k].boundary, a, b, tol)
+    obstacle_edge = _along(setting.outlines, "obstacle", k, a, b)
+    hull_edge = _along(setting.outlines, "hull", k, a, b)
     if hull.holds and obstacle_edge:
         why = (
             f"Step 2(b): an edge of {hull.name} itself (start or goal lies inside its "

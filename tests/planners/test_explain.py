@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import importlib
 import math
 from pathlib import Path
 
@@ -22,6 +23,7 @@ from planners.explain_dsb import FLOWCHART
 from planners.explain_svg import RULES
 from planners.visibility import segments_free
 from tests.conftest import SCENARIOS, random_scenes, scene_dict
+from tests.planners.vg_explain_reference import explain_vg_reference
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -133,6 +135,38 @@ def test_svg_tags_are_exactly_the_svg_edges_on_random_scenes(scene):
 def test_svg_tags_are_exactly_the_svg_edges_on_grid_scenes(scene):
     # Collinear vertices, touching obstacles (pinches), shared corners.
     assume(_check_svg_tags(scene))
+
+
+SVG_MODULE = importlib.import_module("planners.explain_svg")  # the name is a function too
+
+
+class _OutlinesAfresh(SVG_MODULE._Outlines):
+    """The tagging's outlines as first written: made and buffered again at every call,
+    never prepared (the slow, obvious reference for the kept ones)."""
+
+    def outline(self, kind, k):
+        return self._shapes[kind][k].boundary
+
+    def band(self, kind, k):
+        return self.outline(kind, k).buffer(self.tol)
+
+
+def _tags(scene, plans) -> list[tuple]:
+    ex = planners.explain_svg(scene, plans=plans)
+    return [(t.a, t.b, t.rule, t.obstacle, t.why, t.end) for t in ex.tags]
+
+
+@settings(max_examples=40, deadline=None)
+@given(scene=st.one_of(random_scenes(), random_scenes(grid=True)))
+def test_svg_tags_from_the_kept_outlines_are_those_made_afresh(scene):
+    """Each outline and its band are made once per explanation and prepared: the tags
+    are those of a band made again, unprepared, for every segment."""
+    plans = plan_all(scene, ("svg",))
+    assume(plans["svg"].status != "invalid")
+    kept = _tags(scene, plans)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(SVG_MODULE, "_Outlines", _OutlinesAfresh)
+        assert _tags(scene, plans) == kept
 
 
 def test_two_convex_obstacles_common_tangents_are_step_1():
@@ -275,6 +309,61 @@ def test_vg_steps_on_every_scenario(path):
 @given(scene=random_scenes())
 def test_vg_steps_on_random_scenes(scene):
     assume(_check_vg(scene))
+
+
+def _same_as_reference(scene) -> bool:
+    """The lazy, grid-backed VG explanation says and draws what the eager, dense one
+    (the first implementation, kept in ``vg_explain_reference``) says and draws: every
+    step's kind, words and table, every mark, bit for bit; the edges drawn as done each
+    once (the reference drew an edge twice once both its ends were stepped through)."""
+    plans = plan_all(scene, ("vg",))
+    if plans["vg"].status == "invalid":
+        return False
+    new = planners.explain_vg(scene, plans=plans)
+    old = explain_vg_reference(scene, plans=plans)
+    assert len(new.steps) == len(old.steps) and len(new.data) == len(old.data)
+    for a, b in zip(new.data, old.data, strict=True):
+        assert (a.node, a.name) == (b.node, b.name)
+        for field in ("visible", "blocked", "blockers"):
+            assert np.array_equal(getattr(a, field), getattr(b, field)), field
+    for a, b in zip(new.steps, old.steps, strict=True):
+        assert (a.kind, a.text, a.detail) == (b.kind, b.text, b.detail)
+        assert [m.role for m in a.marks] == [m.role for m in b.marks]
+        for m, r in zip(a.marks, b.marks, strict=True):
+            assert np.array_equal(m.points, r.points) and m.labels == r.labels
+            if m.role == "done":
+                assert len(m.segments) <= len(r.segments)
+                assert {_key(*s) for s in m.segments} == {_key(*s) for s in r.segments}
+            else:
+                assert np.array_equal(m.segments, r.segments), m.role
+    return True
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+def test_vg_explanation_is_the_reference_one_on_every_scenario(path):
+    assert _same_as_reference(load_scene(path))
+
+
+@settings(max_examples=40, deadline=None)
+@given(scene=st.one_of(random_scenes(), random_scenes(grid=True)))
+def test_vg_explanation_is_the_reference_one_on_random_scenes(scene):
+    """Random and grid-like scenes: touching, overlapping and collinear obstacles,
+    segments along edges and through vertices (where the entry edge is chosen)."""
+    assume(_same_as_reference(scene))
+
+
+def test_vg_explanation_makes_a_step_when_it_is_shown():
+    """Nothing of a vertex step is made before it is asked for; a step asked for again
+    is the same; a step far down the list does not need the ones before it."""
+    scene = _scenario("06_four_obstacles_sensor")
+    ex = planners.explain_vg(scene)
+    made = []
+    look = ex.data._make.__wrapped__
+    ex.data._make = functools.lru_cache(maxsize=4)(lambda k: made.append(k) or look(k))
+    n = len(ex.data)
+    assert ex.steps[n - 1].kind == "vg:vertex" and made == [n - 1]
+    assert ex.steps[n - 1] is ex.steps[n - 1] and made == [n - 1]
+    assert ex.steps[-1].kind == "vg:path" and made == [n - 1]
 
 
 def test_vg_blocker_of_a_square_between_two_points():

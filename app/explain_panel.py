@@ -41,6 +41,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from app.explain_view import ExplainView
+from app.scheduler import Pending
 from planners import Memo, PlanOptions, plan_all
 from planners.explain import Explanation, Step
 from planners.explain_dsb import FLOWCHART, explain_dsb
@@ -283,8 +284,14 @@ class Explainer:
             return
         key = (frame.version, method, obstacle)
         if key != self._key:
+            plans = _frame_plans(frame, method)
+            if plans is None and method != "expansion" and _planned_elsewhere(frame):
+                # A big scene's worker computes its plans: explain them once they
+                # come (the next frame), never plan it again in the server's process.
+                self._draw(None, None)
+                return
             with self._turns or contextlib.nullcontext():
-                explanation = self._compute(frame.scene, method, obstacle)
+                explanation = self._compute(frame.scene, method, obstacle, plans)
             with self._cond:
                 self._key, self._explanation = key, explanation
                 # The same step number on the new scene, where it still exists.
@@ -297,22 +304,62 @@ class Explainer:
             explanation.step(n) if explanation is not None else None, explanation
         )
 
-    def _compute(self, scene: Scene, method: str, obstacle: int) -> Explanation | None:
+    def _compute(
+        self,
+        scene: Scene,
+        method: str,
+        obstacle: int,
+        plans: Mapping[str, Any] | None,
+    ) -> Explanation | None:
         try:
             self._error = None
-            return _explain(scene, method, obstacle, self._memo)
+            return _explain(scene, method, obstacle, self._memo, plans)
         except Exception as error:  # a bug in an explanation must not stop the app
             self._error = f"{type(error).__name__}: {error}".splitlines()[0]
             return None
 
 
-def _explain(scene: Scene, method: str, obstacle: int, memo: Memo) -> Explanation:
+def _explain(
+    scene: Scene,
+    method: str,
+    obstacle: int,
+    memo: Memo,
+    plans: Mapping[str, Any] | None = None,
+) -> Explanation:
+    """Explain ``method`` on ``scene`` from ``plans`` (the frame's), or plan it first."""
     options = PlanOptions()
     if method == "expansion":
         return explain_expansion(scene, options, obstacle=obstacle)
     functions = {"vg": explain_vg, "svg": explain_svg, "dsb": explain_dsb}
-    plans = plan_all(scene, (method,), options, memo=memo)
-    return functions[method](scene, options, plans=plans)
+    if plans is None:
+        plans = plan_all(scene, (method,), options, memo=memo)
+    return functions[method](scene, options, plans=dict(plans))
+
+
+def _frame_plans(frame: Frame, method: str) -> Mapping[str, Any] | None:
+    """Return the frame's plans when they hold this scene's answer for ``method``.
+
+    The app's planners computed them (with the same default options the explanation
+    uses): explaining them is explaining what the screen shows, without planning again.
+    None when they belong to an older scene (stale, lagging), are still computing, or
+    the planner is switched off.
+    """
+    plans = frame.plans
+    result = plans.get(method)
+    if (
+        frame.stale
+        or method in frame.lagging
+        or result is None
+        or isinstance(result, Pending)
+        or plans.get("cspace") is None
+    ):
+        return None
+    return plans
+
+
+def _planned_elsewhere(frame: Frame) -> bool:
+    """Tell if a worker computes this scene's plans now (a big scene: :mod:`app.big`)."""
+    return frame.stale or frame.progress is not None
 
 
 class ExplainFolder:

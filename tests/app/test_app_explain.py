@@ -18,7 +18,8 @@ from app.explain_headless import explain_snapshots, parse_step, step_bounds
 from app.explain_panel import HIDDEN_LAYERS, Explainer, flowchart_html, table_html
 from app.explain_view import ROLE_LOOKS, role_segments
 from app.frames import Frame
-from planners import load_scene
+from app.scheduler import Pending
+from planners import load_scene, plan_all
 from planners.explain import ROLES
 from tests.app.app_helpers import wait_until
 from tests.browser import use_browser
@@ -128,6 +129,77 @@ def test_nothing_is_computed_or_shown_while_dragging(explainer):
     ex.render(_frame(dataclasses.replace(scene, goal=(9.0, 6.0)), 3))
     assert ex.wait_ready(30)
     assert ex.explanation is not shown and drawn.calls[-1][0] is not None
+
+
+def _no_planning(*args, **kwargs):
+    raise AssertionError("the explainer planned the scene again")
+
+
+@pytest.mark.parametrize("method", ["vg", "svg", "dsb"])
+def test_the_frames_own_plans_are_explained_without_planning_again(
+    explainer, monkeypatch, method
+):
+    """What the screen shows is explained: the frame's plans, not a second computation."""
+    ex, drawn = explainer
+    scene = load_scene(SCENARIO)
+    plans = plan_all(scene, ("vg", "svg", "dsb"))
+    monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
+    ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
+    ex.choose(method)
+    assert ex.wait_ready(30)
+    assert ex.error is None and ex.explanation is not None
+    assert ex.explanation.method == method and drawn.calls[-1][0] is not None
+    if method == "vg":
+        arrays = plans["vg"].arrays
+        assert ex.explanation.data[0].node == arrays.start
+        assert len(ex.explanation.data) == len(arrays.points)
+
+
+def test_plans_of_an_older_scene_or_still_computing_are_planned_afresh(explainer):
+    """A lagging or pending slow result is not this scene's: the explainer plans it."""
+    ex, _ = explainer
+    scene = load_scene(SCENARIO)
+    moved = dataclasses.replace(scene, goal=(9.0, 6.0))
+    old = plan_all(scene, ("vg", "dsb"))
+    fresh = plan_all(moved, ("dsb",))
+    assert old["dsb"].path.tolist() != fresh["dsb"].path.tolist()
+    lagging = dataclasses.replace(
+        _frame(moved, 2), plans=old, lagging=frozenset({"dsb"})
+    )
+    ex.render(lagging)
+    ex.choose("dsb")
+    assert ex.wait_ready(30)
+    assert ex.explanation.data.path.tolist() == fresh["dsb"].path.tolist()
+    pending = dict(old, dsb=Pending("dsb"))
+    ex.render(dataclasses.replace(_frame(moved, 3), plans=pending))
+    assert ex.wait_ready(30)
+    assert ex.explanation.data.path.tolist() == fresh["dsb"].path.tolist()
+
+
+def test_a_big_scene_is_explained_from_its_workers_plans_never_planned_here(
+    explainer, monkeypatch
+):
+    """While a big scene's worker computes (a stale frame showing progress), Explain
+    shows nothing and plans nothing in the server's process; the worker's plans, when
+    they come, are explained."""
+    ex, drawn = explainer
+    scene = load_scene(SCENARIO)
+    monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
+    computing = dataclasses.replace(
+        _frame(scene, 1),
+        stale=True,
+        progress="Computing VG, SVG... (12 vertices, 0.4 s)",
+    )
+    ex.render(computing)
+    ex.choose("vg")
+    assert ex.wait_ready(30)
+    assert drawn.calls[-1] == (None, None)
+    assert ex.explanation is None and ex.error is None
+    done = dataclasses.replace(_frame(scene, 1), plans=plan_all(scene, ("vg",)))
+    ex.render(done)
+    assert ex.wait_ready(30)
+    assert ex.error is None and ex.explanation.method == "vg"
+    assert drawn.calls[-1][0] is not None
 
 
 def test_a_failing_explanation_is_one_line_not_a_crash(explainer, monkeypatch):

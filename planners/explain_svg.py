@@ -37,6 +37,7 @@ from shapely import LineString, Point, Polygon
 
 from planners.explain import (
     Explanation,
+    Lazy,
     Step,
     as_segments,
     marks,
@@ -125,6 +126,7 @@ class _Setting:
     hulls: tuple[ObstacleHull, ...]
     hull_polygons: tuple[Any, ...]  # Polygon, or a line for a degenerate obstacle
     outlines: _Outlines
+    nodes: dict[tuple[float, float], int]  # the graph's first node at each point
 
 
 class _Outlines:
@@ -159,6 +161,22 @@ class _Outlines:
             shapely.prepare(band)
             self._bands[key] = band
         return self._bands[key]
+
+    def near(self, kind: str, k: int, points: list[tuple[float, float]]) -> bool:
+        """Tell if every point lies within ``tol`` of the outline.
+
+        On the prepared outline (an index of its edges): the distance to the nearest
+        edge, as an unprepared one finds it by looking at all of them.
+        """
+        outline = self.outline(kind, k)
+        shapely.prepare(outline)
+        return bool(np.all(shapely.dwithin(outline, shapely.points(points), self.tol)))
+
+    def covers(
+        self, kind: str, k: int, a: tuple[float, float], b: tuple[float, float]
+    ) -> bool:
+        """Tell if the band around the outline covers the segment a-b."""
+        return bool(self.band(kind, k).covers(LineString([a, b])))
 
 
 def explain_svg(
@@ -209,11 +227,19 @@ def explain_svg(
         return Explanation("svg", title, (Step("svg:invalid", _invalid(result)),))
     setting = _setting(scene, cspace, plans)
     tags = tuple(_tag(setting, e) for e in range(setting.arrays.edges))
-    steps = (
-        _hull_step(setting),
-        *_rule_steps(setting, tags),
-        _end_step(setting, tags, result),
-    )
+    groups = _groups(setting, tags)
+    # Every group's segments in the steps' order: what the steps before step k added.
+    added = _tag_segments([t for _, _, group, _ in groups for t in group])
+    ends = np.cumsum([0, *(len(group) for _, _, group, _ in groups)])
+
+    def step(k: int) -> Step:
+        if k == 0:
+            return _hull_step(setting)
+        if k <= len(groups):
+            return _rule_step(setting, groups[k - 1], added[: ends[k - 1]])
+        return _end_step(setting, tags, result)
+
+    steps = Lazy(len(groups) + 2, step)
     return Explanation("svg", title, steps, tags, setting.hulls)
 
 
@@ -253,7 +279,12 @@ def _setting(
     )
     owner = _owners(cspace, arrays, comps)
     outlines = _Outlines(comps, hull_polygons, 10 * cspace.eps)
-    return _Setting(cspace, arrays, reasons, owner, hulls, hull_polygons, outlines)
+    nodes: dict[tuple[float, float], int] = {}
+    for n, p in enumerate(map(tuple, arrays.points.tolist())):
+        nodes.setdefault(p, n)
+    return _Setting(
+        cspace, arrays, reasons, owner, hulls, hull_polygons, outlines, nodes
+    )
 
 
 def _members(cspace: ConfigurationSpace, comp: Polygon) -> list[int]:
@@ -340,9 +371,7 @@ def _addition(rule: str, name: str) -> str:
 
 def _on_hull(setting: _Setting, k: int, *points: tuple[float, float]) -> bool:
     """Whether every point lies on obstacle k's hull boundary (within the tolerance)."""
-    boundary = setting.outlines.outline("hull", k)
-    tol = setting.outlines.tol
-    return all(boundary.distance(Point(p)) <= tol for p in points)
+    return setting.outlines.near("hull", k, list(points))
 
 
 def _along(
@@ -353,11 +382,8 @@ def _along(
     b: tuple[float, float],
 ) -> bool:
     """Whether the segment a-b runs along an outline (its middle and ends on it)."""
-    boundary, tol = outlines.outline(kind, k), outlines.tol
     mid = (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))
-    return all(boundary.distance(Point(p)) <= tol for p in (a, mid, b)) and bool(
-        outlines.band(kind, k).covers(LineString([a, b]))
-    )
+    return outlines.near(kind, k, [a, mid, b]) and outlines.covers(kind, k, a, b)
 
 
 def _end_tag(
@@ -473,37 +499,41 @@ def _label_at(hull: ObstacleHull) -> tuple[float, float]:
     return (float(top[0]), float(top[1]))
 
 
-def _rule_steps(setting: _Setting, tags: tuple[SvgTag, ...]) -> list[Step]:
-    groups = _groups(setting, tags)
-    steps: list[Step] = []
-    done: list[SvgTag] = []
-    for kind, text, group, hull_ids in groups:
-        hull_mark = _hull_polylines(setting, hull_ids)
-        steps.append(
-            Step(
-                kind,
-                text,
-                marks(
-                    done=_tag_segments(done),
-                    hull=hull_mark,
-                    current=_tag_segments(group),
-                    focus=point_mark("focus", _focus(setting, group)),
-                ),
-                (("segments", str(len(group))),),
-            )
-        )
-        done.extend(group)
-    return steps
+_Group = tuple[str, str, list[SvgTag], list[int]]
+"""One step of the procedure: (kind, text, its tags, the hulls it shows)."""
 
 
-def _groups(
-    setting: _Setting, tags: tuple[SvgTag, ...]
-) -> list[tuple[str, str, list[SvgTag], list[int]]]:
-    """Return the steps in the procedure's order: (kind, text, tags, hulls to show)."""
-    out: list[tuple[str, str, list[SvgTag], list[int]]] = []
-    pairs = sorted({_pair(setting, t) for t in tags if t.rule == "1"})
-    for pair in pairs:
-        group = [t for t in tags if t.rule == "1" and _pair(setting, t) == pair]
+def _rule_step(setting: _Setting, group: _Group, done: FloatArray) -> Step:
+    """Make the step that adds ``group``'s segments after those ``done`` before it."""
+    kind, text, tags, hull_ids = group
+    return Step(
+        kind,
+        text,
+        marks(
+            done=done,
+            hull=_hull_polylines(setting, hull_ids),
+            current=_tag_segments(tags),
+            focus=point_mark("focus", _focus(setting, tags)),
+        ),
+        (("segments", str(len(tags))),),
+    )
+
+
+def _groups(setting: _Setting, tags: tuple[SvgTag, ...]) -> list[_Group]:
+    """Return the steps in the procedure's order: (kind, text, tags, hulls to show).
+
+    Tags are sorted into their groups in one pass (each group keeps the tags' order).
+    """
+    out: list[_Group] = []
+    by_pair: dict[tuple[int, int], list[SvgTag]] = {}
+    by_rule: dict[tuple[str, int | None], list[SvgTag]] = {}
+    for t in tags:
+        if t.rule == "1":
+            by_pair.setdefault(_pair(setting, t), []).append(t)
+        else:
+            by_rule.setdefault((t.rule, t.obstacle), []).append(t)
+    for pair in sorted(by_pair):
+        group = by_pair[pair]
         names = [setting.hulls[k].name for k in pair]
         text = (
             f"Step 1: the common tangents of {names[0]} and {names[1]} "
@@ -512,10 +542,11 @@ def _groups(
         )
         out.append(("svg:1", text, group, list(pair)))
     for hull in setting.hulls:
-        out.extend(_obstacle_groups(hull, tags))
+        out.extend(_obstacle_groups(hull, by_rule.get((hull.rule, hull.index), [])))
     for rule in ("pocket", "mouth", "pinch", "wall", "direct"):
-        for k in sorted({t.obstacle for t in tags if t.rule == rule}, key=_none_first):
-            group = [t for t in tags if t.rule == rule and t.obstacle == k]
+        ks = sorted({k for r, k in by_rule if r == rule}, key=_none_first)
+        for k in ks:
+            group = by_rule[rule, k]
             out.append((f"svg:{rule}", group[0].why, group, [] if k is None else [k]))
     return out
 
@@ -551,6 +582,10 @@ def _in_pocket(setting: _Setting, k: int, p: tuple[float, float]) -> bool:
 
 
 def _node_of(setting: _Setting, p: tuple[float, float]) -> int:
+    """Return the graph's node nearest ``p`` (the first at exactly ``p``, when one is)."""
+    found = setting.nodes.get((float(p[0]), float(p[1])))
+    if found is not None:
+        return found
     return int(np.argmin(np.hypot(*(setting.arrays.points - np.asarray(p)).T)))
 
 
@@ -565,11 +600,9 @@ def _owner_of(setting: _Setting, p: tuple[float, float]) -> int:
     return setting.owner[_node_of(setting, p)]
 
 
-def _obstacle_groups(
-    hull: ObstacleHull, tags: tuple[SvgTag, ...]
-) -> list[tuple[str, str, list[SvgTag], list[int]]]:
+def _obstacle_groups(hull: ObstacleHull, mine: list[SvgTag]) -> list[_Group]:
+    """Return step 2's groups for one obstacle from its tags of its rule (2a or 2b)."""
     rule = hull.rule
-    mine = [t for t in tags if t.rule == rule and t.obstacle == hull.index]
     ends = [t for t in mine if t.end is not None]
     edges = [t for t in mine if t.end is None]
     out = []

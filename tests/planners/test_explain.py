@@ -78,6 +78,13 @@ def _check_svg_tags(scene) -> bool:
         for a, b in step.segments("current")
     ]
     assert sorted(added) == tagged
+    # Each rule step draws as done exactly what the rule steps before it added, in
+    # their order (the steps are made one at a time, from one list of all of them).
+    rules = [s for s in ex.steps if s.kind not in ("svg:hulls", "svg:end")]
+    for k, step in enumerate(rules):
+        before = [r.segments("current") for r in rules[:k]]
+        expected = np.concatenate([np.zeros((0, 2, 2)), *before])
+        assert np.array_equal(step.segments("done"), expected)
     # Slow reference for the rules' conditions, from shapely alone.
     cspace = plans["cspace"]
     comps = list(cspace.merged.geoms)
@@ -137,7 +144,9 @@ def test_svg_tags_are_exactly_the_svg_edges_on_grid_scenes(scene):
     assume(_check_svg_tags(scene))
 
 
-SVG_MODULE = importlib.import_module("planners.explain_svg")  # the name is a function too
+SVG_MODULE = importlib.import_module(
+    "planners.explain_svg"
+)  # the name is a function too
 
 
 class _OutlinesAfresh(SVG_MODULE._Outlines):
@@ -147,8 +156,12 @@ class _OutlinesAfresh(SVG_MODULE._Outlines):
     def outline(self, kind, k):
         return self._shapes[kind][k].boundary
 
-    def band(self, kind, k):
-        return self.outline(kind, k).buffer(self.tol)
+    def near(self, kind, k, points):
+        outline = self.outline(kind, k)
+        return all(outline.distance(Point(p)) <= self.tol for p in points)
+
+    def covers(self, kind, k, a, b):
+        return bool(self.outline(kind, k).buffer(self.tol).covers(LineString([a, b])))
 
 
 def _tags(scene, plans) -> list[tuple]:
@@ -160,7 +173,8 @@ def _tags(scene, plans) -> list[tuple]:
 @given(scene=st.one_of(random_scenes(), random_scenes(grid=True)))
 def test_svg_tags_from_the_kept_outlines_are_those_made_afresh(scene):
     """Each outline and its band are made once per explanation and prepared: the tags
-    are those of a band made again, unprepared, for every segment."""
+    are those of an outline and a band made again, unprepared, for every segment (and
+    of the distance to every edge, where the prepared outline looks up its index)."""
     plans = plan_all(scene, ("svg",))
     assume(plans["svg"].status != "invalid")
     kept = _tags(scene, plans)

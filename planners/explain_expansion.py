@@ -12,6 +12,7 @@ from __future__ import annotations
 
 __all__ = ["explain_expansion"]
 
+import dataclasses
 from types import MappingProxyType
 from typing import TYPE_CHECKING
 
@@ -23,6 +24,7 @@ from shapely import Polygon
 from planners.expansion import expand_polygon
 from planners.explain import (
     Explanation,
+    Lazy,
     Step,
     as_segments,
     circle_segments,
@@ -85,67 +87,123 @@ def explain_expansion(
         return Explanation("expansion", title, (Step("expansion:none", text),))
     polygon = shapely.orient_polygons(scene.obstacles[obstacle - 1])
     models = (model,) if model is not None else ("disk", "square")
-    steps: list[Step] = []
-    for m in models:
-        steps.extend(_model_steps(polygon, obstacle, scene.robot.radius, m, options))
-    return Explanation("expansion", title, tuple(steps))
-
-
-def _model_steps(
-    polygon: Polygon, obstacle: int, radius: float, model: str, options: PlanOptions
-) -> list[Step]:
-    fig, shape = _FIGURE[model], _SHAPE[model]
-    ring = np.asarray(polygon.exterior.coords, dtype=np.float64)[:-1]
-    outline = ring_segments(ring)
-    size = (
-        f"radius r = {radius:g} m" if model == "disk" else f"side 2r = {2 * radius:g} m"
-    )
-    steps = [
-        Step(
-            f"expansion:{model}",
-            f"{fig}(a): obstacle {obstacle} as a polygon; the robot, modelled as "
-            f"{_ARTICLE[model]} {shape} ({size}), shrinks to a point.",
-            marks(current=outline),
-        )
+    parts = [
+        _Construction.of(polygon, obstacle, scene.robot.radius, m, options)
+        for m in models
     ]
-    placed: list[FloatArray] = []
-    for k, v in enumerate(ring):
-        piece = _shape_at(v, radius, model)
-        steps.append(
-            Step(
-                f"expansion:{model}:vertex",
-                f"{fig}(b): place the robot's {shape} ({size}) at vertex {k + 1} of "
-                f"obstacle {obstacle}.",
+    starts = np.cumsum([0, *(part.count for part in parts)])
+
+    def step(k: int) -> Step:
+        i = int(np.searchsorted(starts, k, side="right")) - 1
+        return parts[i].step(k - int(starts[i]))
+
+    return Explanation("expansion", title, Lazy(int(starts[-1]), step))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Construction:
+    """One model's construction of one expanded obstacle, step by step.
+
+    The steps are made when shown: step k draws the shapes placed at the first k
+    vertices, so all of them at once would hold a number of shapes quadratic in the
+    vertices (4.9 GB for an obstacle of 2,000 vertices). Here every shape is made once,
+    and a step draws the first of them.
+    """
+
+    polygon: Polygon
+    obstacle: int
+    radius: float
+    model: str
+    options: PlanOptions
+    ring: FloatArray
+    """The obstacle's vertices, counter-clockwise, open (n, 2) [m]."""
+    outline: FloatArray
+    """Its edges as segments (n, 2, 2) [m]."""
+    placed: FloatArray
+    """The robot's shape at each vertex in turn, as segments, one block per vertex."""
+    per_vertex: int
+    """Segments of one shape."""
+
+    @classmethod
+    def of(
+        cls,
+        polygon: Polygon,
+        obstacle: int,
+        radius: float,
+        model: str,
+        options: PlanOptions,
+    ) -> _Construction:
+        ring = np.asarray(polygon.exterior.coords, dtype=np.float64)[:-1]
+        pieces = [_shape_at(v, radius, model) for v in ring]
+        placed = np.concatenate([np.zeros((0, 2, 2)), *pieces])
+        per_vertex = len(pieces[0]) if pieces else 0
+        return cls(
+            polygon,
+            obstacle,
+            radius,
+            model,
+            options,
+            ring,
+            ring_segments(ring),
+            placed,
+            per_vertex,
+        )
+
+    @property
+    def count(self) -> int:
+        """Steps: the polygon, one per vertex, the offset edges, the union."""
+        return len(self.ring) + 3
+
+    def step(self, k: int) -> Step:
+        """Make step ``k`` of this model's construction."""
+        fig, shape = _FIGURE[self.model], _SHAPE[self.model]
+        size = (
+            f"radius r = {self.radius:g} m"
+            if self.model == "disk"
+            else f"side 2r = {2 * self.radius:g} m"
+        )
+        if k == 0:
+            return Step(
+                f"expansion:{self.model}",
+                f"{fig}(a): obstacle {self.obstacle} as a polygon; the robot, modelled "
+                f"as {_ARTICLE[self.model]} {shape} ({size}), shrinks to a point.",
+                marks(current=self.outline),
+            )
+        if k <= len(self.ring):
+            v = self.ring[k - 1]
+            return Step(
+                f"expansion:{self.model}:vertex",
+                f"{fig}(b): place the robot's {shape} ({size}) at vertex {k} of "
+                f"obstacle {self.obstacle}.",
                 marks(
-                    done=outline,
-                    shape=np.concatenate([*placed, piece]),
+                    done=self.outline,
+                    shape=self.placed[: k * self.per_vertex],
                     focus=point_mark(
-                        "focus", [v], ((f"{k + 1}", (float(v[0]), float(v[1]))),)
+                        "focus", [v], ((f"{k}", (float(v[0]), float(v[1]))),)
                     ),
                 ),
             )
+        if k == len(self.ring) + 1:
+            return Step(
+                f"expansion:{self.model}:edges",
+                f"{fig}(b): push every edge out by the robot ({size}): the robot's "
+                "centre may not come closer.",
+                marks(
+                    done=self.outline,
+                    shape=self.placed,
+                    offset=_offset_edges(self.ring, self.radius, self.model),
+                ),
+            )
+        expanded = expand_polygon(
+            self.polygon, self.radius, self.model, self.options.arc_step
         )
-        placed.append(piece)
-    offsets = _offset_edges(ring, radius, model)
-    steps.append(
-        Step(
-            f"expansion:{model}:edges",
-            f"{fig}(b): push every edge out by the robot ({size}): the robot's centre "
-            "may not come closer.",
-            marks(done=outline, shape=np.concatenate(placed), offset=offsets),
-        )
-    )
-    expanded = expand_polygon(polygon, radius, model, options.arc_step)
-    steps.append(
-        Step(
+        return Step(
             "expansion:union",
             f"{fig}(c): the union of the obstacle, the shapes and the swept edges is the "
-            f"expanded obstacle {obstacle} ({len(expanded.exterior.coords) - 1} vertices): "
-            "the robot is now a point.",
-            marks(done=outline, result=segment_mark("result", _outline(expanded))),
+            f"expanded obstacle {self.obstacle} ({len(expanded.exterior.coords) - 1} "
+            "vertices): the robot is now a point.",
+            marks(done=self.outline, result=segment_mark("result", _outline(expanded))),
         )
-    )
-    return steps
 
 
 def _shape_at(v: FloatArray, radius: float, model: str) -> FloatArray:

@@ -18,7 +18,7 @@ from shapely import LineString, Point, Polygon
 import planners
 from planners import PlanOptions, load_scene, plan_all
 from planners.expansion import expand_polygon
-from planners.explain import METHODS, ROLES, Explanation, explain
+from planners.explain import METHODS, ROLES, Explanation, Lazy, explain
 from planners.explain_dsb import FLOWCHART
 from planners.explain_svg import RULES
 from planners.visibility import segments_free
@@ -551,12 +551,20 @@ def test_expansion_steps_build_the_planners_expanded_obstacle(model):
         "expansion:union",
     ]
     r = scene.robot.radius
-    # The shapes placed at vertex k: k + 1 of them, each around its vertex.
-    last = ex.steps[n].segments("shape")
-    assert len(last) == n * (48 if model == "disk" else 4)
+    # The shapes placed by step k (vertex k): the first k of them, each around its vertex.
+    per = 48 if model == "disk" else 4
+    ring = np.asarray(polygon.exterior.coords)[:-1]
+    for k in range(1, n + 1):
+        shapes = ex.steps[k].segments("shape")
+        assert len(shapes) == k * per
+        for j, block in enumerate(shapes.reshape(k, per, 2, 2)):
+            gap = np.abs(block.reshape(-1, 2) - ring[j])
+            if model == "disk":
+                assert_allclose(np.hypot(*gap.T), r)
+            else:
+                assert_allclose(gap, r)
     # Offset edges are the edges moved out by r (disk: along the normal; square: by a corner).
     offsets = ex.steps[n + 1].segments("offset")
-    ring = np.asarray(polygon.exterior.coords)[:-1]
     for k, seg in enumerate(offsets):
         edge = LineString([ring[k], ring[(k + 1) % n]])
         d = edge.distance(LineString(seg))
@@ -574,6 +582,20 @@ def test_expansion_steps_build_the_planners_expanded_obstacle(model):
         np.sort(drawn[:, 0], axis=0),
         np.sort(np.asarray(expected.exterior.coords)[:-1], axis=0),
     )
+
+
+def test_expansion_of_a_big_obstacle_makes_its_steps_when_shown():
+    """An obstacle of 4,000 vertices (a CAD export): the explanation is made at once and
+    a step late in the list draws all the shapes before it, without the thousands of
+    steps before it holding theirs (all at once: gigabytes)."""
+    angles = np.linspace(0, 2 * np.pi, 4000, endpoint=False)
+    circle = [(10 + 5 * np.cos(a), 10 + 5 * np.sin(a)) for a in angles]
+    scene = load_scene(scene_dict([circle], (1.0, 1.0), (19.0, 19.0), radius=0.3))
+    ex = planners.explain_expansion(scene, obstacle=1, model="square")
+    assert isinstance(ex.steps, Lazy) and len(ex.steps) == 4003
+    assert len(ex.steps[4000].segments("shape")) == 4000 * 4
+    assert ex.steps[4001].kind == "expansion:square:edges"
+    assert ex.steps[-1].kind == "expansion:union"
 
 
 def test_expansion_defaults_to_both_models_and_names_a_missing_obstacle():

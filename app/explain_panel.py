@@ -40,6 +40,7 @@ from collections.abc import Callable, Mapping
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
+from app.big import BIG_SCENE_VERTICES, scene_vertices
 from app.explain_view import ExplainView
 from app.scheduler import Pending
 from planners import Memo, PlanOptions, plan_all
@@ -285,11 +286,14 @@ class Explainer:
         key = (frame.version, method, obstacle)
         if key != self._key:
             plans = _frame_plans(frame, method)
-            if plans is None and method != "expansion" and _planned_elsewhere(frame):
-                # A big scene's worker computes its plans: explain them once they
-                # come (the next frame), never plan it again in the server's process.
-                self._draw(None, None)
-                return
+            if plans is None and method != "expansion":
+                waiting = _not_here(frame, method)
+                if waiting is not None:
+                    # A big scene is planned by its worker only: explain its plans once
+                    # they come (the next frame), never plan it in the server's process.
+                    self._error = waiting or None
+                    self._draw(None, None)
+                    return
             with self._turns or contextlib.nullcontext():
                 explanation = self._compute(frame.scene, method, obstacle, plans)
             with self._cond:
@@ -357,9 +361,22 @@ def _frame_plans(frame: Frame, method: str) -> Mapping[str, Any] | None:
     return plans
 
 
-def _planned_elsewhere(frame: Frame) -> bool:
-    """Tell if a worker computes this scene's plans now (a big scene: :mod:`app.big`)."""
-    return frame.stale or frame.progress is not None
+def _not_here(frame: Frame, method: str) -> str | None:
+    """Say why ``method`` is not planned here for a big scene, or None to plan it.
+
+    A big scene (:mod:`app.big`) is planned by its worker: while it computes (a stale
+    frame with its progress), "" (wait, say nothing more); when the frame has no plan
+    of ``method`` (switched off), what to do about it.
+    """
+    if frame.stale or frame.progress is not None:
+        return ""
+    count = scene_vertices(frame.scene)
+    if count <= BIG_SCENE_VERTICES:
+        return None
+    return (
+        f"Switch on {METHOD_TITLES[method]} to explain it: a scene of {count:,} "
+        "vertices is planned by its worker only."
+    )
 
 
 class ExplainFolder:

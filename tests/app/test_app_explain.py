@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -14,6 +15,7 @@ import pytest
 from PIL import Image
 
 from app import start_app
+from app.big import BIG_SCENE_VERTICES
 from app.explain_headless import explain_snapshots, parse_step, step_bounds
 from app.explain_panel import HIDDEN_LAYERS, Explainer, flowchart_html, table_html
 from app.explain_view import ROLE_LOOKS, role_segments
@@ -23,7 +25,7 @@ from planners import load_scene, plan_all
 from planners.explain import ROLES
 from tests.app.app_helpers import wait_until
 from tests.browser import use_browser
-from tests.conftest import ROOT
+from tests.conftest import ROOT, scene_dict
 
 SCENARIO = ROOT / "static_scenarios" / "05_pocket_start.json"
 
@@ -200,6 +202,34 @@ def test_a_big_scene_is_explained_from_its_workers_plans_never_planned_here(
     assert ex.wait_ready(30)
     assert ex.error is None and ex.explanation.method == "vg"
     assert drawn.calls[-1][0] is not None
+
+
+def test_a_big_scene_whose_planner_is_off_says_so_and_plans_nothing_here(
+    explainer, monkeypatch
+):
+    """A big scene with DSB switched off: its worker computed no DSB, and Explain does
+    not plan it in the server either; it says how to get one. Switched on (the same
+    scene version with the plan), it is explained."""
+    ex, drawn = explainer
+    ring = [
+        (10 + 5 * math.cos(a), 10 + 5 * math.sin(a))
+        for a in np.linspace(0, 2 * math.pi, BIG_SCENE_VERTICES + 10, endpoint=False)
+    ]
+    scene = load_scene(scene_dict([ring], (1.0, 1.0), (19.0, 19.0)))
+    plans = plan_all(scene, ("vg", "dsb"))
+    monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
+    off = {k: v for k, v in plans.items() if k != "dsb"}
+    ex.render(dataclasses.replace(_frame(scene, 1), plans=off))
+    ex.choose("dsb")
+    assert ex.wait_ready(30)
+    assert ex.explanation is None and drawn.calls[-1] == (None, None)
+    assert ex.error == (
+        f"Switch on DSB (9.6, Fig. 9.15) to explain it: a scene of "
+        f"{BIG_SCENE_VERTICES + 10:,} vertices is planned by its worker only."
+    )
+    ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
+    assert ex.wait_ready(30)
+    assert ex.error is None and ex.explanation.method == "dsb"
 
 
 def test_a_failing_explanation_is_one_line_not_a_crash(explainer, monkeypatch):

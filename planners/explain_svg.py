@@ -17,7 +17,7 @@ The chapter builds the SVG in steps:
 The planner (:func:`planners.visibility.simplified_visibility_graph`) keeps the segments
 that are tangent at both ends, which realises these steps and a little more.
 :func:`explain_svg` takes the planner's own segments, with the builder's reason for each
-end (:func:`planners.visibility.svg_reasons`), and tags every one with the step that puts
+end (:func:`planners.visibility.svg_node_reasons`), and tags every one with the step that puts
 it there. Where the planner keeps a segment the chapter's words do not mention, the tag
 says so and why (:data:`ADDITIONS`).
 """
@@ -44,7 +44,7 @@ from planners.explain import (
     point_mark,
     ring_segments,
 )
-from planners.visibility import GraphArrays, svg_reasons
+from planners.visibility import GraphArrays, svg_node_reasons
 
 if TYPE_CHECKING:
     from planners.expansion import ConfigurationSpace
@@ -253,13 +253,12 @@ def _invalid(result: Any) -> str:
 def _setting(
     scene: Scene, cspace: ConfigurationSpace, plans: dict[str, Any]
 ) -> _Setting:
-    arrays, reasons = svg_reasons(cspace, scene.start, scene.goal)
-    planned = plans["svg"].arrays
-    # The builder is deterministic: the graph it gives here is the planner's.
-    if not (
-        np.array_equal(arrays.i, planned.i) and np.array_equal(arrays.j, planned.j)
-    ):
-        raise RuntimeError("the SVG builder gave a different graph on the same scene")
+    # The planner's own graph, and why each of its nodes may carry segments (the
+    # border's flags its builder read): the SVG is not built a second time.
+    arrays = plans["svg"].arrays
+    points, reasons = svg_node_reasons(cspace, scene.start, scene.goal)
+    if not np.array_equal(points, arrays.points):
+        raise RuntimeError("the SVG's nodes are not this scene's")
     # In the scene's order of obstacles (a merged one where its first obstacle is).
     geoms = list(cspace.merged.geoms)
     order = sorted(

@@ -45,6 +45,7 @@ __all__ = [
     "segments_free",
     "shortest_path",
     "simplified_visibility_graph",
+    "svg_node_reasons",
     "svg_reasons",
     "visibility_graph",
 ]
@@ -1402,6 +1403,34 @@ def svg_reasons(
     (8, ('convex', 'convex', 'convex', 'convex', 'start', 'goal'))
     """
     arrays, border, q = _svg_build(cspace, start, goal)
+    return arrays, _node_reasons(border, q)
+
+
+def svg_node_reasons(
+    cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
+) -> tuple[FloatArray, tuple[str, ...]]:
+    """Return the SVG's node points and why each may carry segments, without building it.
+
+    The second value of :func:`svg_reasons`, from the border's flags the builder reads:
+    for a caller that has the graph already (the planner's result), so the SVG of a big
+    scene is not built a second time to explain it. The points come first, to be
+    checked against the graph's.
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.expansion import configuration_space
+    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
+    >>> _, why = svg_node_reasons(space, (-1, 0.5), (2, 0.5))
+    >>> why == svg_reasons(space, (-1, 0.5), (2, 0.5))[1]
+    True
+    """
+    border, q = _query(cspace, start, goal)
+    return q.points, _node_reasons(border, q)
+
+
+def _node_reasons(border: _Border, q: _Query) -> tuple[str, ...]:
+    """Per query node: start, goal, pinch, convex or reflex (:func:`svg_reasons`)."""
     convex = np.append(border.convex_nodes, False)
     pinch = np.append(border.pinch_nodes, False)
     why = []
@@ -1412,7 +1441,7 @@ def svg_reasons(
             why.append("pinch")
         else:
             why.append("convex" if convex[node] else "reflex")
-    return arrays, tuple(why)
+    return tuple(why)
 
 
 def _svg_build(

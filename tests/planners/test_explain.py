@@ -21,7 +21,7 @@ from planners.expansion import expand_polygon
 from planners.explain import METHODS, ROLES, Explanation, Lazy, explain
 from planners.explain_dsb import FLOWCHART
 from planners.explain_svg import RULES
-from planners.visibility import segments_free
+from planners.visibility import segments_free, svg_node_reasons, svg_reasons
 from tests.conftest import SCENARIOS, random_scenes, scene_dict
 from tests.planners.vg_explain_reference import explain_vg_reference
 
@@ -147,6 +147,21 @@ def test_svg_tags_are_exactly_the_svg_edges_on_grid_scenes(scene):
 SVG_MODULE = importlib.import_module(
     "planners.explain_svg"
 )  # the name is a function too
+
+
+@settings(max_examples=40, deadline=None)
+@given(scene=st.one_of(random_scenes(), random_scenes(grid=True)))
+def test_svg_node_reasons_are_the_builders_without_building(scene):
+    """The reasons read from the border's flags are those the builder gives with its
+    graph, on the graph's very points (the explanation reads the planner's graph)."""
+    plans = plan_all(scene, ("svg",))
+    assume(plans["svg"].status != "invalid")
+    cspace = plans["cspace"]
+    arrays, built = svg_reasons(cspace, scene.start, scene.goal)
+    points, reasons = svg_node_reasons(cspace, scene.start, scene.goal)
+    assert reasons == built
+    assert np.array_equal(points, arrays.points)
+    assert np.array_equal(points, plans["svg"].arrays.points)
 
 
 class _OutlinesAfresh(SVG_MODULE._Outlines):

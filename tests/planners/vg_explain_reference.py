@@ -34,23 +34,7 @@ def explain_vg_reference(
     *,
     plans: dict[str, Any] | None = None,
 ) -> Explanation:
-    """Explain the VG of ``scene``: each vertex's lines of sight, then the search.
-
-    Parameters
-    ----------
-    scene
-        The scene.
-    options
-        Planner settings; None for the defaults.
-    plans
-        Results of :func:`planners.plan_all` including ``"vg"``, or None to compute.
-
-    Returns
-    -------
-    Explanation
-        One step per node (start, the obstacles' vertices, goal), one per node the search
-        settles, and the path. ``data`` holds the :class:`VertexLook` records.
-    """
+    """The VG explanation as first written: every step made at once (see above)."""
     from planners.api import plan_all
 
     plans = plans if plans is not None else plan_all(scene, ("vg",), options)

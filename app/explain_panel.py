@@ -34,6 +34,7 @@ __all__ = [
 import contextlib
 import html
 import logging
+import pickle
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -291,8 +292,12 @@ class Explainer:
                 if waiting is not None:
                     # A big scene is planned by its worker only: explain its plans once
                     # they come (the next frame), never plan it in the server's process.
+                    # Until then no explanation is kept (an older scene's would be
+                    # stepped through); the step number stays for the next one.
+                    with self._cond:
+                        self._key, self._explanation = None, None
                     self._error = waiting or None
-                    self._draw(None, None)
+                    self._draw(None, None)  # again on each progress frame: cheap
                     return
             with self._turns or contextlib.nullcontext():
                 explanation = self._compute(frame.scene, method, obstacle, plans)
@@ -355,10 +360,24 @@ def _frame_plans(frame: Frame, method: str) -> Mapping[str, Any] | None:
         or method in frame.lagging
         or result is None
         or isinstance(result, Pending)
-        or plans.get("cspace") is None
     ):
         return None
-    return plans
+    status = getattr(result, "status", None)
+    if status == "error" or (status != "invalid" and plans.get("cspace") is None):
+        return None  # a planner that failed: planned here, its error shown
+    return _own_copy(plans)
+
+
+def _own_copy(plans: Mapping[str, Any]) -> dict[str, Any]:
+    """Return a copy of the frame's plans for the explain thread alone.
+
+    GEOS's prepared geometries are not safe to use from two threads at once
+    (libgeos/geos#825), and shapely lets go of the GIL in its predicates; the fast lane
+    (the next edit starts from this configuration space), the views and the live robot
+    go on using the frame's. A pickled copy has geometries of its own and nothing
+    derived: a few milliseconds, in this thread.
+    """
+    return pickle.loads(pickle.dumps(dict(plans), protocol=pickle.HIGHEST_PROTOCOL))
 
 
 def _not_here(frame: Frame, method: str) -> str | None:
@@ -366,17 +385,21 @@ def _not_here(frame: Frame, method: str) -> str | None:
 
     A big scene (:mod:`app.big`) is planned by its worker: while it computes (a stale
     frame with its progress), "" (wait, say nothing more); when the frame has no plan
-    of ``method`` (switched off), what to do about it.
+    of ``method`` (switched off), what to do about it; when the planner failed, why.
     """
     if frame.stale or frame.progress is not None:
         return ""
     count = scene_vertices(frame.scene)
     if count <= BIG_SCENE_VERTICES:
         return None
-    return (
-        f"Switch on {METHOD_TITLES[method]} to explain it: a scene of {count:,} "
-        "vertices is planned by its worker only."
-    )
+    result = frame.plans.get(method)
+    if result is None or method not in frame.enabled:
+        return (
+            f"Switch on {METHOD_TITLES[method]} to explain it: a scene of {count:,} "
+            "vertices is planned by its worker only."
+        )
+    reason = getattr(result, "reason", None) or "no plan of this scene"
+    return f"{METHOD_TITLES[method]} has nothing to explain here: {reason}"
 
 
 class ExplainFolder:

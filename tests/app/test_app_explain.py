@@ -13,16 +13,19 @@ from typing import Any
 import numpy as np
 import pytest
 from PIL import Image
+from shapely import Polygon
 
-from app import start_app
+import planners
+from app import explain_panel, start_app
 from app.big import BIG_SCENE_VERTICES
 from app.explain_headless import explain_snapshots, parse_step, step_bounds
 from app.explain_panel import HIDDEN_LAYERS, Explainer, flowchart_html, table_html
 from app.explain_view import ROLE_LOOKS, role_segments
 from app.frames import Frame
-from app.scheduler import Pending
-from planners import load_scene, plan_all
+from app.scheduler import Failed, Pending
+from planners import Scene, load_scene, plan_all
 from planners.explain import ROLES
+from planners.visibility import _build_border
 from tests.app.app_helpers import wait_until
 from tests.browser import use_browser
 from tests.conftest import ROOT, scene_dict
@@ -133,6 +136,17 @@ def test_nothing_is_computed_or_shown_while_dragging(explainer):
     assert ex.explanation is not shown and drawn.calls[-1][0] is not None
 
 
+def _big_ring(*more) -> Scene:
+    """A scene just over the big-scene threshold: a circle, and ``more`` obstacles."""
+    ring = [
+        (10 + 5 * math.cos(a), 10 + 5 * math.sin(a))
+        for a in np.linspace(0, 2 * math.pi, BIG_SCENE_VERTICES + 10, endpoint=False)
+    ]
+    data = scene_dict([ring], (1.0, 1.0), (19.0, 19.0))
+    scene = load_scene(data)
+    return dataclasses.replace(scene, obstacles=(*scene.obstacles, *more))
+
+
 def _no_planning(*args, **kwargs):
     raise AssertionError("the explainer planned the scene again")
 
@@ -185,7 +199,7 @@ def test_a_big_scene_is_explained_from_its_workers_plans_never_planned_here(
     shows nothing and plans nothing in the server's process; the worker's plans, when
     they come, are explained."""
     ex, drawn = explainer
-    scene = load_scene(SCENARIO)
+    scene = _big_ring()
     monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
     computing = dataclasses.replace(
         _frame(scene, 1),
@@ -200,7 +214,8 @@ def test_a_big_scene_is_explained_from_its_workers_plans_never_planned_here(
     done = dataclasses.replace(_frame(scene, 1), plans=plan_all(scene, ("vg",)))
     ex.render(done)
     assert ex.wait_ready(30)
-    assert ex.error is None and ex.explanation.method == "vg"
+    assert ex.error is None
+    assert ex.explanation is not None and ex.explanation.method == "vg"
     assert drawn.calls[-1][0] is not None
 
 
@@ -211,11 +226,7 @@ def test_a_big_scene_whose_planner_is_off_says_so_and_plans_nothing_here(
     not plan it in the server either; it says how to get one. Switched on (the same
     scene version with the plan), it is explained."""
     ex, drawn = explainer
-    ring = [
-        (10 + 5 * math.cos(a), 10 + 5 * math.sin(a))
-        for a in np.linspace(0, 2 * math.pi, BIG_SCENE_VERTICES + 10, endpoint=False)
-    ]
-    scene = load_scene(scene_dict([ring], (1.0, 1.0), (19.0, 19.0)))
+    scene = _big_ring()
     plans = plan_all(scene, ("vg", "dsb"))
     monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
     off = {k: v for k, v in plans.items() if k != "dsb"}
@@ -229,7 +240,72 @@ def test_a_big_scene_whose_planner_is_off_says_so_and_plans_nothing_here(
     )
     ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
     assert ex.wait_ready(30)
-    assert ex.error is None and ex.explanation.method == "dsb"
+    assert ex.error is None
+    assert ex.explanation is not None and ex.explanation.method == "dsb"
+
+
+def test_a_failed_planners_result_is_planned_again_on_a_small_scene(explainer):
+    """A planner that raised in its lane (``Failed``): not explained as if it were a
+    graph; the explainer plans the scene itself (its own error, if any, is shown)."""
+    ex, _ = explainer
+    scene = load_scene(SCENARIO)
+    plans = dict(plan_all(scene, ("vg",)), vg=Failed("vg", "boom"))
+    ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
+    ex.choose("vg")
+    assert ex.wait_ready(30)
+    assert ex.error is None
+    assert ex.explanation is not None and ex.explanation.steps[-1].kind == "vg:path"
+
+
+def test_a_big_scene_that_failed_or_is_invalid_says_so(explainer, monkeypatch):
+    """On a big scene: a failed planner's reason in one line, nothing planned here; an
+    invalid scene's answer explained (nothing to build, and why)."""
+    ex, drawn = explainer
+    monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
+    scene = _big_ring()
+    failed = {"vg": Failed("vg", "boom")}
+    frame = dataclasses.replace(
+        _frame(scene, 1), plans=failed, enabled=frozenset({"vg"})
+    )
+    ex.render(frame)
+    ex.choose("vg")
+    assert ex.wait_ready(30)
+    assert ex.error == "Visibility graph (9.4) has nothing to explain here: boom"
+    assert ex.explanation is None and drawn.calls[-1] == (None, None)
+    bowtie = Polygon([(0, 0), (1, 1), (1, 0), (0, 1)])
+    invalid = _big_ring(bowtie)
+    plans = planners.plan_all(invalid, ("vg",))
+    assert plans["vg"].status == "invalid" and "cspace" not in plans
+    ex.render(dataclasses.replace(_frame(invalid, 2), plans=plans))
+    assert ex.wait_ready(30)
+    assert ex.error is None and ex.explanation is not None
+    assert ex.explanation.steps[0].text.startswith("Nothing to build: obstacle 2:")
+
+
+def test_the_frames_geometry_is_left_to_the_threads_that_own_it(explainer, monkeypatch):
+    """GEOS's prepared geometries are not safe in two threads at once: the explainer
+    explains a copy of the frame's plans (geometry of its own, nothing derived), and
+    the frame's are left to the fast lane, the views and the live robot."""
+    ex, _ = explainer
+    scene = load_scene(SCENARIO)
+    plans = plan_all(scene, ("vg", "svg"))
+    given = []
+    real = explain_panel._explain
+
+    def spy(scene, method, obstacle, memo, plans=None):
+        given.append(plans)
+        return real(scene, method, obstacle, memo, plans)
+
+    monkeypatch.setattr(explain_panel, "_explain", spy)
+    ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
+    ex.choose("vg")
+    assert ex.wait_ready(30)
+    assert ex.explanation is not None and ex.error is None
+    (copy,) = given
+    assert copy["cspace"] is not plans["cspace"] and copy["vg"] is not plans["vg"]
+    assert copy["cspace"].known(_build_border) is None  # nothing derived comes along
+    assert plans["cspace"].known(_build_border) is not None
+    assert np.array_equal(copy["vg"].arrays.i, plans["vg"].arrays.i)
 
 
 def test_a_failing_explanation_is_one_line_not_a_crash(explainer, monkeypatch):

@@ -43,6 +43,7 @@ __all__ = [
 
 import dataclasses
 import functools
+import operator
 from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar, overload
 
@@ -141,6 +142,8 @@ class Lazy(Sequence[T]):
     segments: made all at once they would fill the memory (a scene of 400 vertices took
     seconds and a quarter of a gigabyte, one of 10,000 could not finish). Each item is
     ``make(k)``, a pure function of its position, so an item made again is the same.
+    It holds a function, so it does not pickle (nothing sends an explanation to another
+    process).
 
     Examples
     --------
@@ -165,13 +168,17 @@ class Lazy(Sequence[T]):
     def __getitem__(self, k: int | slice) -> T | tuple[T, ...]:
         if isinstance(k, slice):
             return tuple(self[i] for i in range(*k.indices(self._count)))
-        i = k + self._count if k < 0 else k
+        i = operator.index(k)  # numpy integers too; a float is refused here
+        i = i + self._count if i < 0 else i
         if not 0 <= i < self._count:
             raise IndexError(k)
         return self._make(i)
 
     def __iter__(self) -> Iterator[T]:
         return (self[i] for i in range(self._count))
+
+    def __repr__(self) -> str:
+        return f"Lazy({self._count} items)"
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

@@ -147,10 +147,12 @@ class _Outlines:
         self._bands: dict[tuple[str, int], Any] = {}
 
     def outline(self, kind: str, k: int) -> Any:
-        """Return the boundary of obstacle (``kind="obstacle"``) or hull ``k``."""
+        """Return the boundary of obstacle (``kind="obstacle"``) or hull ``k``, prepared."""
         key = (kind, k)
         if key not in self._outlines:
-            self._outlines[key] = self._shapes[kind][k].boundary
+            outline = self._shapes[kind][k].boundary
+            shapely.prepare(outline)
+            self._outlines[key] = outline
         return self._outlines[key]
 
     def band(self, kind: str, k: int) -> Any:
@@ -169,7 +171,6 @@ class _Outlines:
         edge, as an unprepared one finds it by looking at all of them.
         """
         outline = self.outline(kind, k)
-        shapely.prepare(outline)
         return bool(np.all(shapely.dwithin(outline, shapely.points(points), self.tol)))
 
     def covers(

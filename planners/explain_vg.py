@@ -175,9 +175,13 @@ class _BorderEdges:
     """The border's edges, their grid and their shapes: where blockers are looked for."""
 
     start: FloatArray
+    """First end of each edge, shape (m, 2) [m] (:func:`planners.border.ring_geometry`)."""
     end: FloatArray
+    """Second end of each edge, shape (m, 2) [m]."""
     grid: EdgeGrid
+    """The edges bucketed in cells, within twice the touching distance."""
     eps: float
+    """The configuration space's tolerance [m]."""
 
     @classmethod
     def of(cls, cspace: ConfigurationSpace) -> _BorderEdges:

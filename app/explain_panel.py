@@ -365,11 +365,11 @@ def _frame_plans(frame: Frame, method: str) -> Mapping[str, Any] | None:
     status = getattr(result, "status", None)
     if status == "error" or (status != "invalid" and plans.get("cspace") is None):
         return None  # a planner that failed: planned here, its error shown
-    return _own_copy(plans)
+    return _own_copy({k: plans[k] for k in (method, "cspace") if k in plans})
 
 
 def _own_copy(plans: Mapping[str, Any]) -> dict[str, Any]:
-    """Return a copy of the frame's plans for the explain thread alone.
+    """Return a copy of the plans an explanation reads, for the explain thread alone.
 
     GEOS's prepared geometries are not safe to use from two threads at once
     (libgeos/geos#825), and shapely lets go of the GIL in its predicates; the fast lane

@@ -262,9 +262,19 @@ def _first_crossing(segs: FloatArray, border: _BorderEdges) -> IntArray:
     crossing = (
         (np.abs(denom) > 0) & (t > tol) & (t < 1 - tol) & (u > 1e-12) & (u < 1 - 1e-12)
     )
-    found = np.full(len(segs), -1, dtype=np.intp)
-    seg, edge, t = seg[crossing], edge[crossing], t[crossing]
-    first = np.lexsort((edge, t, seg))  # by segment, then t, then edge
+    return _least_per_segment(len(segs), seg[crossing], edge[crossing], t[crossing])
+
+
+def _least_per_segment(
+    count: int, seg: IntArray, edge: IntArray, key: FloatArray
+) -> IntArray:
+    """Per segment 0 .. count - 1, the edge of its pairs with the least ``key`` (-1: none).
+
+    Of pairs with equal keys, the edge listed first: what ``np.argmin`` over a dense
+    (segments, edges) table of the keys gives.
+    """
+    found = np.full(count, -1, dtype=np.intp)
+    first = np.lexsort((edge, key, seg))  # by segment, then key, then edge
     leads = (
         first[np.r_[True, seg[first][1:] != seg[first][:-1]]] if len(first) else first
     )
@@ -289,12 +299,7 @@ def _entry_edges(
     )
     seg, edge = seg[touching], edge[touching]
     gap = _point_edge_distances(entry[seg], border.start[edge], border.end[edge])
-    found = np.full(len(segs), -1, dtype=np.intp)
-    first = np.lexsort((edge, gap, seg))  # by segment, then gap, then edge
-    leads = (
-        first[np.r_[True, seg[first][1:] != seg[first][:-1]]] if len(first) else first
-    )
-    found[seg[leads]] = edge[leads]
+    found = _least_per_segment(len(segs), seg, edge, gap)
     # A blocked segment touches the border; should none be found, the nearest edge.
     lone = np.flatnonzero(found < 0)
     if len(lone):

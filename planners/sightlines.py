@@ -10,9 +10,9 @@ Uniform grid of the edges (:class:`EdgeGrid`)
     in every cell that a disk of radius ``margin`` around it meets. A segment can only
     cross or touch the edges listed in the cells it passes through.
 Marching segments (:func:`march`)
-    All segments walk their cells at once, from their start to their end, one cell a
-    step (the grid traversal of Amanatides and Woo, vectorised): at each step each
-    segment is tested against the edges of its current cell, and a segment that an edge
+    Each segment walks its cells from its start to its end, one cell a step (the grid
+    traversal of Amanatides and Woo, compiled in :mod:`planners.kernels`): at each step
+    it is tested against the edges of its current cell, and a segment that an edge
     crosses stops. Most blocked segments stop in their first cells, so the work is
     about the cells a segment crosses before it is blocked, not the whole border; a
     free segment is tested against every edge near it, which is all the exact test
@@ -25,9 +25,9 @@ Disks that certainly block (:func:`occluded`, :func:`cover_table`, :func:`occlud
     for every vertex and looks each pair up from both ends. A filter: it never decides
     a free one.
 
-Segments are marched in blocks of bounded size and only the touching points of the
-survivors are kept, so memory is the block plus the answer. Pairs are tested in slices
-of ``_PAIRS_AT_ONCE``: arrays of 128 KiB and more come from fresh pages, a page fault
+The march keeps only the touching points of the survivors, so its memory is the answer.
+Where pairs are listed as arrays (:func:`near_pairs`), they are tested in slices of
+``_PAIRS_AT_ONCE``: arrays of 128 KiB and more come from fresh pages, a page fault
 every 4 KiB, which cost a fifth of a cold visibility graph of 300 vertices.
 
 References
@@ -65,6 +65,8 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 from shapely import Polygon
+
+from planners.kernels import march_cells
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -316,68 +318,36 @@ class Marched:
     """Where that vertex lies, as the parameter in (0, 1) along the segment."""
 
 
-@dataclasses.dataclass
-class _Walk:
-    """The grid traversal state of the segments still walking (one entry each)."""
-
-    seg: IntArray
-    cell: IntArray  # ix * ny + iy
-    step_x: IntArray  # change of cell to the next column: +-ny (or 0)
-    step_y: IntArray  # ... to the next row: +-1 (or 0)
-    next_x: FloatArray  # parameter t where the segment leaves the cell's column
-    next_y: FloatArray  # ... and its row
-    delta_x: FloatArray  # t to cross one column
-    delta_y: FloatArray
-    end: FloatArray  # t where the segment leaves the grid (or ends)
-    enter: FloatArray  # t where the segment entered its current cell
-
-
-_TAIL = 512
-"""When no more segments than this still walk, each one's remaining cells are listed at
-once: a step costs a few dozen numpy calls whatever its size, and the last walkers,
-mostly long free segments, would take as many steps as they cross cells."""
-
-
-def march(
-    grid: EdgeGrid,
-    edges: Edges,
-    segs: Segments,
-    eps: float,
-    block: int = 1 << 18,
-    *,
-    tail: int = _TAIL,
-) -> Marched:
+def march(grid: EdgeGrid, edges: Edges, segs: Segments, eps: float) -> Marched:
     """Test segments against the edges of the cells they pass through.
 
-    A segment stops at the first cell where an edge properly crosses it; the others are
-    tested against every edge within the grid's margin, so their touching vertices are
-    complete. Segments are walked ``block`` at a time; once no more than ``tail`` of a
-    block still walk, they are tested against all their remaining cells at once.
+    Each segment walks its cells from start to end (Amanatides and Woo) and stops in the
+    first cell where an edge properly crosses it; the others are tested against every
+    edge within the grid's margin, so their touching vertices are complete. The walk is
+    compiled (:func:`planners.kernels.march_cells`); memory is the answer alone.
+
+    Examples
+    --------
+    >>> ring = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
+    >>> after = np.roll(ring, -1, axis=0)
+    >>> grid, edges = edge_grid(ring, after, 0.1), Edges.of(ring, after)
+    >>> a, b = np.array([[1.0, -1.0], [-1.0, 0.0]]), np.array([[1.0, 1.0], [5.0, 0.0]])
+    >>> marched = march(grid, edges, Segments.of(a, b), 1e-9)
+    >>> marched.crossed.tolist(), marched.touch_seg.tolist(), marched.touch_t.tolist()
+    ([True, False], [1, 1], [0.16666666666666666, 0.8333333333333334])
     """
-    crossed = np.zeros(len(segs.ax), dtype=bool)
-    touch_seg: list[IntArray] = []
-    touch_t: list[FloatArray] = []
-    for first in range(0, len(segs.ax), block):
-        walk = _start_walk(
-            grid, segs, np.arange(first, min(first + block, len(segs.ax)))
-        )
-        while len(walk.seg):
-            rest = len(walk.seg) <= tail
-            cells = (
-                _rest_cells(grid, segs, walk, eps) if rest else _cells_now(grid, walk)
-            )
-            for seg, edge in _pairs_in_cells(grid, *cells):
-                blocked, t_seg, t_val = crossings(segs, edges, seg, edge, eps)
-                crossed[blocked] = True
-                touch_seg.append(t_seg)
-                touch_t.append(t_val)
-            if rest:
-                break
-            walk = _step(grid, walk, crossed)
-    seg_all = np.concatenate(touch_seg) if touch_seg else np.zeros(0, dtype=np.intp)
-    t_all = np.concatenate(touch_t) if touch_t else np.zeros(0)
-    keep = np.flatnonzero(~crossed[seg_all])
-    seg_all, t_all = seg_all[keep], t_all[keep]
+    clip = not _all_inside(grid, segs.ax, segs.ay, segs.ax + segs.dx, segs.ay + segs.dy)
+    crossed, seg_all, t_all = march_cells(
+        (float(grid.lo[0]), float(grid.lo[1])),
+        float(grid.cell),
+        (grid.nx, grid.ny),
+        grid.offsets,
+        grid.edges,
+        (edges.ex, edges.ey, edges.edx, edges.edy, edges.length),
+        (segs.ax, segs.ay, segs.dx, segs.dy, segs.length),
+        float(eps),
+        clip,
+    )
     # An edge listed in several cells along a segment was met once per cell: the same
     # vertex at the very same t (computed from the same pair), kept once. Ordered by
     # segment, then t: by t, then stably by segment (faster than np.lexsort on floats;
@@ -388,31 +358,6 @@ def march(
     new = np.ones(len(seg_all), dtype=bool)
     new[1:] = (seg_all[1:] != seg_all[:-1]) | (t_all[1:] != t_all[:-1])
     return Marched(crossed, seg_all[new], t_all[new])
-
-
-def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
-    """Clip each segment to the grid and find its first cell (Amanatides and Woo)."""
-    px, py, dx, dy = segs.ax[seg], segs.ay[seg], segs.dx[seg], segs.dy[seg]
-    t0, t1 = np.zeros(len(seg)), np.ones(len(seg))
-    if not _all_inside(grid, px, py, px + dx, py + dy):
-        t0, t1 = _clip(grid, px, py, dx, dy)
-    inside = np.flatnonzero(t0 <= t1)
-    seg, t1 = seg[inside], t1[inside]
-    px, py, dx, dy, t0 = (v[inside] for v in (px, py, dx, dy, t0))
-    axes = []
-    for p, d, low, count in (
-        (px, dx, grid.lo[0], grid.nx),
-        (py, dy, grid.lo[1], grid.ny),
-    ):
-        at = np.clip(np.floor((p + t0 * d - low) / grid.cell), 0, count - 1)
-        step = np.sign(d).astype(np.intp)
-        safe = np.where(d != 0, d, 1.0)
-        border = low + (at + (step > 0)) * grid.cell
-        nxt = np.where(d != 0, (border - p) / safe, np.inf)
-        delta = np.where(d != 0, grid.cell / np.abs(safe), np.inf)
-        axes.append((at.astype(np.intp), step, nxt, delta))
-    (ix, sx, nx_, ddx), (iy, sy, ny_, ddy) = axes
-    return _Walk(seg, ix * grid.ny + iy, sx * grid.ny, sy, nx_, ny_, ddx, ddy, t1, t0)
 
 
 def _all_inside(
@@ -433,54 +378,6 @@ def _all_inside(
         and min(ay.min(), by.min()) > lo[1]
         and max(ay.max(), by.max()) < hi[1]
     )
-
-
-def _clip(
-    grid: EdgeGrid, px: FloatArray, py: FloatArray, dx: FloatArray, dy: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Return the parameter range (t0, t1) of each segment inside the grid (Liang-Barsky).
-
-    Empty (t0 > t1) for a segment that misses the grid.
-    """
-    lo, hi = grid.lo, grid.hi
-    t0, t1 = np.zeros(len(px)), np.ones(len(px))
-    for p, d, low, high in ((px, dx, lo[0], hi[0]), (py, dy, lo[1], hi[1])):
-        # The parameter range inside the slab low <= p + t d <= high.
-        safe = np.where(d != 0, d, 1.0)
-        with np.errstate(over="ignore"):  # a subnormal direction: t is +-inf, as meant
-            ta, tb = (low - p) / safe, (high - p) / safe
-        enter = np.where(
-            d != 0, np.minimum(ta, tb), np.where(p >= low, -np.inf, np.inf)
-        )
-        leave = np.where(
-            d != 0, np.maximum(ta, tb), np.where(p <= high, np.inf, -np.inf)
-        )
-        t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
-    return t0, t1
-
-
-def _cells_now(grid: EdgeGrid, walk: _Walk) -> tuple[IntArray, IntArray]:
-    """(segment, cell) of each walking segment: the cell it is in."""
-    return walk.seg, walk.cell
-
-
-def _rest_cells(
-    grid: EdgeGrid, segs: Segments, walk: _Walk, eps: float
-) -> tuple[IntArray, IntArray]:
-    """(segment, cell) for every cell each walking segment has still to cross.
-
-    The part of the segment from where it entered its current cell to its end, listed
-    as :func:`_edge_cells` lists an edge's cells (a superset of the cells the traversal
-    would step through: testing more pairs finds nothing false, the test is exact).
-    """
-    seg = walk.seg
-    px, py, dx, dy = segs.ax[seg], segs.ay[seg], segs.dx[seg], segs.dy[seg]
-    a = np.column_stack([px + walk.enter * dx, py + walk.enter * dy])
-    b = np.column_stack([px + walk.end * dx, py + walk.end * dy])
-    k, ix, iy = _edge_cells(
-        a, b, grid.lo, grid.cell, margin=eps, shape=(grid.nx, grid.ny)
-    )
-    return seg[k], ix * grid.ny + iy
 
 
 def _pairs_in_cells(
@@ -504,37 +401,6 @@ def _pairs_in_cells(
             np.repeat(seg[lo:hi], c),
             grid.edges[np.repeat(first[lo:hi], c) + _ramp(c)],
         )
-
-
-def _step(grid: EdgeGrid, walk: _Walk, crossed: npt.NDArray[np.bool_]) -> _Walk:
-    """Move every segment to its next cell; drop the blocked and the finished ones.
-
-    ``t_next <= end`` keeps a segment in the grid; rounding may still step it out. Out
-    through a side of the grid in x, its cell number leaves [0, nx ny) and it stops;
-    out in y it lands in a cell of a neighbouring column, which it does not cross:
-    testing more pairs finds nothing false (the test is exact), and its t is at its end
-    within rounding, so it stops within a step or two.
-    """
-    along_x = walk.next_x < walk.next_y
-    t_next = np.where(along_x, walk.next_x, walk.next_y)
-    cell = walk.cell + np.where(along_x, walk.step_x, walk.step_y)
-    next_x = np.where(along_x, walk.next_x + walk.delta_x, walk.next_x)
-    next_y = np.where(along_x, walk.next_y, walk.next_y + walk.delta_y)
-    go = (t_next <= walk.end) & ~crossed[walk.seg]
-    go &= (cell >= 0) & (cell < grid.nx * grid.ny)
-    keep = np.flatnonzero(go)
-    return _Walk(
-        walk.seg[keep],
-        cell[keep],
-        walk.step_x[keep],
-        walk.step_y[keep],
-        next_x[keep],
-        next_y[keep],
-        walk.delta_x[keep],
-        walk.delta_y[keep],
-        walk.end[keep],
-        t_next[keep],
-    )
 
 
 # --------------------------------------------------------------------------- occluders

@@ -52,8 +52,6 @@ __all__ = [
 
 import dataclasses
 import functools
-import heapq
-import itertools
 import math
 import threading
 from collections import OrderedDict
@@ -67,6 +65,7 @@ import shapely
 from planners.border import ring_geometry
 from planners.expansion import ConfigurationSpace
 from planners.geometry import cross, take_rows, unit_rows
+from planners.kernels import astar
 from planners.sightlines import (
     Disks,
     EdgeGrid,
@@ -167,7 +166,7 @@ class GraphArrays:
         )
         return graph
 
-    def _adjacency(self) -> tuple[list[int], IntArray, FloatArray]:
+    def _adjacency(self) -> tuple[IntArray, IntArray, FloatArray]:
         """Neighbours of each node in ascending order, as compressed rows.
 
         Node u's neighbours are ``other[first[u]:first[u + 1]]`` with the edges'
@@ -184,7 +183,7 @@ class GraphArrays:
         first = np.zeros(len(self.points) + 1, dtype=np.intp)
         np.cumsum(np.bincount(u, minlength=len(self.points)), out=first[1:])
         weight = np.concatenate([self.weight, self.weight]).take(order)
-        return first.tolist(), v.take(order), weight
+        return first, v.take(order), weight
 
     def shortest_path(
         self, settled: list[tuple[int, int, float]] | None = None
@@ -192,61 +191,39 @@ class GraphArrays:
         """Return the shortest (path, length) from start to goal, or None.
 
         A* with the straight-line distance as heuristic (admissible, so the path is
-        optimal). It is :func:`networkx.astar_path` step by step -- the same queue
-        order, tie-breaking and floating-point sums -- on index lists instead of a
-        graph, so it finds the very path :func:`shortest_path` finds in
-        :meth:`to_networkx` (a property test holds the two together).
+        optimal), compiled (:func:`planners.kernels.astar`). It is
+        :func:`networkx.astar_path` step by step -- the same queue order, tie-breaking
+        and floating-point sums -- on compressed rows instead of a graph, so it finds
+        the very path :func:`shortest_path` finds in :meth:`to_networkx` (a property
+        test holds the two together).
 
         ``settled``, when given, receives (node, parent, cost) for each node the search
         settles, in order (the parent is -1 for the start; the goal comes last when
         reached): what an explanation of the search shows (section 9.4).
         """
         s, g = self.start, self.goal
-        record = settled.append if settled is not None else _ignore
         if s == g:
-            record((s, -1, 0.0))
+            if settled is not None:
+                settled.append((s, -1, 0.0))
             return self.points[[s]].copy(), 0.0
-        keys = list(map(tuple, self.points.tolist()))
         first, other_of, weight_of = self._adjacency()
-        target = keys[g]
-        count = itertools.count()
-        queue = [(0.0, next(count), s, 0.0, -1)]
-        enqueued: dict[int, tuple[float, float]] = {}  # node -> (cost, heuristic)
-        explored: dict[int, int] = {}  # node -> parent (-1 for the start)
-        while queue:
-            _, _, node, cost, parent = heapq.heappop(queue)
-            if node == g:
-                record((node, parent, cost))
-                order = [node, parent]
-                while order[-1] != s:
-                    order.append(explored[order[-1]])
-                path = self.points[order[::-1]]
-                return path, float(np.hypot(*np.diff(path, axis=0).T).sum())
-            if node in explored:
-                if explored[node] < 0:  # the start: never worth visiting again
-                    continue
-                if enqueued[node][0] < cost:  # a shorter way here is already known
-                    continue
-            explored[node] = parent
-            record((node, parent, cost))
-            rows = slice(first[node], first[node + 1])
-            for other, w in zip(
-                other_of[rows].tolist(), weight_of[rows].tolist(), strict=True
-            ):
-                new = cost + w
-                if other in enqueued:
-                    known, h = enqueued[other]
-                    if known <= new:
-                        continue
-                else:
-                    h = math.dist(keys[other], target)
-                enqueued[other] = new, h
-                heapq.heappush(queue, (new + h, next(count), other, new, node))
-        return None
-
-
-def _ignore(_item: object) -> None:
-    """Do nothing (a search nobody records)."""
+        target = tuple(self.points[g].tolist())
+        # math.dist, as networkx's heuristic computes it (the same floats, the same order).
+        heuristic = np.array(
+            [math.dist(p, target) for p in map(tuple, self.points.tolist())]
+        )
+        steps, costs, order = astar(first, other_of, weight_of, heuristic, s, g)
+        if settled is not None:
+            settled.extend(
+                (node, parent, cost)
+                for (node, parent), cost in zip(
+                    steps.tolist(), costs.tolist(), strict=True
+                )
+            )
+        if not len(order):
+            return None
+        path = self.points[order]
+        return path, float(np.hypot(*np.diff(path, axis=0).T).sum())
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

@@ -1,6 +1,7 @@
 """planners.sightlines against brute force: the grid march and the disk filter (issue 15)."""
 
 import dataclasses
+import functools
 import itertools
 import math
 
@@ -26,8 +27,9 @@ from planners.sightlines import (
     occluded_pairs,
     sector_count,
 )
-from planners.visibility import _inner_disks, visibility_graph
+from planners.visibility import _build_border, _inner_disks, visibility_graph
 from tests.conftest import random_scenes, reference_segment_free
+from tests.planners.march_reference import march_reference
 
 EPS = 1e-9
 
@@ -56,11 +58,22 @@ def _brute(edges, segs, count_s, count_e):
     return crossings(segs, edges, seg.astype(np.intp), edge.astype(np.intp), EPS)
 
 
-# Every segment walked cell by cell (0), the last few walkers listed at once (2), every
-# segment's cells listed at once from the start (a million).
-@pytest.mark.parametrize("tail", [0, 2, 1 << 20])
+MARCHES = {
+    "compiled": march,
+    # The numpy walk it replaced: every segment walked cell by cell (tail 0), the last
+    # few walkers listed at once (2), every segment's cells listed at once (a million).
+    **{
+        f"reference, tail {tail}": functools.partial(
+            march_reference, block=3, tail=tail
+        )
+        for tail in (0, 2, 1 << 20)
+    },
+}
+
+
+@pytest.mark.parametrize("name", list(MARCHES))
 @given(case=segments_and_edges())
-def test_march_finds_what_testing_every_pair_finds(tail, case):
+def test_march_finds_what_testing_every_pair_finds(name, case):
     ea, eb, sa, sb = case
     edges, segs = Edges.of(ea, eb), Segments.of(sa, sb)
     crossed_seg, touch_seg, touch_t = _brute(edges, segs, len(sa), len(ea))
@@ -68,7 +81,7 @@ def test_march_finds_what_testing_every_pair_finds(tail, case):
     crossed[crossed_seg] = True
     # Cells of every size: one cell, about one edge a cell, tiny cells.
     grid = edge_grid(ea, eb, 4 * EPS)
-    marched = march(grid, edges, segs, EPS, block=3, tail=tail)
+    marched = MARCHES[name](grid, edges, segs, EPS)
     np.testing.assert_array_equal(marched.crossed, crossed)
     # Each vertex on a segment once, as testing every pair finds it (t bit for bit).
     want = sorted(
@@ -76,6 +89,62 @@ def test_march_finds_what_testing_every_pair_finds(tail, case):
     )
     got = list(zip(marched.touch_seg.tolist(), marched.touch_t.tolist(), strict=True))
     assert got == [(int(s), float(t)) for s, t in want]
+
+
+def _assert_same_march(grid, edges, segs, eps):
+    compiled, reference = (
+        march(grid, edges, segs, eps),
+        march_reference(grid, edges, segs, eps),
+    )
+    for field in ("crossed", "touch_seg", "touch_t"):
+        np.testing.assert_array_equal(
+            getattr(compiled, field), getattr(reference, field), err_msg=field
+        )
+
+
+@settings(max_examples=40, deadline=None)
+@given(scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)))
+def test_compiled_march_equals_the_numpy_walk_on_every_vertex_pair(scene):
+    # Every pair of border vertices and every vertex to start and goal, as a VG from
+    # scratch would march them (before its filters): crossed, touches, t bit for bit.
+    cspace = configuration_space(
+        scene.obstacles, scene.robot.radius, scene.expansion, scene.boundary
+    )
+    border = _build_border(cspace)
+    points = np.vstack([border.points, [scene.start, scene.goal]])
+    i, j = np.triu_indices(len(points), 1)
+    segs = Segments.of(points[i], points[j])
+    _assert_same_march(border.grid, border.edges, segs, cspace.eps)
+
+
+@pytest.mark.parametrize(
+    "name", ["grid_of_rectangles", "collinear_boxes", "circle_2000"]
+)
+def test_compiled_march_equals_the_numpy_walk_on_collinear_and_long_borders(name):
+    # Collinear edges shared by many rectangles (vertices on segments, grazing corners),
+    # and a big circle (segments that cross thousands of cells); segments that start
+    # outside the grid are clipped.
+    if name == "circle_2000":
+        k = np.arange(2000) * 2.0 * math.pi / 2000
+        ring = 50.0 * np.column_stack([np.cos(k), np.sin(k)])
+        rings = [ring]
+    else:
+        gap = 1.0 if name == "grid_of_rectangles" else 0.0
+        rings = [
+            np.array([[x, y], [x + 2, y], [x + 2, y + 1], [x, y + 1]], dtype=float)
+            for x in np.arange(6) * (2 + gap)
+            for y in np.arange(6) * 2.0
+        ]
+    a = np.vstack(rings)
+    b = np.vstack([np.roll(r, -1, axis=0) for r in rings])
+    grid, edges = edge_grid(a, b, 4 * EPS), Edges.of(a, b)
+    rng = np.random.default_rng(7)
+    picks = rng.integers(0, len(a), (4000, 2))
+    outside = rng.uniform(-80.0, 80.0, (500, 2))
+    starts = np.vstack([a[picks[:, 0]], outside])
+    ends = np.vstack([a[picks[:, 1]], a[picks[:500, 1]]])
+    keep = np.any(starts != ends, axis=1)
+    _assert_same_march(grid, edges, Segments.of(starts[keep], ends[keep]), EPS)
 
 
 def test_march_covers_segments_leaving_and_entering_the_grid():

@@ -20,12 +20,14 @@ from planners.visibility import (
     visibility_graph,
 )
 from tests.conftest import (
+    SCENARIOS,
     random_scenes,
     reference_segment_free,
     reference_shortest_length,
     scene_dict,
     square,
 )
+from tests.planners.astar_reference import assert_same_search
 
 SQRT2 = math.sqrt(2)
 
@@ -414,6 +416,24 @@ def _check_against_reference(scene):
             assert _edge_set(
                 simplified_visibility_graph(space, scene.start, scene.goal)
             ) == _edge_set(svg.graph)
+
+
+@settings(max_examples=60, deadline=None)
+@given(scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)))
+def test_compiled_search_settles_what_the_python_loop_settled(scene):
+    # Node by node, with parents and costs bit for bit: what Explain shows of the search.
+    plans = plan_all(scene)
+    for name in ("vg", "svg"):
+        if plans[name].status != "invalid":
+            assert_same_search(plans[name].arrays)
+
+
+def test_compiled_search_settles_what_the_python_loop_settled_on_scenarios():
+    for path in SCENARIOS:
+        plans = plan_all(load_scene(path))
+        for name in ("vg", "svg"):
+            if plans[name].status != "invalid":
+                assert_same_search(plans[name].arrays)
 
 
 @given(scene=random_scenes())

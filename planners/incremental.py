@@ -41,6 +41,7 @@ from shapely.geometry.base import BaseGeometry as Geometry
 
 from planners.expansion import ConfigurationSpace
 from planners.geometry import take_rows
+from planners.kernels import box_pairs
 from planners.visibility import (
     _ANGLE_TOL,
     _Border,
@@ -326,26 +327,19 @@ def _pairs_to_test(
 def _crossing_box(
     new_b: _Border, stable: BoolArray, box: FloatArray
 ) -> Iterator[tuple[IntArray, IntArray, BoolArray]]:
-    """Yield, block by block, the screened stable pairs whose segment meets the box.
+    """Yield the screened stable pairs whose segment meets the box.
 
-    Only vertices that face the box can be ends of such a pair (:func:`_facing`).
+    Only vertices that face the box can be ends of such a pair (:func:`_facing`). The
+    pairs of those are listed by a compiled loop (:func:`planners.kernels.box_pairs`):
+    the outcodes' test, whether the line meets the box, and the screen, pair by pair.
     """
-    points = new_b.points
     nodes = np.flatnonzero(stable & _facing(new_b, box))
-    code = _outcodes(take_rows(points, nodes), box)
-    k = len(nodes)
-    r0 = 0
-    while r0 < k - 1:
-        r1 = min(k - 1, r0 + max(1, _BLOCK // (k - r0)))
-        rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, k)[None, :]
-        # Both ends on one outer side of the box: the segment cannot meet it.
-        maybe = ((code[rows] & code[cols]) == 0) & (cols > rows)
-        r, c = np.nonzero(maybe)
-        i, j = nodes[r0 + r], nodes[r0 + 1 + c]
-        meets = _line_meets_box(take_rows(points, i), take_rows(points, j), box)
-        i, j = _screened(new_b, i[meets], j[meets])
-        yield i, j, np.zeros(len(i), dtype=bool)
-        r0 = r1
+    code = _outcodes(take_rows(new_b.points, nodes), box)
+    w = new_b.wedges
+    i, j = box_pairs(
+        new_b.points, nodes, code, box, (w.nxt, w.prv, w.narrow), _ANGLE_TOL
+    )
+    yield i, j, np.zeros(len(i), dtype=bool)
 
 
 def _facing(new_b: _Border, box: FloatArray) -> BoolArray:
@@ -366,32 +360,6 @@ def _facing(new_b: _Border, box: FloatArray) -> BoolArray:
         tol = 2.0 * _ANGLE_TOL * np.hypot(dx, dy)
         behind &= _into_wedge(wedges.nxt, wedges.prv, wedges.narrow, dx, dy, tol)
     return ~behind
-
-
-def _line_meets_box(a: FloatArray, b: FloatArray, box: FloatArray) -> BoolArray:
-    """Tell which lines through a[k] and b[k] may meet the box.
-
-    Not all four corners strictly on one side: the separating axis test; with the
-    outcodes' test of the bounding boxes it tells the segments that meet the box.
-
-    Corners closer to a line than a relative 1e-9 of the scale count as on it: a few
-    more pairs are tested again, never fewer.
-    """
-    d = b - a
-    scale = np.abs(d[:, 0]) + np.abs(d[:, 1])
-    scale *= 1e-9 * (1.0 + np.abs(box).max())
-    above = np.ones(len(a), dtype=bool)
-    below = np.ones(len(a), dtype=bool)
-    for cx, cy in (
-        (box[0], box[1]),
-        (box[2], box[1]),
-        (box[0], box[3]),
-        (box[2], box[3]),
-    ):
-        side = d[:, 0] * (cy - a[:, 1]) - d[:, 1] * (cx - a[:, 0])
-        above &= side > scale
-        below &= side < -scale
-    return ~(above | below)
 
 
 def _outcodes(points: FloatArray, box: FloatArray) -> npt.NDArray[np.uint8]:

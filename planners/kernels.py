@@ -1,31 +1,35 @@
-"""Compiled loops: the grid march of :mod:`planners.sightlines` and the A* search.
+"""Compiled loops: the grid march, the A* search, the incremental VG's pair listing.
 
-Two computations of the visibility graphs (sections 9.4 and 9.5) are loops that numpy
+Three computations of the visibility graphs (sections 9.4 and 9.5) are loops that numpy
 can only run as many small array operations: the march of a segment through the cells
 of the edge grid (a few cells per segment, a few edges per cell, a branch per edge),
-and the A* search (one node at a time). On the scenes students build they took a
-quarter of an edit's time in numpy and Python (issue 15). numba compiles them here.
+the A* search (one node at a time), and, after an edit, the listing of the vertex pairs
+whose segment meets the changed region (k^2 / 2 pairs, most ruled out at once). On the
+scenes students build they took a third of an edit's time in numpy and Python (issue
+15). numba compiles them here.
 
 The rules that keep the compiled loops exactly the code they replace:
 
 - the same floating-point operations in the same order on float64, no ``fastmath``
   (so no reassociation and no fused multiply-add): every sign test and every parameter
   t comes out bit for bit as the numpy expression gives it;
-- tests hold each loop to a plain reference that is kept in the tests
-  (``tests/planners/march_reference.py``, networkx's A*), on random and degenerate
-  scenes, result for result;
+- tests hold each loop to the code it replaced, kept in the tests
+  (``tests/planners/march_reference.py``, ``astar_reference.py``,
+  ``incremental_reference.py``; and networkx's A*), on random and degenerate scenes,
+  result for result;
 - ``cache=True``: compiled once per machine (about 3 s per loop), then loaded from
   ``__pycache__`` (or numba's user cache where that is read-only) in a fraction of a
   second; ``nogil=True``: while a loop runs, the server's other threads run;
 - no state: a dispatcher holds its machine code, nothing a call could leave behind.
 
-The functions here take and return plain arrays; :func:`planners.sightlines.march` and
-:meth:`planners.visibility.GraphArrays.shortest_path` wrap them.
+The functions here take and return plain arrays; :func:`planners.sightlines.march`,
+:meth:`planners.visibility.GraphArrays.shortest_path` and
+:func:`planners.incremental._crossing_box` wrap them.
 """
 
 from __future__ import annotations
 
-__all__ = ["astar", "march_cells"]
+__all__ = ["astar", "box_pairs", "march_cells"]
 
 import math
 
@@ -331,3 +335,101 @@ def astar(  # noqa: PLR0915, PLR0917
             size = _push(heap, size, f, entries)
             entries += 1
     return settled[:done], settled_cost[:done], np.empty(0, dtype=np.intp)
+
+
+# --------------------------------------------------------------------------- pairs
+
+
+@njit(cache=True, nogil=True)
+def _into_wedge(  # noqa: PLR0917
+    nxt: FloatArray, prv: FloatArray, narrow: bool, dx: float, dy: float, tol: float
+) -> bool:
+    """Tell if (dx, dy) leaves a vertex by more than ``tol`` into its blocked wedge.
+
+    The arithmetic of :func:`planners.visibility._into_wedge`.
+    """
+    after_next = nxt[0] * dy - nxt[1] * dx > tol
+    before_prev = dx * prv[1] - dy * prv[0] > tol
+    return (after_next and before_prev) if narrow else (after_next or before_prev)
+
+
+@njit(cache=True, nogil=True)
+def _out_of_wedge(  # noqa: PLR0917
+    nxt: FloatArray, prv: FloatArray, narrow: bool, dx: float, dy: float, tol: float
+) -> bool:
+    """Tell if (-dx, -dy) leaves a vertex by more than ``tol`` into its blocked wedge.
+
+    The backward test of :func:`planners.visibility._into_wedge`.
+    """
+    after_next = nxt[0] * dy - nxt[1] * dx < -tol
+    before_prev = dx * prv[1] - dy * prv[0] < -tol
+    return (after_next and before_prev) if narrow else (after_next or before_prev)
+
+
+@njit(cache=True, nogil=True)
+def _line_misses_box(  # noqa: PLR0917
+    ax: float, ay: float, dx: float, dy: float, box: FloatArray, scale: float
+) -> bool:
+    """Tell if all four corners of the box lie strictly on one side of a line.
+
+    The line through (ax, ay) in direction (dx, dy); "strictly": farther than
+    ``scale`` times |dx| + |dy| (the arithmetic of
+    :func:`planners.incremental._line_meets_box`).
+    """
+    tol = (abs(dx) + abs(dy)) * scale
+    above, below = True, True
+    for cx, cy in (
+        (box[0], box[1]),
+        (box[2], box[1]),
+        (box[0], box[3]),
+        (box[2], box[3]),
+    ):
+        side = dx * (cy - ay) - dy * (cx - ax)
+        above = above and side > tol
+        below = below and side < -tol
+    return above or below
+
+
+@njit(cache=True, nogil=True)
+def box_pairs(  # noqa: PLR0917
+    points: FloatArray,
+    nodes: IntArray,
+    code: npt.NDArray[np.uint8],
+    box: FloatArray,
+    wedges: tuple[FloatArray, FloatArray, BoolArray],
+    angle_tol: float,
+) -> tuple[IntArray, IntArray]:
+    """Return the pairs of ``nodes`` whose segment meets the box and leaves no end blocked.
+
+    Pairs (nodes[r], nodes[c]), r < c, in that order: both ends not beyond one side of
+    the box (their Cohen-Sutherland ``code`` shares no bit), the line not missing the
+    box, and the segment leaving neither end into its blocked wedge (``wedges``: the
+    unit directions to the next and the previous ring vertex and whether the wedge is
+    narrower than pi, per vertex; tolerance ``angle_tol`` times the segment's length).
+    What :func:`planners.incremental._crossing_box` lists, without the k^2 arrays.
+    """
+    nxt, prv, narrow = wedges
+    scale = 1e-9 * (1.0 + np.abs(box).max())
+    out_i = np.empty(1024, dtype=np.intp)
+    out_j = np.empty(1024, dtype=np.intp)
+    count = 0
+    for r in range(len(nodes)):
+        i = int(nodes[r])
+        ax, ay = points[i, 0], points[i, 1]
+        for c in range(r + 1, len(nodes)):
+            if code[r] & code[c]:
+                continue  # both ends beyond one side of the box
+            j = int(nodes[c])
+            dx, dy = points[j, 0] - ax, points[j, 1] - ay
+            if _line_misses_box(ax, ay, dx, dy, box, scale):
+                continue
+            tol = angle_tol * math.hypot(dx, dy)
+            if _into_wedge(nxt[i], prv[i], narrow[i], dx, dy, tol) or _out_of_wedge(
+                nxt[j], prv[j], narrow[j], dx, dy, tol
+            ):
+                continue  # screened: the segment leaves an end into its wedge
+            if count == len(out_i):
+                out_i, out_j = _grow_int(out_i, count), _grow_int(out_j, count)
+            out_i[count], out_j[count] = i, j
+            count += 1
+    return out_i[:count], out_j[:count]

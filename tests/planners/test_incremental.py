@@ -22,12 +22,13 @@ from planners import Memo, plan_all
 from planners.expansion import configuration_space
 from planners.incremental import (
     _change,
-    _line_meets_box,
+    _crossing_box,
     _meets_box,
     _outcodes,
     _pairs_to_test,
     carry_visibility,
 )
+from planners.kernels import box_pairs
 from planners.scene import (
     ScenarioError,
     add_obstacle,
@@ -50,6 +51,10 @@ from planners.visibility import (
     segments_free,
 )
 from tests.conftest import SCENARIOS, random_scenes, scene_dict
+from tests.planners.incremental_reference import (
+    _line_meets_box,
+    crossing_box_reference,
+)
 
 HALVES = st.integers(-2, 22).map(lambda k: k / 2.0)  # a lattice: collinear, touching
 
@@ -349,6 +354,38 @@ def test_the_pairs_tested_again_hold_every_pair_a_slow_screen_names(
             assert (i, j) in tested
 
 
+@settings(max_examples=60, deadline=None)
+@given(
+    scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),
+    edit=edits(),
+    radius=st.sampled_from([0, 0.25]),
+)
+def test_compiled_box_pairs_equal_the_numpy_listing(scene, edit, radius):
+    """The pairs crossing the changed box, listed by the compiled loop, are the very
+    pairs (same order) the blockwise numpy listing gave, after a random edit."""
+    try:
+        edited = _apply(scene, edit)
+    except (ValueError, ScenarioError):
+        return
+    if scene_problems(edited):
+        return
+    old, new = (
+        configuration_space(s.obstacles, radius, boundary=s.boundary)
+        for s in (scene, edited)
+    )
+    change = _change(old, new)
+    if old.eps != new.eps or change.box is None:
+        return
+    border = new.derive(_build_border)
+    got = list(_crossing_box(border, change.stable, change.box))
+    want = list(crossing_box_reference(border, change.stable, change.box))
+    for k in range(2):
+        np.testing.assert_array_equal(
+            np.concatenate([np.zeros(0, dtype=np.intp), *(g[k] for g in got)]),
+            np.concatenate([np.zeros(0, dtype=np.intp), *(w[k] for w in want)]),
+        )
+
+
 @given(
     a=st.tuples(*[st.integers(-8, 8)] * 2),
     b=st.tuples(*[st.integers(-8, 8)] * 2),
@@ -362,6 +399,12 @@ def test_segments_meet_a_box_as_shapely_says(a, b, box):
     outside = (_outcodes(pa, corners) & _outcodes(pb, corners))[0] != 0
     mine = not outside and _line_meets_box(pa, pb, corners)[0]
     assert mine == _meets_box(pa, pb, corners)[0]
+    # The compiled listing on the same two ends, with no wedge to screen them.
+    points = np.vstack([pa, pb])
+    no_wedge = (np.zeros((2, 2)), np.zeros((2, 2)), np.ones(2, dtype=bool))
+    code = _outcodes(points, corners)
+    listed = box_pairs(points, np.array([0, 1]), code, corners, no_wedge, 1e-12)
+    assert mine == (len(listed[0]) == 1)
     segment = shapely.LineString([a, b]) if a != b else shapely.Point(a)
     assert mine == segment.intersects(shapely.box(x0, y0, x1, y1))
 

@@ -100,7 +100,7 @@ def test_adjacency_is_a_stable_sort_by_node(n, data):
     order = np.argsort(u, kind="stable")
     assert np.array_equal(other, v[order])
     assert np.array_equal(weight, np.concatenate([graph.weight, graph.weight])[order])
-    assert first == [0, *np.cumsum(np.bincount(u, minlength=n)).tolist()]
+    assert first.tolist() == [0, *np.cumsum(np.bincount(u, minlength=n)).tolist()]
 
 
 def test_adjacency_at_the_radix_sorts_bound():

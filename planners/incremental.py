@@ -46,7 +46,7 @@ from planners.visibility import (
     _ANGLE_TOL,
     _Border,
     _build_border,
-    _free_from,
+    _exact_free,
     _into_wedge,
     _leaves_blocked,
     _point_sights,
@@ -143,7 +143,6 @@ def _carried(
     ti = np.concatenate([np.zeros(0, dtype=np.intp), *(t[0] for t in tests)])
     tj = np.concatenate([np.zeros(0, dtype=np.intp), *(t[1] for t in tests)])
     a, b = [take_rows(new_b.points, ti)], [take_rows(new_b.points, tj)]
-    from_j = [np.zeros(0, dtype=bool), *(t[2] for t in tests)]
     # The points old kept: rows of stable vertices clear of the box stay.
     kept = old.known(_point_sights)
     carried = []
@@ -152,8 +151,7 @@ def _carried(
         carried.append((point, stay, again))
         a.append(take_rows(new_b.points, again))
         b.append(np.broadcast_to(np.asarray(point), (len(again), 2)))
-        from_j.append(np.ones(len(again), dtype=bool))
-    ok = _free_from(new, new_b, np.vstack(a), np.vstack(b), np.concatenate(from_j))
+    ok = _exact_free(new, new_b, np.vstack(a), np.vstack(b))
     i = np.concatenate([kept_i, ti[ok[: len(ti)]]])
     j = np.concatenate([kept_j, tj[ok[: len(ti)]]])
     # Row-major: one key per pair (each pair comes once); the kept pairs come in
@@ -300,14 +298,13 @@ def _meets_box(a: FloatArray, b: FloatArray, box: FloatArray | None) -> BoolArra
 
 def _pairs_to_test(
     new_b: _Border, stable: BoolArray, box: FloatArray | None
-) -> Iterator[tuple[IntArray, IntArray, BoolArray]]:
+) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the pairs (i < j) whose visibility must be tested again, in batches.
 
     The rows of the vertices that are not stable (each against every vertex), then the
     stable pairs whose segment meets the box; less, in both, the pairs that leave an end
     into its wedge (the screening of a full build). Work is about k n for k vertices
     that are not stable, plus the stable pairs the box's outcodes cannot rule out.
-    With each pair comes the end the occlusion filter best looks from (True: j).
     """
     n = len(new_b.points)
     moved = np.flatnonzero(~stable)
@@ -319,14 +316,14 @@ def _pairs_to_test(
         once = (cols != rows) & (stable[cols] | (cols > rows))
         i, j = np.minimum(rows, cols)[once], np.maximum(rows, cols)[once]
         i, j = _screened(new_b, i, j)
-        yield i, j, ~stable[j]  # the filter looks from the vertex that changed
+        yield i, j
     if box is not None:
         yield from _crossing_box(new_b, stable, box)
 
 
 def _crossing_box(
     new_b: _Border, stable: BoolArray, box: FloatArray
-) -> Iterator[tuple[IntArray, IntArray, BoolArray]]:
+) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the screened stable pairs whose segment meets the box.
 
     Only vertices that face the box can be ends of such a pair (:func:`_facing`). The
@@ -339,7 +336,7 @@ def _crossing_box(
     i, j = box_pairs(
         new_b.points, nodes, code, box, (w.nxt, w.prv, w.narrow), _ANGLE_TOL
     )
-    yield i, j, np.zeros(len(i), dtype=bool)
+    yield i, j
 
 
 def _facing(new_b: _Border, box: FloatArray) -> BoolArray:

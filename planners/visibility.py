@@ -1221,12 +1221,11 @@ def _point_rows(
             _query_wedges(border, q), vertices, ends, d[:, 0], d[:, 1]
         )
         vertices = vertices[keep]
-        ok = _free_from(
+        ok = _exact_free(
             cspace,
             border,
             take_rows(q.points, vertices),
             np.broadcast_to(q.points[node], (len(vertices), 2)),
-            np.ones(len(vertices), dtype=bool),
         )
         rows = vertices[ok]
         if plain:
@@ -1249,36 +1248,6 @@ def _ends_see_each_other(
     if free is None:
         free = bool(_visible(cspace, border, q, np.array([n]), np.array([n + 1]))[0])
         store.put_pair(a, b, free)
-    return free
-
-
-def _free_from(
-    cspace: ConfigurationSpace,
-    border: _Border,
-    a: FloatArray,
-    b: FloatArray,
-    from_b: BoolArray,
-) -> BoolArray:
-    """Tell which segments a[k] -> b[k] are free, as :func:`_segments_free` does.
-
-    The same exact test, with the cheap filter of the disks that certainly block
-    (:func:`planners.sightlines.occluded`) looking from the end the caller names
-    (``b`` where ``from_b``): many segments from one point (a moved vertex, the start)
-    share the filter's table even when their lower ends differ. The filter only rules
-    out blocked segments, so the answer is the exact test's.
-    """
-    if not len(border.edge_a):
-        return np.ones(len(a), dtype=bool)
-    src = np.where(from_b[:, None], b, a)
-    dst = np.where(from_b[:, None], a, b)
-    order = _lexicographic(src)
-    src, dst = take_rows(src, order), take_rows(dst, order)
-    free = np.ones(len(a), dtype=bool)
-    free[order] = ~occluded(
-        cspace.derive(_inner_disks), src, dst, _runs_of_equal_starts(src)
-    )
-    test = np.flatnonzero(free)
-    free[test] = _exact_free(cspace, border, take_rows(a, test), take_rows(b, test))
     return free
 
 

@@ -336,7 +336,7 @@ def test_the_pairs_tested_again_hold_every_pair_a_slow_screen_names(
     border = new.derive(_build_border)
     tested = {
         (i, j)
-        for ti, tj, _ in _pairs_to_test(border, change.stable, change.box)
+        for ti, tj in _pairs_to_test(border, change.stable, change.box)
         for i, j in zip(ti.tolist(), tj.tolist(), strict=True)
     }
     n = len(border.points)

@@ -273,9 +273,12 @@ def _blocked_difference(old: ConfigurationSpace, new: ConfigurationSpace) -> Geo
     kept = {id(e) for e in new.expanded} & {id(e) for e in old.expanded}
     gone = [e for e in old.expanded if id(e) not in kept]
     added = [e for e in new.expanded if id(e) not in kept]
-    return shapely.symmetric_difference(
-        shapely.union_all(gone), shapely.union_all(added)
-    )
+    return shapely.symmetric_difference(_union(gone), _union(added))
+
+
+def _union(polygons: list[Geometry]) -> Geometry:
+    """Return the union of valid polygons (one alone as it is: a drag's usual case)."""
+    return polygons[0] if len(polygons) == 1 else shapely.union_all(polygons)
 
 
 def _meets_box(a: FloatArray, b: FloatArray, box: FloatArray | None) -> BoolArray:

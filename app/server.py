@@ -23,6 +23,7 @@ import math
 import os
 import re
 import socket
+import threading
 from pathlib import Path
 
 import viser
@@ -38,6 +39,7 @@ from app.panels import Panels
 from app.scoped import ScopedTarget
 from app.view import PlannerView, scene_bounds
 from planners.allocator import keep_freed_memory
+from planners.kernels import warm_up
 from planners.scene import ScenarioError, Scene
 
 SCENARIO_DIR = Path(__file__).resolve().parent.parent / "static_scenarios"
@@ -216,6 +218,9 @@ def start_app(
         If ``scenes_dir`` is not a folder.
     """
     keep_freed_memory()  # an edit's temporaries reuse the last one's pages
+    # The compiled loops load (or, once per machine, compile) while the server starts,
+    # not on the first frame or the first drag (planners.kernels).
+    threading.Thread(target=warm_up, name="warm-up", daemon=True).start()
     scenarios = list_scenarios()
     folder = (
         ScenesFolder(scenes_dir, shipped=tuple(scenarios.values()))

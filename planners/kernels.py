@@ -29,7 +29,7 @@ The functions here take and return plain arrays; :func:`planners.sightlines.marc
 
 from __future__ import annotations
 
-__all__ = ["astar", "box_pairs", "march_cells"]
+__all__ = ["astar", "box_pairs", "march_cells", "warm_up"]
 
 import math
 
@@ -433,3 +433,34 @@ def box_pairs(  # noqa: PLR0917
             out_i[count], out_j[count] = i, j
             count += 1
     return out_i[:count], out_j[:count]
+
+
+# --------------------------------------------------------------------------- warming up
+
+
+def warm_up() -> None:
+    """Compile (or load from the cache) every loop here, on a tiny input.
+
+    The first call of a compiled loop in a process compiles it (about 3 s each, once per
+    machine) or loads it from numba's cache (a fraction of a second). Calling this ahead
+    -- ``make`` after installing, the app at start in a background thread -- keeps that
+    wait out of the first edit.
+
+    Examples
+    --------
+    >>> warm_up()
+    """
+    unit = np.array([1.0, 1.0])
+    zero = np.zeros(2)
+    edges = (np.zeros(1), np.zeros(1), np.ones(1), np.zeros(1), np.ones(1))
+    segs = (np.full(2, 0.5), np.array([-1.0, 1.0]), np.zeros(2), unit, unit)
+    offsets = np.array([0, 1], dtype=np.intp)
+    one = np.zeros(1, dtype=np.intp)
+    march_cells((-1.0, -2.0), 4.0, (1, 1), offsets, one, edges, segs, 1e-9, True)
+    first = np.array([0, 1, 2], dtype=np.intp)
+    astar(first, np.array([1, 0], dtype=np.intp), unit, zero, 0, 1)
+    points = np.array([[0.0, 0.0], [1.0, 1.0]])
+    wedges = (np.zeros((2, 2)), np.zeros((2, 2)), np.ones(2, dtype=np.bool_))
+    nodes = np.array([0, 1], dtype=np.intp)
+    box = np.array([0.2, 0.2, 0.8, 0.8])
+    box_pairs(points, nodes, np.zeros(2, dtype=np.uint8), box, wedges, 1e-12)

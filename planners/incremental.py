@@ -32,7 +32,7 @@ from __future__ import annotations
 __all__ = ["carry_visibility"]
 
 import dataclasses
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -276,7 +276,7 @@ def _blocked_difference(old: ConfigurationSpace, new: ConfigurationSpace) -> Geo
     return shapely.symmetric_difference(_union(gone), _union(added))
 
 
-def _union(polygons: list[Geometry]) -> Geometry:
+def _union(polygons: Sequence[Geometry]) -> Geometry:
     """Return the union of valid polygons (one alone as it is: a drag's usual case)."""
     return polygons[0] if len(polygons) == 1 else shapely.union_all(polygons)
 

@@ -41,7 +41,6 @@ from shapely.geometry.base import BaseGeometry as Geometry
 
 from planners.expansion import ConfigurationSpace
 from planners.geometry import take_rows
-from planners.kernels import box_pairs
 from planners.visibility import (
     _ANGLE_TOL,
     _Border,
@@ -333,6 +332,8 @@ def _crossing_box(
     pairs of those are listed by a compiled loop (:func:`planners.kernels.box_pairs`):
     the outcodes' test, whether the line meets the box, and the screen, pair by pair.
     """
+    from planners.kernels import box_pairs  # noqa: PLC0415 - numba only where graphs are built
+
     nodes = np.flatnonzero(stable & _facing(new_b, box))
     code = _outcodes(take_rows(new_b.points, nodes), box)
     w = new_b.wedges

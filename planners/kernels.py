@@ -20,7 +20,10 @@ The rules that keep the compiled loops exactly the code they replace:
 - ``cache=True``: compiled once per machine (about 3 s per loop), then loaded from
   ``__pycache__`` (or numba's user cache where that is read-only) in a fraction of a
   second; ``nogil=True``: while a loop runs, the server's other threads run;
-- no state: a dispatcher holds its machine code, nothing a call could leave behind.
+- no state: a dispatcher holds its machine code, nothing a call could leave behind;
+- imported on first use by its callers: numba and LLVM take about 160 MB of resident
+  memory, which only the processes that build graphs pay (the app's own process, a big
+  scene's worker), not the workers of TangentBug and Bug2.
 
 The functions here take and return plain arrays; :func:`planners.sightlines.march`,
 :meth:`planners.visibility.GraphArrays.shortest_path` and

@@ -66,8 +66,6 @@ import numpy.typing as npt
 import shapely
 from shapely import Polygon
 
-from planners.kernels import march_cells
-
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
@@ -336,6 +334,8 @@ def march(grid: EdgeGrid, edges: Edges, segs: Segments, eps: float) -> Marched:
     >>> marched.crossed.tolist(), marched.touch_seg.tolist(), marched.touch_t.tolist()
     ([True, False], [1, 1], [0.16666666666666666, 0.8333333333333334])
     """
+    from planners.kernels import march_cells  # noqa: PLC0415 - numba only where graphs are built
+
     clip = not _all_inside(grid, segs.ax, segs.ay, segs.ax + segs.dx, segs.ay + segs.dy)
     crossed, seg_all, t_all = march_cells(
         (float(grid.lo[0]), float(grid.lo[1])),

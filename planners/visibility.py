@@ -65,7 +65,6 @@ import shapely
 from planners.border import ring_geometry
 from planners.expansion import ConfigurationSpace
 from planners.geometry import cross, take_rows, unit_rows
-from planners.kernels import astar
 from planners.sightlines import (
     Disks,
     EdgeGrid,
@@ -206,6 +205,8 @@ class GraphArrays:
             if settled is not None:
                 settled.append((s, -1, 0.0))
             return self.points[[s]].copy(), 0.0
+        from planners.kernels import astar  # noqa: PLC0415 - numba only where graphs are built
+
         first, other_of, weight_of = self._adjacency()
         target = tuple(self.points[g].tolist())
         # math.dist, as networkx's heuristic computes it (the same floats, the same order).

@@ -348,16 +348,23 @@ def march(grid: EdgeGrid, edges: Edges, segs: Segments, eps: float) -> Marched:
         float(eps),
         clip,
     )
-    # An edge listed in several cells along a segment was met once per cell: the same
-    # vertex at the very same t (computed from the same pair), kept once. Ordered by
-    # segment, then t: by t, then stably by segment (faster than np.lexsort on floats;
-    # the order among equal (segment, t) is moot, they are one).
-    order = np.argsort(t_all)
-    order = order[np.argsort(seg_all[order], kind="stable")]
-    seg_all, t_all = seg_all[order], t_all[order]
-    new = np.ones(len(seg_all), dtype=bool)
-    new[1:] = (seg_all[1:] != seg_all[:-1]) | (t_all[1:] != t_all[:-1])
-    return Marched(crossed, seg_all[new], t_all[new])
+    return Marched(crossed, *_unique_touches(seg_all, t_all))
+
+
+def _unique_touches(seg: IntArray, t: FloatArray) -> tuple[IntArray, FloatArray]:
+    """Order touching vertices by segment, then t, each (segment, t) once.
+
+    An edge listed in several cells along a segment was met once per cell: the same
+    vertex at the very same t (computed from the same pair), kept once. Ordered by t,
+    then stably by segment (faster than np.lexsort on floats; the order among equal
+    (segment, t) is moot, they are one).
+    """
+    order = np.argsort(t)
+    order = order[np.argsort(seg[order], kind="stable")]
+    seg, t = seg[order], t[order]
+    new = np.ones(len(seg), dtype=bool)
+    new[1:] = (seg[1:] != seg[:-1]) | (t[1:] != t[:-1])
+    return seg[new], t[new]
 
 
 def _all_inside(

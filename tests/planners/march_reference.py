@@ -2,10 +2,11 @@
 
 :func:`planners.sightlines.march` runs the same traversal compiled
 (:func:`planners.kernels.march_cells`). This is the vectorised walk it replaced, kept
-verbatim: all segments of a block step through their cells at once, and the last few
-walkers list their remaining cells in one go (a superset, which the exact test makes
-harmless). The tests hold the two to equal answers, and both to the brute force of
-testing every pair.
+verbatim but for its last step, ordering the touching vertices, which both share
+(:func:`planners.sightlines._unique_touches`): all segments of a block step through
+their cells at once, and the last few walkers list their remaining cells in one go (a
+superset, which the exact test makes harmless). The tests hold the two to equal
+answers, and both to the brute force of testing every pair.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from planners.sightlines import (
     _all_inside,
     _edge_cells,
     _pairs_in_cells,
+    _unique_touches,
     crossings,
 )
 
@@ -92,16 +94,7 @@ def march_reference(
     t_all = np.concatenate(touch_t) if touch_t else np.zeros(0)
     keep = np.flatnonzero(~crossed[seg_all])
     seg_all, t_all = seg_all[keep], t_all[keep]
-    # An edge listed in several cells along a segment was met once per cell: the same
-    # vertex at the very same t (computed from the same pair), kept once. Ordered by
-    # segment, then t: by t, then stably by segment (faster than np.lexsort on floats;
-    # the order among equal (segment, t) is moot, they are one).
-    order = np.argsort(t_all)
-    order = order[np.argsort(seg_all[order], kind="stable")]
-    seg_all, t_all = seg_all[order], t_all[order]
-    new = np.ones(len(seg_all), dtype=bool)
-    new[1:] = (seg_all[1:] != seg_all[:-1]) | (t_all[1:] != t_all[:-1])
-    return Marched(crossed, seg_all[new], t_all[new])
+    return Marched(crossed, *_unique_touches(seg_all, t_all))
 
 
 def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:

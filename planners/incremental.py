@@ -58,7 +58,7 @@ IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
 _BLOCK = 1 << 20
-"""Vertex pairs checked against the changed box at once."""
+"""Vertex pairs of the changed vertices' rows listed at once."""
 _MOSTLY = 0.5
 """Carry only when at least this share of the vertices is stable (else build afresh)..."""
 _SMALL = 256

@@ -155,8 +155,11 @@ def march_cells(  # noqa: PLR0912, PLR0915, PLR0917
 
     Notes
     -----
-    The traversal of Amanatides and Woo, exactly as the vectorised walk of the
-    reference takes it (ties go to y; a step outside the grid ends the walk).
+    The traversal of Amanatides and Woo (ties go to y; a step outside the grid ends
+    the walk), with the arithmetic of the vectorised walk it replaced for each
+    (segment, edge) pair. That walk listed the last few walkers' remaining cells at
+    once (a superset of the cells) and clipped per block: the cells visited may differ,
+    the answers do not (the tests hold them equal).
     """
     ex, ey, edx, edy, elen = edges
     ax, ay, dx, dy, slen = segs
@@ -286,7 +289,7 @@ def astar(  # noqa: PLR0915, PLR0917
         The nodes from start to goal, or empty when the goal is not reached.
     """
     n = len(first) - 1
-    cap = 16 + 2 * len(other)  # one entry per improvement of a node's cost, at most
+    cap = 16 + 2 * len(other)  # queue entries: room for one per edge end at first
     f = np.empty(cap)
     cost_of = np.empty(cap)
     node_of = np.empty(cap, dtype=np.intp)
@@ -304,6 +307,9 @@ def astar(  # noqa: PLR0915, PLR0917
     while size:
         entry, size = _pop(heap, size, f)
         node, cost, parent = node_of[entry], cost_of[entry], parent_of[entry]
+        if done == len(settled):  # nodes settled again by shorter ways: more room
+            settled = np.concatenate((settled, np.empty_like(settled)))
+            settled_cost = np.concatenate((settled_cost, np.empty_like(settled_cost)))
         if node == goal:
             settled[done, 0], settled[done, 1], settled_cost[done] = node, parent, cost
             path = [node, parent]
@@ -316,9 +322,6 @@ def astar(  # noqa: PLR0915, PLR0917
             if known[node] < cost:
                 continue  # a shorter way here is already known
         explored[node] = parent
-        if done == len(settled):  # a node settled again by a shorter way
-            settled = np.concatenate((settled, np.empty_like(settled)))
-            settled_cost = np.concatenate((settled_cost, np.empty_like(settled_cost)))
         settled[done, 0], settled[done, 1], settled_cost[done] = node, parent, cost
         done += 1
         for k in range(first[node], first[node + 1]):

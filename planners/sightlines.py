@@ -19,8 +19,8 @@ Marching segments (:func:`march`)
     needs.
 
 Disks that certainly block (:func:`occluded`, :func:`cover_table`, :func:`occluded_pairs`)
-    Before marching, a segment that passes through a disk inside an obstacle is blocked
-    for certain; only the others are marched. Around each start a table keeps, per
+    Before marching in a cold build, a segment that passes through a disk inside an
+    obstacle is blocked for certain; only the others are marched. Around each start a table keeps, per
     angular sector, the nearest disk that covers it; the full visibility graph builds it
     for every vertex and looks each pair up from both ends. A filter: it never decides
     a free one.

@@ -1,8 +1,10 @@
 """The A* search as Python ran it before it was compiled: the reference of the tests.
 
 :meth:`planners.visibility.GraphArrays.shortest_path` runs it compiled
-(:func:`planners.kernels.astar`). This is the loop it replaced, kept verbatim: a heap of
-(f, count, node, cost, parent) tuples, step by step :func:`networkx.astar_path`.
+(:func:`planners.kernels.astar`). This is the loop it replaced, kept verbatim but for
+the heuristic, which it takes as a list here (the planner's is ``math.dist`` to the
+goal, computed the same way): a heap of (f, count, node, cost, parent) tuples, step by
+step :func:`networkx.astar_path`.
 """
 
 from __future__ import annotations
@@ -10,28 +12,33 @@ from __future__ import annotations
 import heapq
 import itertools
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from planners.visibility import GraphArrays
 
+Settled = list[tuple[int, int, float]]
 
-def settled_order(
-    arrays: GraphArrays,
-) -> tuple[list[tuple[int, int, float]], list[int]]:
-    """Return (node, parent, cost) of each node settled, in order, and the path's nodes."""
-    s, g = arrays.start, arrays.goal
-    if s == g:
-        return [(s, -1, 0.0)], [s]
-    keys = list(map(tuple, arrays.points.tolist()))
-    first, other_of, weight_of = arrays._adjacency()
-    first = first.tolist()
-    target = keys[g]
+
+def search(  # noqa: PLR0917
+    first: Sequence[int],
+    other: Sequence[int],
+    weight: Sequence[float],
+    heuristic: Sequence[float],
+    s: int,
+    g: int,
+) -> tuple[Settled, list[int]]:
+    """Return (node, parent, cost) of each node settled, in order, and the path's nodes.
+
+    The graph in compressed rows, as :func:`planners.kernels.astar` takes it; ``s``
+    and ``g`` differ.
+    """
     count = itertools.count()
     queue = [(0.0, next(count), s, 0.0, -1)]
     enqueued: dict[int, tuple[float, float]] = {}
     explored: dict[int, int] = {}
-    settled: list[tuple[int, int, float]] = []
+    settled: Settled = []
     while queue:
         _, _, node, cost, parent = heapq.heappop(queue)
         if node == g:
@@ -47,25 +54,33 @@ def settled_order(
                 continue
         explored[node] = parent
         settled.append((node, parent, cost))
-        rows = slice(first[node], first[node + 1])
-        for other, w in zip(
-            other_of[rows].tolist(), weight_of[rows].tolist(), strict=True
-        ):
-            new = cost + w
-            if other in enqueued:
-                known, h = enqueued[other]
+        for k in range(first[node], first[node + 1]):
+            nxt, new = other[k], cost + weight[k]
+            if nxt in enqueued:
+                known, h = enqueued[nxt]
                 if known <= new:
                     continue
             else:
-                h = math.dist(keys[other], target)
-            enqueued[other] = new, h
-            heapq.heappush(queue, (new + h, next(count), other, new, node))
+                h = heuristic[nxt]
+            enqueued[nxt] = new, h
+            heapq.heappush(queue, (new + h, next(count), nxt, new, node))
     return settled, []
+
+
+def settled_order(arrays: GraphArrays) -> tuple[Settled, list[int]]:
+    """Run :func:`search` on a visibility graph, with the planner's heuristic."""
+    s, g = arrays.start, arrays.goal
+    if s == g:
+        return [(s, -1, 0.0)], [s]
+    keys = list(map(tuple, arrays.points.tolist()))
+    first, other, weight = arrays._adjacency()
+    heuristic = [math.dist(k, keys[g]) for k in keys]
+    return search(first.tolist(), other.tolist(), weight.tolist(), heuristic, s, g)
 
 
 def assert_same_search(arrays: GraphArrays) -> None:
     """Assert the compiled search settles what the reference settles, in its order."""
-    settled: list[tuple[int, int, float]] = []
+    settled: Settled = []
     found = arrays.shortest_path(settled)
     want, order = settled_order(arrays)
     assert settled == want

@@ -48,9 +48,8 @@ def segments_and_edges(draw):
     assume(keep.any())
     seg_a = _lattice_points(draw, draw(st.integers(1, 12)))
     seg_b = _lattice_points(draw, len(seg_a))
-    keep_s = np.any(seg_a != seg_b, axis=1)
-    assume(keep_s.any())
-    return edges_a[keep], edges_b[keep], seg_a[keep_s], seg_b[keep_s]
+    # Segments of length zero too (a start on a border vertex): never crossed.
+    return edges_a[keep], edges_b[keep], seg_a, seg_b
 
 
 def _brute(edges, segs, count_s, count_e):
@@ -143,8 +142,8 @@ def test_compiled_march_equals_the_numpy_walk_on_collinear_and_long_borders(name
     outside = rng.uniform(-80.0, 80.0, (500, 2))
     starts = np.vstack([a[picks[:, 0]], outside])
     ends = np.vstack([a[picks[:, 1]], a[picks[:500, 1]]])
-    keep = np.any(starts != ends, axis=1)
-    _assert_same_march(grid, edges, Segments.of(starts[keep], ends[keep]), EPS)
+    ends[:20] = starts[:20]  # a few of length zero, at border vertices
+    _assert_same_march(grid, edges, Segments.of(starts, ends), EPS)
 
 
 def test_march_covers_segments_leaving_and_entering_the_grid():

@@ -379,8 +379,10 @@ def _line_misses_box(  # noqa: PLR0917
     """Tell if all four corners of the box lie strictly on one side of a line.
 
     The line through (ax, ay) in direction (dx, dy); "strictly": farther than
-    ``scale`` times |dx| + |dy| (the arithmetic of
-    :func:`planners.incremental._line_meets_box`).
+    ``scale`` times |dx| + |dy| (the arithmetic of the numpy test it replaced,
+    ``_line_meets_box`` in ``tests/planners/incremental_reference.py``). Corners
+    closer than that count as on the line: a few more pairs are tested again, never
+    fewer.
     """
     tol = (abs(dx) + abs(dy)) * scale
     above, below = True, True

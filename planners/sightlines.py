@@ -20,10 +20,10 @@ Marching segments (:func:`march`)
 
 Disks that certainly block (:func:`occluded`, :func:`cover_table`, :func:`occluded_pairs`)
     Before marching in a cold build, a segment that passes through a disk inside an
-    obstacle is blocked for certain; only the others are marched. Around each start a table keeps, per
-    angular sector, the nearest disk that covers it; the full visibility graph builds it
-    for every vertex and looks each pair up from both ends. A filter: it never decides
-    a free one.
+    obstacle is blocked for certain; only the others are marched. Around each start a
+    table keeps, per angular sector, the nearest disk that covers it; the full
+    visibility graph builds it for every vertex and looks each pair up from both ends.
+    A filter: it never decides a free one.
 
 The march keeps only the touching points of the survivors, so its memory is the answer.
 Where pairs are listed as arrays (:func:`near_pairs`), they are tested in slices of

@@ -480,8 +480,8 @@ def _unique_points(points: FloatArray) -> tuple[FloatArray, IntArray]:
     """Return ``np.unique(points, axis=0, return_inverse=True)``, ten times faster.
 
     The rows as complex numbers x + iy (a view of the same bits; numpy orders them by
-    x, then y, as ``unique`` orders rows). For finite coordinates, as
-    :func:`_lexicographic`.
+    x, then y, as ``unique`` orders rows). For finite coordinates (a scene's are:
+    :func:`planners.scene.scene_problems`); NaN would sort differently.
 
     Examples
     --------
@@ -492,23 +492,6 @@ def _unique_points(points: FloatArray) -> tuple[FloatArray, IntArray]:
     z = np.ascontiguousarray(points, dtype=np.float64).view(np.complex128)[:, 0]
     unique, inverse = np.unique(z, return_inverse=True)
     return unique.view(np.float64).reshape(-1, 2), inverse.reshape(-1)
-
-
-def _lexicographic(points: FloatArray) -> IntArray:
-    """Order points by x, then y, equal ones as they come: ``np.lexsort((y, x))``.
-
-    Sorted as complex numbers (x + iy, which numpy orders by the real part, then the
-    imaginary one), a view of the same bits, twice as fast as ``lexsort``. For finite
-    coordinates (a scene's are: :func:`planners.scene.scene_problems`); NaN would sort
-    differently.
-
-    Examples
-    --------
-    >>> _lexicographic(np.array([[1.0, 0.0], [0.0, 2.0], [0.0, 1.0], [0.0, 1.0]]))
-    array([2, 3, 1, 0])
-    """
-    z = np.ascontiguousarray(points, dtype=np.float64).view(np.complex128)[:, 0]
-    return np.argsort(z, kind="stable")
 
 
 def _runs_of_equal_starts(a: FloatArray) -> IntArray:

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from planners.geometry import take_rows
-from planners.visibility import GraphArrays, _lexicographic, _unique_points
+from planners.visibility import GraphArrays, _unique_points
 
 # Few distinct values, so rows repeat and tie; signed zeros and a subnormal among them.
 VALUES = st.sampled_from([0.0, -0.0, 1.0, -1.0, 2.5, 1e-310, -3.0, 1e300])
@@ -35,12 +35,6 @@ def test_take_rows_is_fancy_indexing(points, data):
     got, want = take_rows(points, index), points[index]
     assert got.shape == want.shape
     assert np.array_equal(got.view(np.uint64), want.view(np.uint64))  # bit for bit
-
-
-@given(POINTS)
-def test_lexicographic_is_lexsort(points):
-    want = np.lexsort((points[:, 1], points[:, 0]))
-    assert np.array_equal(_lexicographic(points), want)
 
 
 @given(POINTS)

@@ -171,17 +171,17 @@ class RingGeometry:
     @functools.cached_property
     def eroded_list(self) -> list[tuple[float, float]]:
         """:attr:`eroded_start` as Python float pairs [m]."""
-        return [(float(a), float(b)) for a, b in self.eroded_start]
+        return list(map(tuple, self.eroded_start.tolist()))
 
     @functools.cached_property
     def start_list(self) -> list[tuple[float, float]]:
         """Edge starts as Python float pairs [m]."""
-        return [(float(a), float(b)) for a, b in self.start]
+        return list(map(tuple, self.start.tolist()))
 
     @functools.cached_property
     def step_list(self) -> list[tuple[float, float]]:
         """Edge steps as Python float pairs [m]."""
-        return [(float(a), float(b)) for a, b in self.step]
+        return list(map(tuple, self.step.tolist()))
 
     @functools.cached_property
     def ring_list(self) -> list[int]:

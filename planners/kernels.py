@@ -32,7 +32,7 @@ The functions here take and return plain arrays; :func:`planners.sightlines.marc
 
 from __future__ import annotations
 
-__all__ = ["astar", "box_pairs", "march_cells", "warm_up"]
+__all__ = ["astar", "box_pairs", "march_cells", "sweep_intervals", "warm_up"]
 
 import math
 
@@ -443,6 +443,381 @@ def box_pairs(  # noqa: PLR0917
     return out_i[:count], out_j[:count]
 
 
+# --------------------------------------------------------------------------- the sensor's sweep
+
+PIECE, FREE, BLOCKED = 0, 1, 2
+"""Kinds of a sweep interval (:func:`sweep_intervals`): a visible piece of an edge, free
+range, or the blocked wedge at the robot's feet."""
+TAU = 2.0 * math.pi
+ANGLE_TOL = 1e-12
+"""Critical angles closer than this [rad] are always merged: what the interval between
+them could show is below 1e-12 times the range, far under the touching tolerance."""
+
+
+@njit(cache=True, nogil=True)
+def _py_max(a: float, b: float) -> float:
+    """Python's ``max(a, b)``: ``a`` unless ``b`` is greater."""
+    return b if b > a else a
+
+
+@njit(cache=True, nogil=True)
+def _py_min(a: float, b: float) -> float:
+    """Python's ``min(a, b)``: ``a`` unless ``b`` is smaller."""
+    return b if b < a else a
+
+
+@njit(cache=True, nogil=True)
+def _disk_span(  # noqa: PLR0917
+    ax: float, ay: float, dx: float, dy: float, len2: float, r2: float
+) -> tuple[float, float]:
+    """(t_in, t_out) of :func:`planners.sensor.disk_span`, the same arithmetic."""
+    qb = 2.0 * (ax * dx + ay * dy)
+    qc = ax * ax + ay * ay - r2
+    disc = qb * qb - 4.0 * len2 * qc
+    root = math.sqrt(_py_max(disc, 0.0))
+    t_in = _py_max(0.0, (-qb - root) / (2.0 * len2))
+    t_out = _py_min(1.0, (-qb + root) / (2.0 * len2))
+    return t_in, t_out
+
+
+@njit(cache=True, nogil=True)
+def _clip_to_disk(  # noqa: PLR0917
+    ids: IntArray,
+    a: FloatArray,
+    cr: FloatArray,
+    dist: FloatArray,
+    step: FloatArray,
+    lengths: tuple[FloatArray, FloatArray],
+    radius: float,
+    eps: float,
+) -> tuple[FloatArray, IntArray]:
+    """Clip the facing edges to the sensing disk; drop parts shorter than eps.
+
+    Returns the parts as rows (ax, ay, dx, dy, cross, t_in, t_out, inx, iny, outx,
+    outy, dist): the edge's start relative to the robot, its step, cross(a, d), the
+    part's parameters and end points relative to the robot, the edge's distance; and
+    each part's flat edge index.
+    """
+    len2, length = lengths
+    finite = math.isfinite(radius)
+    r2 = radius * radius
+    parts = np.empty((len(ids), 12))
+    edges = np.empty(len(ids), dtype=np.intp)
+    m = 0
+    for r in range(len(ids)):
+        e = ids[r]
+        ax, ay = a[r, 0], a[r, 1]
+        dx, dy = step[e, 0], step[e, 1]
+        t_in, t_out = 0.0, 1.0
+        if finite:
+            t_in, t_out = _disk_span(ax, ay, dx, dy, len2[e], r2)
+            if not (t_out - t_in) * length[e] > eps:
+                continue
+        row = parts[m]
+        row[0], row[1], row[2], row[3], row[4] = ax, ay, dx, dy, cr[r]
+        row[5], row[6] = t_in, t_out
+        row[7], row[8] = ax + t_in * dx, ay + t_in * dy
+        row[9], row[10] = ax + t_out * dx, ay + t_out * dy
+        row[11] = dist[r]
+        edges[m] = e
+        m += 1
+    return parts[:m], edges[:m]
+
+
+@njit(cache=True, nogil=True)
+def _critical_angles(
+    parts: FloatArray, wedges: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Return the critical angles in [0, 2 pi) and how far each one's point lies.
+
+    Where each part begins, then where each ends, then each wedge's clockwise side, then
+    its counter-clockwise side (a direction: NaN distance).
+    """
+    m, w = len(parts), len(wedges)
+    theta = np.empty(2 * m + 2 * w)
+    reach = np.full(2 * m + 2 * w, np.nan)
+    for i in range(m):
+        for k, col in ((i, 7), (m + i, 9)):
+            px, py = parts[i, col], parts[i, col + 1]
+            theta[k] = math.atan2(py, px) % TAU
+            reach[k] = math.hypot(px, py)
+    for i in range(w):
+        theta[2 * m + i] = math.atan2(wedges[i, 1], wedges[i, 0]) % TAU
+        theta[2 * m + w + i] = math.atan2(wedges[i, 3], wedges[i, 2]) % TAU
+    return theta, reach
+
+
+@njit(cache=True, nogil=True)
+def _ccw_gaps(theta: FloatArray) -> FloatArray:
+    """Return the gap from each sorted angle to the next counter-clockwise (last to first)."""
+    n = len(theta)
+    gap = np.empty(n)
+    for i in range(n - 1):
+        gap[i] = theta[i + 1] - theta[i]
+    gap[n - 1] = theta[0] + TAU - theta[n - 1]
+    return gap
+
+
+@njit(cache=True, nogil=True)
+def _rank(dist: FloatArray, i: int) -> float:
+    """How far point i lies; a wedge's side (a direction) ranks first."""
+    return np.inf if math.isnan(dist[i]) else dist[i]
+
+
+@njit(cache=True, nogil=True)
+def _merge_close_angles(
+    theta: FloatArray, reach: FloatArray, nearest: float, eps: float
+) -> FloatArray:
+    """Sort the critical angles (in [0, 2 pi)) and merge those that are one up to eps.
+
+    The robot touches the border within eps, and the wedges at its feet are drawn as if
+    it stood exactly on the border: a wedge's side and the angle of a vertex on that
+    side's line differ by up to eps / d, d the vertex's distance. Generally two critical
+    angles are the same when the rays along them pass within eps of the points that
+    define them, i.e. when they differ by at most eps / d for the farther point; the
+    sliver between them would show nothing the tolerance can tell. A wedge's side (exact)
+    absorbs every point that is the same as it; of each run of neighbouring points that
+    are the same, the farthest point's angle (the most precise) is kept
+    (:func:`_merge_runs`).
+
+    ``reach`` gives the distance of the point that defines each angle, NaN for a wedge's
+    side (a direction, no point); ``nearest`` is a lower bound of those distances: when
+    no gap is within eps even at the nearest point, nothing more merges.
+
+    Angles closer than :data:`ANGLE_TOL` are merged first, keeping the first of them
+    (stable sort): mostly the two copies of a vertex that two edges share, where there
+    is nothing to choose.
+    """
+    order = np.argsort(theta, kind="mergesort")
+    theta = theta[order]
+    n = len(theta)
+    if n < 2:
+        return theta
+    gap = _ccw_gaps(theta)
+    keep = np.empty(n, dtype=np.bool_)
+    keep[0] = True
+    for i in range(1, n):
+        keep[i] = not gap[i - 1] <= ANGLE_TOL
+    if gap[n - 1] <= ANGLE_TOL:
+        keep[n - 1] = False
+    widest = eps / nearest if nearest > 0 else np.inf
+    close = False
+    for i in range(n):
+        close = close or (gap[i] <= widest and not gap[i] <= ANGLE_TOL)
+    if not close:
+        return theta[keep]
+    theta, dist = theta[keep], reach[order[keep]]
+    absorbed = np.zeros(len(theta), dtype=np.bool_)
+    for s in range(len(theta)):
+        if math.isnan(dist[s]):  # a wedge's side absorbs the points it passes by
+            for i in range(len(theta)):
+                off = abs((theta[i] - theta[s] + math.pi) % TAU - math.pi)
+                absorbed[i] = absorbed[i] or off * dist[i] <= eps
+    theta, dist = theta[~absorbed], dist[~absorbed]
+    return _merge_runs(theta, dist, eps)
+
+
+@njit(cache=True, nogil=True)
+def _merge_runs(  # noqa: PLR0912 - one pass over the runs, kept whole
+    theta: FloatArray, dist: FloatArray, eps: float
+) -> FloatArray:
+    """Merge runs of neighbouring angles whose rays pass within eps at the farther point."""
+    n = len(theta)
+    if n < 2:
+        return theta
+    gap = _ccw_gaps(theta)
+    pairs = np.empty(n, dtype=np.intp)
+    count = 0
+    for i in range(n):
+        a, b = dist[i], dist[(i + 1) % n]  # np.fmax: NaN gives way
+        far = b if math.isnan(a) else (a if math.isnan(b) else max(a, b))
+        if gap[i] * far <= eps:
+            pairs[count] = i
+            count += 1
+    if count == 0:
+        return theta
+    if count == n:
+        best = 0
+        for i in range(1, n):
+            if _rank(dist, i) > _rank(dist, best):
+                best = i
+        return theta[best : best + 1]
+    first = 0  # start at a run that does not go on across angle 0
+    if pairs[0] == 0 and pairs[count - 1] == n - 1:
+        first = 1
+        while pairs[first] == pairs[first - 1] + 1:
+            first += 1
+    keep = np.ones(n, dtype=np.bool_)
+    end = best = -1
+    for k in range(count):
+        i = pairs[(first + k) % count]
+        if i != end:  # a new run
+            best = i
+        end = (i + 1) % n
+        if _rank(dist, end) > _rank(dist, best):  # keep the first of equals
+            keep[best] = False
+            best = end
+        else:
+            keep[end] = False
+    return theta[keep]
+
+
+@njit(cache=True, nogil=True)
+def _in_wedge(wedges: FloatArray, ux: float, uy: float) -> bool:
+    """Whether (ux, uy) points strictly into a blocked wedge (rows nx, ny, qx, qy)."""
+    for k in range(len(wedges)):
+        nx, ny, qx, qy = wedges[k, 0], wedges[k, 1], wedges[k, 2], wedges[k, 3]
+        if nx * qy - ny * qx > 0:  # narrower than a half turn
+            if nx * uy - ny * ux > 0 and ux * qy - uy * qx > 0:
+                return True
+        elif not (qx * uy - qy * ux >= 0 and ux * ny - uy * nx >= 0):
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _first_hit(parts: FloatArray, ux: float, uy: float) -> int:
+    """Return the part a ray from the robot along (ux, uy) meets first (-1: none).
+
+    Among the parts whose angular span holds the ray strictly, the least distance
+    cross / (u x d); the first of equals.
+    """
+    hit, best = -1, np.inf
+    for i in range(len(parts)):
+        dx, dy, cr = parts[i, 2], parts[i, 3], parts[i, 4]
+        inx, iny, outx, outy = parts[i, 7], parts[i, 8], parts[i, 9], parts[i, 10]
+        if outx * uy - outy * ux > 0 and ux * iny - uy * inx > 0:
+            denom = ux * dy - uy * dx
+            s = cr / denom if denom != 0 else np.inf
+            if 0 < s < best:
+                hit, best = i, s
+    return hit
+
+
+@njit(cache=True, nogil=True)
+def _t_at(angle: float, part: FloatArray, eps: float) -> float:
+    """Return the parameter along a part's edge where the ray at ``angle`` meets it.
+
+    Snapped to the nearer end of the part when the ray passes within eps of it (the
+    sweep's angles come from those very end points, or were merged with them).
+    """
+    ax, ay, dx, dy = part[0], part[1], part[2], part[3]
+    t_in, t_out = part[5], part[6]
+    ux, uy = math.cos(angle), math.sin(angle)
+    denom = ux * dy - uy * dx
+    t = (ax * uy - ay * ux) / denom if denom != 0 else t_in
+    t = _py_min(_py_max(t, t_in), t_out)
+    end = t_in if t - t_in <= t_out - t else t_out
+    px, py = ax + end * dx, ay + end * dy
+    return end if abs(ux * py - uy * px) <= eps else t
+
+
+@njit(cache=True, nogil=True)
+def _cast_rays(
+    lo: FloatArray, parts: FloatArray, wedges: FloatArray
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """One ray through the middle of each interval: what it sees, alike ones joined.
+
+    Returns each interval's kind, part (-1: none) and (lo, hi) angles; the first and
+    last are joined across angle 0 when they are alike.
+    """
+    n = len(lo)
+    kinds = np.empty(n, dtype=np.intp)
+    part = np.empty(n, dtype=np.intp)
+    span = np.empty((n, 2))
+    count = 0
+    for j in range(n):
+        hi = lo[j + 1] if j + 1 < n else lo[0] + TAU
+        mid = 0.5 * (lo[j] + hi)
+        ux, uy = math.cos(mid), math.sin(mid)
+        if len(wedges) > 0 and _in_wedge(wedges, ux, uy):
+            kind, p = BLOCKED, -1
+        else:
+            p = _first_hit(parts, ux, uy)
+            kind = PIECE if p >= 0 else FREE
+        if count > 0 and kinds[count - 1] == kind and part[count - 1] == p:
+            span[count - 1, 1] = hi
+        else:
+            kinds[count], part[count] = kind, p
+            span[count, 0], span[count, 1] = lo[j], hi
+            count += 1
+    first = 0
+    if count > 1 and kinds[0] == kinds[count - 1] and part[0] == part[count - 1]:
+        span[count - 1, 1] = span[0, 1] + TAU
+        first = 1
+    return kinds[first:count], part[first:count], span[first:count]
+
+
+@njit(cache=True, nogil=True)
+def sweep_intervals(  # noqa: PLR0917
+    facing: tuple[IntArray, FloatArray, FloatArray, FloatArray],
+    border: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+    wedges: FloatArray,
+    robot: tuple[float, float],
+    radius: float,
+    eps: float,
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """Cut the full turn at the critical angles and say what each interval sees.
+
+    The middle of :func:`planners.sensor._sweep` (section 9.6's range sensor): the
+    facing edges clipped to the sensing disk, their end points' angles and the wedges'
+    sides, merged where they are one up to eps, a ray through each interval, and the
+    part of the edge it sees.
+
+    Parameters
+    ----------
+    facing
+        (flat edge indices, starts relative to the robot (k, 2), cross(a, d),
+        distances) of the edges that face the robot within R.
+    border
+        (start, step, len2, length) of every border edge (:class:`RingGeometry`).
+    wedges
+        The blocked wedges at the robot's feet, rows (nx, ny, qx, qy): the unit
+        directions of each wedge's clockwise and counter-clockwise side.
+    robot
+        Its position (x, y) [m].
+    radius, eps
+        R (``inf``: unlimited) and the touching tolerance [m].
+
+    Returns
+    -------
+    tuple
+        Per interval, counter-clockwise: its kind (:data:`PIECE`, :data:`FREE`,
+        :data:`BLOCKED`), its flat edge (-1 unless a piece), and (lo, hi, t0, t1,
+        p0x, p0y, p1x, p1y): its angles, the piece's parameters at its first and last
+        point and those points [m] (for other kinds, 0 and the robot's position).
+    """
+    ids, a, cr, dist = facing
+    start, step, len2, length = border
+    parts, edges = _clip_to_disk(ids, a, cr, dist, step, (len2, length), radius, eps)
+    theta, reach = _critical_angles(parts, wedges)
+    if len(theta) == 0:
+        return np.empty(0, dtype=np.intp), np.empty(0, dtype=np.intp), np.empty((0, 8))
+    nearest = np.inf
+    for i in range(len(parts)):
+        nearest = _py_min(nearest, parts[i, 11])
+    lo = _merge_close_angles(theta, reach, nearest, eps)
+    kinds, part, span = _cast_rays(lo, parts, wedges)
+    out = np.empty((len(kinds), 8))
+    edge = np.full(len(kinds), -1, dtype=np.intp)
+    for k in range(len(kinds)):
+        row = out[k]
+        row[0], row[1] = span[k, 0], span[k, 1]
+        row[2], row[3] = 0.0, 0.0
+        row[4], row[5], row[6], row[7] = robot[0], robot[1], robot[0], robot[1]
+        if kinds[k] == PIECE:
+            p = part[k]
+            e = edges[p]
+            t0 = _t_at(span[k, 0], parts[p], eps)
+            t1 = _t_at(span[k, 1], parts[p], eps)
+            dx, dy = parts[p, 2], parts[p, 3]
+            row[2], row[3] = t0, t1
+            row[4], row[5] = start[e, 0] + t0 * dx, start[e, 1] + t0 * dy
+            row[6], row[7] = start[e, 0] + t1 * dx, start[e, 1] + t1 * dy
+            edge[k] = e
+    return kinds, edge, out
+
+
 # --------------------------------------------------------------------------- warming up
 
 
@@ -472,3 +847,14 @@ def warm_up() -> None:
     nodes = np.array([0, 1], dtype=np.intp)
     box = np.array([0.2, 0.2, 0.8, 0.8])
     box_pairs(points, nodes, np.zeros(2, dtype=np.uint8), box, wedges, 1e-12)
+    # A unit square's left side, seen from (-1, 0.5) standing on nothing.
+    start = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    step = np.roll(start, -1, axis=0) - start
+    facing = (
+        np.array([3], dtype=np.intp),
+        start[3:] - (-1.0, 0.5),
+        -unit[:1],
+        unit[:1],
+    )
+    border = (start, step, np.ones(4), np.ones(4))
+    sweep_intervals(facing, border, np.zeros((0, 4)), (-1.0, 0.5), 2.0, 1e-9)

@@ -57,7 +57,6 @@ __all__ = [
 
 import dataclasses
 import math
-from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -72,10 +71,6 @@ IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
 TAU = 2.0 * math.pi
-# Angular intervals narrower than this [rad] are always dropped: what they could show is
-# below 1e-12 * range, far under the joining tolerance below. Critical angles of points
-# close to the robot are merged more widely (see _merge_close_angles).
-_ANGLE_TOL = 1e-12
 # Rounding error allowed on a difference of two coordinates, relative to the scene's size
 # (256 ulps: the sensor's arithmetic and GEOS's agree far better than that).
 _ROUNDING = 2.0**-44
@@ -521,20 +516,26 @@ def visible_pieces(
     return np.array(mine, dtype=np.float64).reshape(-1, 2, 2)
 
 
-# A numeric kernel, kept whole: one pass over the critical angles on Python floats (see
-# the docstring); cut into pieces it would hand a dozen arrays and scalars between them.
-def _sweep(  # noqa: PLR0912, PLR0915
+_KINDS = ("piece", "free", "blocked")
+"""Item kinds by the compiled sweep's codes (:data:`planners.kernels.PIECE` ...)."""
+
+
+def _sweep(
     geo: RingGeometry, x: FloatArray, radius: float, near: Near | None = None
 ) -> list[_Item]:
     """Cut the full turn at the critical angles and say what each interval sees.
 
-    The border is measured from the robot as arrays; the few edges that face it within R
-    (a handful in a lecture scene) are then handled as Python floats: on arrays that
-    short, numpy's cost per call outweighs the arithmetic. The arithmetic is the same
-    IEEE operations in the same order; the angles and their cosines come from numpy,
-    whose arctan2 differs from the math module's in the last bit.
+    The border is measured from the robot as arrays (:func:`_measure`); the edges that
+    face it within R go to the compiled sweep (:func:`planners.kernels.sweep_intervals`):
+    clipped to the sensing disk (parts shorter than eps dropped), the angles of their
+    ends and of the wedges' sides at the robot's feet merged where they are one up to eps
+    (:func:`_merge_close_angles` in the kernel says how), one ray through the middle of
+    each interval to the nearest edge whose part spans it, and that edge's visible piece
+    between the interval's bounding angles. The pieces running edge-on away from the
+    robot's feet are added here (:func:`_add_edge_on_pieces`).
     """
-    finite = math.isfinite(radius)
+    from planners.kernels import sweep_intervals  # noqa: PLC0415 - numba on first use
+
     if len(geo.start) == 0:
         return []
     if near is None or (near.edges is not None and near.reach < radius):
@@ -546,311 +547,29 @@ def _sweep(  # noqa: PLR0912, PLR0915
     front = cr < 0
     for o in occ:
         front[near.local(o.edge_n)] = front[near.local(o.edge_q)] = False
-    if finite:
+    if math.isfinite(radius):
         front &= dist < radius
-    facing = _facing_parts(geo, near, np.flatnonzero(front), radius)
-    # The critical points: where each facing part begins, then where each ends.
-    px = [p.inx for p in facing] + [p.outx for p in facing]
-    py = [p.iny for p in facing] + [p.outy for p in facing]
-    angles = np.arctan2(np.array(py), np.array(px))
-    if occ:
-        angles = np.concatenate(
-            (
-                angles,
-                [math.atan2(o.n[1], o.n[0]) for o in occ]
-                + [math.atan2(o.q[1], o.q[0]) for o in occ],
-            )
-        )
-    if len(angles) == 0:
-        return []
-    theta = angles % TAU
-
-    def reach() -> FloatArray:
-        """How far from the robot each critical angle's point lies (NaN: a wedge's side)."""
-        return np.concatenate(
-            (np.hypot(np.array(px), np.array(py)), np.full(2 * len(occ), np.nan))
-        )
-
-    nearest = min(p.dist for p in facing) if facing else math.inf
-    lo_l = _merge_close_angles(theta, reach, nearest, geo.eps).tolist()
-    hi_l = [*lo_l[1:], lo_l[0] + TAU]
-    mid = 0.5 * (np.array(lo_l) + np.array(hi_l))
-    ux_l, uy_l = np.cos(mid).tolist(), np.sin(mid).tolist()
-
-    items: list[_Item] = []
+    f = np.flatnonzero(front)
+    ids = f if near.edges is None else near.edges[f]
+    wedges = np.array([(*o.n, *o.q) for o in occ], dtype=np.float64).reshape(-1, 4)
     here = (float(x[0]), float(x[1]))
-    # The ray through the middle of each interval against every facing edge: all rays
-    # at once when there are many edges (a finely drawn border seen from its hollow side).
-    hits = _first_hits(facing, ux_l, uy_l) if len(facing) >= _MANY_FACING else None
-    for j in range(len(lo_l)):
-        ux, uy = ux_l[j], uy_l[j]
-        if occ and _in_any_wedge(occ, ux, uy):
-            kind, e = "blocked", -1
-        else:
-            e = hits[j] if hits is not None else _first_hit(facing, ux, uy)
-            kind = "piece" if e >= 0 else "free"
-        last = items[-1] if items else None
-        if last is not None and last.kind == kind and last.edge == e:
-            last.hi = hi_l[j]
-        elif kind == "piece":
-            items.append(_Item("piece", lo_l[j], hi_l[j], e))
-        else:
-            items.append(_Item(kind, lo_l[j], hi_l[j], p0=here, p1=here))
-    # The first and last intervals meet across angle 0: merge them when they are alike.
-    if len(items) > 1:
-        first, last = items[0], items[-1]
-        if first.kind == last.kind and first.edge == last.edge:
-            last.hi = first.hi + TAU
-            items.pop(0)
-    parts = {p.edge: p for p in facing}
-    for it in items:
-        if it.kind == "piece":
-            p = parts[it.edge]
-            args = (p.ax, p.ay, p.dx, p.dy, p.t_in, p.t_out, geo.eps)
-            it.t0 = _t_at(it.lo, *args)
-            it.t1 = _t_at(it.hi, *args)
-            sx, sy = geo.start_list[it.edge]
-            it.p0 = (sx + it.t0 * p.dx, sy + it.t0 * p.dy)
-            it.p1 = (sx + it.t1 * p.dx, sy + it.t1 * p.dy)
+    kinds, edges, values = sweep_intervals(
+        (ids, near.a[f], cr[f], dist[f]),
+        (geo.start, geo.step, geo.len2, geo.length),
+        wedges,
+        here,
+        radius,
+        geo.eps,
+    )
+    items = [
+        _Item(_KINDS[k], lo, hi, e, t0, t1, (p0x, p0y), (p1x, p1y))
+        for k, e, (lo, hi, t0, t1, p0x, p0y, p1x, p1y) in zip(
+            kinds.tolist(), edges.tolist(), values.tolist(), strict=True
+        )
+    ]
     if occ:
         items = _add_edge_on_pieces(geo, x, radius, items, occ)
     return items
-
-
-_MANY_FACING = 24
-"""With this many facing edges or more, :func:`_sweep` casts its rays through
-:func:`_first_hits` (numpy, all rays at once) instead of :func:`_first_hit` (per ray)."""
-_HITS_CHUNK = 1 << 18
-"""Rays x edges tested at once by :func:`_first_hits` (bounds its memory: a few MB)."""
-
-
-def _first_hit(facing: list[_Part], ux: float, uy: float) -> int:
-    """Return the facing edge a ray from the robot along (ux, uy) meets first, or -1.
-
-    Among the parts whose angular span holds the ray strictly, the least distance
-    cross / (u x d); the first of equals in the order of ``facing``.
-    """
-    e, best = -1, math.inf
-    for edge, _, _, dx, dy, cr, _, _, inx, iny, outx, outy, _ in facing:
-        if outx * uy - outy * ux > 0 and ux * iny - uy * inx > 0:
-            denom = ux * dy - uy * dx
-            s = cr / denom if denom != 0 else math.inf
-            if 0 < s < best:
-                e, best = edge, s
-    return e
-
-
-def _first_hits(facing: list[_Part], ux_l: list[float], uy_l: list[float]) -> list[int]:
-    """Return :func:`_first_hit` for every ray (unit directions ``ux_l``, ``uy_l``).
-
-    The same IEEE operations on the same numbers, as (rays x edges) arrays in chunks of
-    :data:`_HITS_CHUNK`: the same edge for every ray, ties to the first in ``facing``.
-    """
-    cols = np.array(facing, dtype=np.float64).T  # the _Part fields as rows
-    edge = np.array([p.edge for p in facing], dtype=np.intp)
-    dx, dy, cr = cols[3], cols[4], cols[5]
-    inx, iny, outx, outy = cols[8], cols[9], cols[10], cols[11]
-    ux_all, uy_all = np.array(ux_l), np.array(uy_l)
-    out: list[int] = []
-    rows = max(1, _HITS_CHUNK // len(facing))
-    for lo in range(0, len(ux_all), rows):
-        ux = ux_all[lo : lo + rows, None]
-        uy = uy_all[lo : lo + rows, None]
-        spans = (outx * uy - outy * ux > 0) & (ux * iny - uy * inx > 0)
-        denom = ux * dy - uy * dx
-        ok = spans & (denom != 0)
-        s = np.full(ok.shape, np.inf)
-        np.divide(np.broadcast_to(cr, ok.shape), denom, out=s, where=ok)
-        s[~(s > 0)] = np.inf
-        k = np.argmin(s, axis=1)
-        found = s[np.arange(len(k)), k] < np.inf
-        out.extend(np.where(found, edge[k], -1).tolist())
-    return out
-
-
-class _Part(NamedTuple):
-    """The part of a facing edge inside the sensing disk, relative to the robot."""
-
-    edge: int
-    ax: float  # edge start - robot
-    ay: float
-    dx: float  # edge step
-    dy: float
-    cross: float  # cross(a, d), negative: the edge faces the robot
-    t_in: float  # the part is t in [t_in, t_out] along the edge
-    t_out: float
-    inx: float  # its first point - robot
-    iny: float
-    outx: float  # its last point - robot
-    outy: float
-    dist: float  # distance from the robot to the whole edge
-
-
-def _facing_parts(
-    geo: RingGeometry, near: Near, f: IntArray, radius: float
-) -> list[_Part]:
-    """Clip the facing edges ``f`` (positions in ``near``) to the sensing disk.
-
-    Parts shorter than eps are dropped.
-    """
-    out: list[_Part] = []
-    finite = math.isfinite(radius)
-    r2 = radius * radius
-    eps = geo.eps
-    steps, len2, lengths = geo.step_list, geo.len2_list, geo.length_list
-    ids = f if near.edges is None else near.edges[f]
-    for e, (ax, ay), c, d in zip(
-        ids.tolist(),
-        near.a[f].tolist(),
-        near.cr[f].tolist(),
-        near.dist[f].tolist(),
-        strict=True,
-    ):
-        dx, dy = steps[e]
-        qa, length = len2[e], lengths[e]
-        t_in, t_out = 0.0, 1.0
-        if finite:
-            t_in, t_out, _ = disk_span(ax, ay, dx, dy, qa, r2)
-            if not (t_out - t_in) * length > eps:
-                continue
-        out.append(
-            _Part(
-                edge=e,
-                ax=ax,
-                ay=ay,
-                dx=dx,
-                dy=dy,
-                cross=c,
-                t_in=t_in,
-                t_out=t_out,
-                inx=ax + t_in * dx,
-                iny=ay + t_in * dy,
-                outx=ax + t_out * dx,
-                outy=ay + t_out * dy,
-                dist=d,
-            )
-        )
-    return out
-
-
-# A numeric kernel, kept whole: one sort and one pass over the angles, merging runs.
-def _merge_close_angles(
-    theta: FloatArray,
-    reach: Callable[[], FloatArray],
-    nearest: float,
-    eps: float,
-) -> FloatArray:
-    """Sort the critical angles (in [0, 2 pi)) and merge those that are one up to eps.
-
-    The robot touches the border within eps, and the wedges at its feet are drawn as if
-    it stood exactly on the border: a wedge's side and the angle of a vertex on that
-    side's line differ by up to eps / d, d the vertex's distance. Generally two critical
-    angles are the same when the rays along them pass within eps of the points that
-    define them, i.e. when they differ by at most eps / d for the farther point; the
-    sliver between them would show nothing the tolerance can tell. A wedge's side (exact)
-    absorbs every point that is the same as it; of each run of neighbouring points that
-    are the same, the farthest point's angle (the most precise) is kept.
-
-    ``reach()`` gives the distance of the point that defines each angle, NaN for a wedge's
-    side (a direction, no point); it is called only when some angles may merge, judged
-    with ``nearest``, a lower bound of those distances.
-
-    Angles closer than _ANGLE_TOL are merged first, keeping any of them: mostly the two
-    copies of a vertex that two edges share, where there is nothing to choose.
-    """
-    order = np.argsort(theta)
-    theta = theta[order]
-    if len(theta) < 2:
-        return theta
-    gap = _ccw_gaps(theta)
-    tiny = gap <= _ANGLE_TOL
-    keep = np.empty(len(theta), dtype=bool)
-    keep[0] = True
-    np.logical_not(tiny[:-1], out=keep[1:])
-    if tiny[-1]:
-        keep[-1] = False
-    # The gap times the farther point's distance is how far apart the rays pass there:
-    # nothing more to merge when no gap is within eps even at the nearest point.
-    widest = eps / nearest if nearest > 0 else math.inf
-    if not np.any((gap <= widest) & ~tiny):
-        return theta[keep]
-    theta = theta[keep]
-    dist = reach()[order[keep]]
-    # A wedge's side absorbs every point its ray passes within eps of (others may lie
-    # between them: the side's line runs on along the border it stands on).
-    absorbed = np.zeros(len(theta), dtype=bool)
-    for side in theta[np.isnan(dist)].tolist():
-        off = np.abs((theta - side + math.pi) % TAU - math.pi)
-        absorbed |= off * dist <= eps
-    theta, dist = theta[~absorbed], dist[~absorbed]
-    n = len(theta)
-    if n < 2:
-        return theta
-    # Neighbouring points whose rays pass within eps at the farther point: angle i is
-    # the same as angle i + 1 (the last as the first).
-    far = np.fmax(dist, np.roll(dist, -1))
-    pairs = np.flatnonzero(_ccw_gaps(theta) * far <= eps).tolist()
-    if not pairs:
-        return theta
-    far_l = dist.tolist()
-
-    def rank(i: int) -> float:  # the farther point; a side (were one left) first
-        return math.inf if math.isnan(far_l[i]) else far_l[i]
-
-    if len(pairs) == n:
-        return theta[[max(range(n), key=rank)]]
-    # Walk the runs of same neighbours, from one that does not go on across angle 0.
-    first = 0
-    if pairs[0] == 0 and pairs[-1] == n - 1:
-        first = next(j for j in range(1, len(pairs)) if pairs[j] != pairs[j - 1] + 1)
-    drop: list[int] = []
-    end = best = -1
-    for i in pairs[first:] + pairs[:first]:
-        if i != end:  # a new run
-            best = i
-        end = (i + 1) % n
-        if rank(end) > rank(best):  # keep the first of equals
-            drop.append(best)
-            best = end
-        else:
-            drop.append(end)
-    keep = np.ones(n, dtype=bool)
-    keep[drop] = False
-    return theta[keep]
-
-
-def _ccw_gaps(theta: FloatArray) -> FloatArray:
-    """Return the gap from each sorted angle to the next counter-clockwise (last to first)."""
-    gap = np.empty(len(theta))
-    np.subtract(theta[1:], theta[:-1], out=gap[:-1])
-    gap[-1] = theta[0] + TAU - theta[-1]
-    return gap
-
-
-# Scalar kernels, called per edge and critical angle: plain floats in, nothing packed.
-def _t_at(  # noqa: PLR0917
-    angle: float,
-    ax: float,
-    ay: float,
-    dx: float,
-    dy: float,
-    t_in: float,
-    t_out: float,
-    eps: float,
-) -> float:
-    """Return the parameter along an edge where the ray at ``angle`` meets it.
-
-    The edge starts at (ax, ay) relative to the robot and has step (dx, dy).
-    """
-    ux, uy = math.cos(angle), math.sin(angle)
-    denom = ux * dy - uy * dx
-    t = (ax * uy - ay * ux) / denom if denom != 0 else t_in
-    t = min(max(t, t_in), t_out)
-    # The sweep's angles come from these very end points, or from angles merged with
-    # theirs (their rays pass within eps of it): snap to the nearer end in that case.
-    end = t_in if t - t_in <= t_out - t else t_out
-    px, py = ax + end * dx, ay + end * dy
-    return end if abs(ux * py - uy * px) <= eps else t
 
 
 def _add_edge_on_pieces(

@@ -505,7 +505,7 @@ def _clip_to_disk(  # noqa: PLR0917
     edges = np.empty(len(ids), dtype=np.intp)
     m = 0
     for r in range(len(ids)):
-        e = ids[r]
+        e = int(ids[r])
         ax, ay = a[r, 0], a[r, 1]
         dx, dy = step[e, 0], step[e, 1]
         t_in, t_out = 0.0, 1.0

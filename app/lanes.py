@@ -53,7 +53,10 @@ def picklable(fn: Callable[..., Any]) -> bool:
 
 def _child_main() -> None:
     """Worker process: read ``fn``, then answer (scene, keywords) until stdin closes."""
-    from planners.allocator import keep_freed_memory  # noqa: PLC0415 - the child's
+    from planners.allocator import (  # noqa: PLC0415 - the child's
+        freeze_long_lived,
+        keep_freed_memory,
+    )
     from planners.memo import Memo  # noqa: PLC0415 - only the child needs it here
 
     keep_freed_memory()
@@ -68,6 +71,7 @@ def _child_main() -> None:
     # The child's own caches, kept across calls: while the start or goal is dragged the
     # configuration space is the same scene after scene (planners keep no state).
     memo = Memo()
+    frozen = False
     while True:
         try:
             scene, keywords = pickle.load(stdin)
@@ -80,6 +84,8 @@ def _child_main() -> None:
             data = pickle.dumps((False, f"{type(error).__name__}: {error}"))
         stdout.write(data)
         stdout.flush()
+        if not frozen:  # the planners' imports are done: out of the collector's sight
+            frozen = freeze_long_lived() > 0
 
 
 class ProcessLane:

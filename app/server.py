@@ -38,7 +38,7 @@ from app.live import LivePanels, LiveRun, MotionPaths, add_live_panel
 from app.panels import Panels
 from app.scoped import ScopedTarget
 from app.view import PlannerView, scene_bounds
-from planners.allocator import keep_freed_memory
+from planners.allocator import freeze_long_lived, keep_freed_memory
 from planners.kernels import warm_up
 from planners.scene import ScenarioError, Scene
 
@@ -171,6 +171,12 @@ class PlannerApp:
         self.server.stop()
 
 
+def _warm_up() -> None:
+    """Load the compiled loops, then freeze what is alive (the app's warm-up thread)."""
+    warm_up()
+    freeze_long_lived()
+
+
 def start_app(
     scenario: str | os.PathLike[str] | Scene | None = None,
     *,
@@ -219,8 +225,9 @@ def start_app(
     """
     keep_freed_memory()  # an edit's temporaries reuse the last one's pages
     # The compiled loops load (or, once per machine, compile) while the server starts,
-    # not on the first frame or the first drag (planners.kernels).
-    threading.Thread(target=warm_up, name="warm-up", daemon=True).start()
+    # not on the first frame or the first drag (planners.kernels); then what lives as
+    # long as the process leaves the cycle collector's sight (planners.allocator).
+    threading.Thread(target=_warm_up, name="warm-up", daemon=True).start()
     scenarios = list_scenarios()
     folder = (
         ScenesFolder(scenes_dir, shipped=tuple(scenarios.values()))

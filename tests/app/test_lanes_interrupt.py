@@ -1,13 +1,15 @@
-"""ProcessLane.interrupt: a call given up ends at once, and the lane keeps working."""
+"""ProcessLane: a call given up ends at once, the lane keeps working; workers freeze."""
 
 from __future__ import annotations
 
+import gc
 import threading
 import time
 from typing import Any
 
 import pytest
 
+from app import server
 from app.lanes import Interrupted, ProcessLane
 
 
@@ -91,3 +93,27 @@ def test_close_while_an_interrupt_restarts_the_worker_leaves_no_worker(monkeypat
     assert lane.pid is None  # the restart finished first, then close() stopped it
     lane.interrupt()  # an interrupt after close starts nothing
     assert lane.pid is None
+
+
+def frozen_count(value: Any, memo: Any = None) -> int:
+    """Return how many objects the worker has frozen (run in the worker process)."""
+    return gc.get_freeze_count()
+
+
+def test_a_worker_freezes_its_long_lived_objects_after_its_first_answer():
+    # A full collection in the worker would walk its imports (numba's are 100,000s of
+    # objects, 50 ms): after the first answer they leave the collector's sight.
+    lane = ProcessLane(frozen_count)
+    try:
+        assert lane(None) == 0
+        assert lane(None) > 10_000
+    finally:
+        lane.close()
+
+
+def test_the_app_freezes_its_long_lived_objects_once_warmed_up(monkeypatch):
+    frozen = []
+    monkeypatch.setattr(server, "warm_up", lambda: None)
+    monkeypatch.setattr(server, "freeze_long_lived", lambda: frozen.append(1) or 1)
+    server._warm_up()
+    assert frozen == [1]

@@ -678,11 +678,29 @@ def attach_page(planner_app: Any, page: Page, timeout: float = 60.0) -> AppPage:
     deadline = time.monotonic() + timeout
     try:
         if not page.url.startswith(f"http://127.0.0.1:{planner_app.port}/"):
-            page.goto(_page_address(planner_app.url))
+            _go_to(page, _page_address(planner_app.url), deadline)
         client = _wait_loaded(planner_app.server, page, set(), deadline)
     except PlaywrightError as error:
         raise SnapshotError(f"the browser failed: {_first_line(error)}") from None
     return AppPage(page, client)
+
+
+def _go_to(page: Page, address: str, deadline: float) -> None:
+    """Send ``page`` to ``address``, again if the error page of a refused try cuts in.
+
+    A try of :func:`open_early` on a port nobody listened on leaves Chromium loading its
+    error page; that navigation may still be under way and interrupt this one.
+    """
+    while True:
+        try:
+            page.goto(address)
+            return
+        except PlaywrightError as error:
+            if "interrupted by another navigation" not in str(error):
+                raise
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.05)
 
 
 def free_port() -> int:

@@ -1,4 +1,4 @@
-"""Compiled loops: the grid march, the A* search, the incremental VG's pair listing.
+"""Compiled loops: the grid march, the A* search, the pair listing, the sensor's sweep.
 
 Three computations of the visibility graphs (sections 9.4 and 9.5) are loops that numpy
 can only run as many small array operations: the march of a segment through the cells
@@ -6,28 +6,33 @@ of the edge grid (a few cells per segment, a few edges per cell, a branch per ed
 the A* search (one node at a time), and, after an edit, the listing of the vertex pairs
 whose segment meets the changed region (k^2 / 2 pairs, most ruled out at once). On the
 scenes students build they took a third of an edit's time in numpy and Python (issue
-15). numba compiles them here.
+15). The fourth is the range sensor's angular sweep (section 9.6): a few dozen critical
+angles, a ray through each interval against each facing edge, which Python ran float by
+float; TangentBug senses at every probe of a decision, and the sweep was half of its
+time. numba compiles them here.
 
 The rules that keep the compiled loops exactly the code they replace:
 
 - the same floating-point operations in the same order on float64, no ``fastmath``
   (so no reassociation and no fused multiply-add): every sign test and every parameter
-  t comes out bit for bit as the numpy expression gives it;
+  t comes out bit for bit as the numpy expression gives it; the sweep's angles come from
+  the C library's ``atan2``, ``cos`` and ``sin``, as its reference's do;
 - tests hold each loop to the code it replaced, kept in the tests
   (``tests/planners/march_reference.py``, ``astar_reference.py``,
-  ``incremental_reference.py``; and networkx's A*), on random and degenerate scenes,
-  result for result;
+  ``incremental_reference.py``, ``sweep_reference.py``; and networkx's A*), on random
+  and degenerate scenes, result for result;
 - ``cache=True``: compiled once per machine (about 3 s per loop), then loaded from
   ``__pycache__`` (or numba's user cache where that is read-only) in a fraction of a
   second; ``nogil=True``: while a loop runs, the server's other threads run;
 - no state: a dispatcher holds its machine code, nothing a call could leave behind;
 - imported on first use by its callers: numba and LLVM take about 160 MB of resident
-  memory, which only the processes that build graphs pay (the app's own process, a big
-  scene's worker), not the workers of TangentBug and Bug2.
+  memory, which only the processes that build graphs or run TangentBug pay, not one
+  that only imports the planners, checks a scenario or runs Bug2.
 
 The functions here take and return plain arrays; :func:`planners.sightlines.march`,
-:meth:`planners.visibility.GraphArrays.shortest_path` and
-:func:`planners.incremental._crossing_box` wrap them.
+:meth:`planners.visibility.GraphArrays.shortest_path`,
+:func:`planners.incremental._crossing_box` and :func:`planners.sensor._sweep` wrap
+them.
 """
 
 from __future__ import annotations

@@ -18,8 +18,8 @@ facing edges' end points and of their crossings with the sensing circle cut the 
 into intervals inside which the order of the edges along a ray cannot change (edges of the
 border never cross). One ray through the middle of each interval finds the nearest edge;
 the interval's visible piece is that edge between the two bounding angles. This is an
-exact angular sweep over the critical angles, vectorised as (intervals x edges), which is
-fast for the few hundred edges of a lecture scene. A robot standing on the border (it may
+exact angular sweep over the critical angles, compiled
+(:func:`planners.kernels.sweep_intervals`). A robot standing on the border (it may
 touch it) cannot look into the blocked wedge at its feet; the two edges along the wedge's
 sides are seen edge-on and are added as pieces running straight away from the robot.
 
@@ -529,7 +529,7 @@ def _sweep(
     face it within R go to the compiled sweep (:func:`planners.kernels.sweep_intervals`):
     clipped to the sensing disk (parts shorter than eps dropped), the angles of their
     ends and of the wedges' sides at the robot's feet merged where they are one up to eps
-    (:func:`_merge_close_angles` in the kernel says how), one ray through the middle of
+    (the kernel's ``_merge_close_angles`` says how), one ray through the middle of
     each interval to the nearest edge whose part spans it, and that edge's visible piece
     between the interval's bounding angles. The pieces running edge-on away from the
     robot's feet are added here (:func:`_add_edge_on_pieces`).
@@ -623,7 +623,7 @@ def _leave_disk(
     return t_out if direction > 0 else t_in
 
 
-def disk_span(  # noqa: PLR0917 - a scalar kernel (see _t_at)
+def disk_span(  # noqa: PLR0917 - a scalar kernel, on Python floats
     ax: float, ay: float, dx: float, dy: float, len2: float, r2: float
 ) -> tuple[float, float, bool]:
     """Return where a segment lies in a disk: (t_in, t_out, whether its line meets it).

@@ -60,6 +60,9 @@ def _child_main() -> None:
     from planners.memo import Memo  # noqa: PLC0415 - only the child needs it here
 
     keep_freed_memory()
+    # The compiled loops (TangentBug's sweep; a big scene's graphs) load from numba's
+    # cache while the worker waits for its first scene, not during it.
+    threading.Thread(target=_warm_up, name="warm-up", daemon=True).start()
 
     stdin, stdout = sys.stdin.buffer, sys.stdout.buffer
     # Anything a planner prints must not corrupt the pickles on stdout.
@@ -86,6 +89,13 @@ def _child_main() -> None:
         stdout.flush()
         if not frozen:  # the planners' imports are done: out of the collector's sight
             frozen = freeze_long_lived() > 0
+
+
+def _warm_up() -> None:
+    """Load numba and the compiled loops (:func:`planners.kernels.warm_up`)."""
+    from planners.kernels import warm_up  # noqa: PLC0415 - the child's, in a thread
+
+    warm_up()
 
 
 class ProcessLane:

@@ -77,8 +77,10 @@ def freeze_long_lived() -> int:
 
     Examples
     --------
+    >>> import gc
     >>> freeze_long_lived() > 0
     True
+    >>> gc.unfreeze()  # a test's process is not the app's: let it collect them again
     """
     gc.collect()
     gc.freeze()

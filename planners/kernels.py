@@ -634,7 +634,9 @@ def _merge_runs(  # noqa: PLR0912 - one pass over the runs, kept whole
     pairs = np.empty(n, dtype=np.intp)
     count = 0
     for i in range(n):
-        a, b = dist[i], dist[(i + 1) % n]  # np.fmax: NaN gives way
+        # np.fmax: NaN (a wedge's side) gives way. (A point within eps of a side's ray
+        # was absorbed by it above, so no pair with a side merges either way.)
+        a, b = dist[i], dist[(i + 1) % n]
         far = b if math.isnan(a) else (a if math.isnan(b) else max(a, b))
         if gap[i] * far <= eps:
             pairs[count] = i

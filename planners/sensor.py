@@ -534,10 +534,10 @@ def _sweep(
     between the interval's bounding angles. The pieces running edge-on away from the
     robot's feet are added here (:func:`_add_edge_on_pieces`).
     """
-    from planners.kernels import sweep_intervals  # noqa: PLC0415 - numba on first use
-
     if len(geo.start) == 0:
         return []
+    from planners.kernels import sweep_intervals  # noqa: PLC0415 - numba on first use
+
     if near is None or (near.edges is not None and near.reach < radius):
         near = _measure(geo, x, radius)
     dist, cr, occ = near.dist, near.cr, near.occ

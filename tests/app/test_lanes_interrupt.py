@@ -112,8 +112,32 @@ def test_a_worker_freezes_its_long_lived_objects_after_its_first_answer():
 
 
 def test_the_app_freezes_its_long_lived_objects_once_warmed_up(monkeypatch):
-    frozen = []
-    monkeypatch.setattr(server, "warm_up", lambda: None)
-    monkeypatch.setattr(server, "freeze_long_lived", lambda: frozen.append(1) or 1)
+    # The warm-up thread's order: load numba and the compiled loops, then freeze them.
+    calls = []
+    monkeypatch.setattr(server, "warm_up", lambda: calls.append("warm_up"))
+    monkeypatch.setattr(
+        server, "freeze_long_lived", lambda: calls.append("freeze") or 1
+    )
     server._warm_up()
-    assert frozen == [1]
+    assert calls == ["warm_up", "freeze"]
+
+
+def kernels_ready(value: Any, memo: Any = None, wait: float = 30.0) -> int:
+    """Return how many signatures the sweep has compiled, once the warm-up is done."""
+    deadline = time.monotonic() + wait
+    warming = [t for t in threading.enumerate() if t.name == "warm-up"]
+    for thread in warming:
+        thread.join(max(0.0, deadline - time.monotonic()))
+    from planners import kernels
+
+    return len(kernels.sweep_intervals.signatures)
+
+
+def test_a_worker_loads_the_compiled_loops_before_its_first_scene():
+    # TangentBug's first sweep in a fresh worker (after a restart, in the students'
+    # pool) would otherwise load numba and the loops first: about 0.3 s.
+    lane = ProcessLane(kernels_ready)
+    try:
+        assert lane(None) == 1
+    finally:
+        lane.close()

@@ -4,8 +4,10 @@
 (:func:`planners.kernels.sweep_intervals`): clipping the facing edges to the sensing
 disk, the critical angles, merging those that are one up to eps, casting a ray through
 each interval, and the visible piece's parameters. This is the Python it replaced, kept
-verbatim but for three choices that make its arithmetic the compiled loop's on any
-machine (each marked ``# libm`` or ``# stable`` below):
+verbatim but for its second way of casting the rays (with 24 facing edges or more,
+``_first_hits`` cast them all at once with numpy, naming the same edge for every ray
+as the per-ray loop kept here) and three choices that make its arithmetic the compiled
+loop's on any machine (each marked ``# libm`` or ``# stable`` below):
 
 - the critical angles by the C library's ``atan2`` (``math.atan2``), not numpy's
   ``arctan2``, which on AVX-512 machines is SVML's and differs in the last bit for about

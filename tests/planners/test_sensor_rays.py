@@ -14,6 +14,7 @@ neighbour alike.
 from __future__ import annotations
 
 import math
+import struct
 from unittest import mock
 
 import numpy as np
@@ -29,10 +30,22 @@ from tests.conftest import random_scenes
 from tests.planners import sweep_reference as ref
 
 
+def _bits(items):
+    """The items' fields, every float as its 64 bits (so -0.0 is not 0.0)."""
+
+    def bits(v):
+        return struct.pack("<d", v) if isinstance(v, float) else v
+
+    return [
+        (it.kind, it.edge, *map(bits, (it.lo, it.hi, it.t0, it.t1, *it.p0, *it.p1)))
+        for it in items
+    ]
+
+
 def _same_sweep(geo, x, sensor_range, near=None):
     got = sensor._sweep(geo, np.asarray(x, dtype=np.float64), sensor_range, near)
     want = ref.sweep(geo, np.asarray(x, dtype=np.float64), sensor_range, near)
-    assert got == want  # _Item dataclasses: kind, angles, edge, parameters, points
+    assert _bits(got) == _bits(want)  # kind, edge, angles, parameters, points
     return got
 
 
@@ -142,7 +155,7 @@ def _angle_sets(draw):
     theta, reach = [], []
     for c in centres:
         for _ in range(draw(st.integers(1, 4))):
-            d = draw(st.sampled_from([0.001, 0.5, 1.0, 3.0, math.nan]))
+            d = draw(st.sampled_from([0.0, 1e-9, 0.001, 0.5, 1.0, 3.0, math.nan]))
             spread = draw(st.sampled_from([0.0, 1e-13, 0.5, 1.0, 2.0])) * eps
             theta.append((c + draw(st.floats(-1.0, 1.0)) * spread) % (2 * math.pi))
             reach.append(d)
@@ -156,7 +169,29 @@ def test_compiled_merging_of_close_angles_equals_the_python(case):
     theta, reach, nearest, eps = case
     got = kernels._merge_close_angles(theta, reach, nearest, eps)
     want = ref.merge_close_angles(theta, lambda: reach, nearest, eps)
-    np.testing.assert_array_equal(got, want)
+    assert got.tobytes() == want.tobytes()
+
+
+def test_a_run_of_close_angles_across_angle_zero_keeps_its_farthest():
+    # Four points within eps of their neighbours, one of them before angle 0: one run
+    # that the walk must start after its pairs from angle 0 on (two of them).
+    tau = 2.0 * math.pi
+    theta = np.array([tau - 0.3e-9, 0.1e-9, 0.4e-9, 0.7e-9, 3.0])
+    reach = np.array([1.2, 1.0, 1.0, 1.5, 1.0])
+    got = kernels._merge_close_angles(theta, reach, 1.0, 1e-9)
+    np.testing.assert_array_equal(got, [0.7e-9, 3.0])
+    want = ref.merge_close_angles(theta, lambda: reach, 1.0, 1e-9)
+    assert got.tobytes() == want.tobytes()
+
+
+def test_when_every_neighbour_is_alike_the_first_farthest_stays():
+    # Points at the robot itself (distance 0): every gap times 0 is within eps.
+    theta = np.array([0.5, 2.0, 4.0])
+    for reach, kept in ((np.zeros(3), 0.5), (np.array([0.0, 1e-12, 1e-12]), 2.0)):
+        got = kernels._merge_close_angles(theta, reach, 0.0, 1e-9)
+        np.testing.assert_array_equal(got, [kept])
+        want = ref.merge_close_angles(theta, lambda r=reach: r, 0.0, 1e-9)
+        assert got.tobytes() == want.tobytes()
 
 
 def test_merging_keeps_the_farthest_of_a_run_and_a_wedge_side_absorbs():

@@ -8,7 +8,8 @@ r_next, and the leave rule's quantities. :func:`explain_dsb` turns each into a
 the numbers; and into a :class:`~planners.explain.Step` with the geometry to draw (the
 robot r with its sensor circle of radius R, the border it sees, the O_i with their
 distances, the line r -> r_next -> g, the path so far and the stretch this decision
-governs).
+governs). The records are made at once (they are the explanation's ``tags``); each
+step's drawing when it is shown (:class:`~planners.explain.Lazy`).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy.typing as npt
 
 from planners.explain import (
     Explanation,
+    Lazy,
     Step,
     as_segments,
     circle_segments,
@@ -147,11 +149,13 @@ def explain_dsb(
         return Explanation(
             "dsb", title, (Step("dsb:invalid", f"Nothing to run: {reason}."),)
         )
-    records = tuple(_record(trace, d) for d in trace.decisions)
-    ends = [*[d.s for d in trace.decisions[1:]], trace.travelled]
-    steps = tuple(
-        _step(trace, d, rec, end)
-        for d, rec, end in zip(trace.decisions, records, ends, strict=True)
+    decisions = trace.decisions
+    records = tuple(_record(trace, d) for d in decisions)
+    ends = [*[d.s for d in decisions[1:]], trace.travelled]
+    # A step's drawing (what the sensor sees there, the O_i, the lines) is made when it
+    # is shown: a run round a 10,000-vertex border has thousands of decisions.
+    steps = Lazy(
+        len(records), lambda k: _step(trace, decisions[k], records[k], ends[k])
     )
     return Explanation("dsb", title, steps, records, trace)
 

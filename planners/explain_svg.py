@@ -323,14 +323,24 @@ def _holds(hull: Any, scene: Scene, eps: float) -> tuple[str, ...]:
 def _owners(
     cspace: ConfigurationSpace, arrays: GraphArrays, comps: list[Polygon]
 ) -> tuple[int, ...]:
-    """Per graph node: the obstacle whose border it lies on, -1 start/goal, -2 walls."""
+    """Per graph node: the obstacle whose border it lies on, -1 start/goal, -2 walls.
+
+    A node lies on the border of the first obstacle (in ``comps``' order) that is
+    closest to it within 10 eps. Each border is measured only to the nodes an index of
+    the points names within twice that (the others are farther anyway): a scene of 500
+    obstacles and 7,500 nodes measured every pair, about a second.
+    """
     pts = shapely.points(arrays.points)
+    index = shapely.STRtree(pts)
+    reach = 10 * cspace.eps
     owner = np.full(len(arrays.points), -2, dtype=np.intp)
     best = np.full(len(arrays.points), np.inf)
     for k, comp in enumerate(comps):
-        d = np.asarray(shapely.distance(comp.boundary, pts), dtype=np.float64)
-        closer = (d <= 10 * cspace.eps) & (d < best)
-        owner[closer], best[closer] = k, d[closer]
+        border = comp.boundary
+        near = index.query(border, predicate="dwithin", distance=2.0 * reach)
+        d = np.asarray(shapely.distance(border, pts[near]), dtype=np.float64)
+        closer = (d <= reach) & (d < best[near])
+        owner[near[closer]], best[near[closer]] = k, d[closer]
     owner[arrays.start] = owner[arrays.goal] = -1
     return tuple(owner.tolist())
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import importlib
 import math
+import types
 from pathlib import Path
 
 import numpy as np
@@ -669,3 +670,99 @@ def test_vg_blocker_where_three_triangles_overlap():
         )
     )
     assert _check_vg(scene)
+
+
+def _owners_every_pair(cspace, arrays, comps):
+    """The node owners as first written: every border measured to every node."""
+    pts = shapely.points(arrays.points)
+    owner = np.full(len(arrays.points), -2, dtype=np.intp)
+    best = np.full(len(arrays.points), np.inf)
+    for k, comp in enumerate(comps):
+        d = np.asarray(shapely.distance(comp.boundary, pts), dtype=np.float64)
+        closer = (d <= 10 * cspace.eps) & (d < best)
+        owner[closer], best[closer] = k, d[closer]
+    owner[arrays.start] = owner[arrays.goal] = -1
+    return tuple(owner.tolist())
+
+
+def _owners_both_ways(scene) -> bool:
+    plans = plan_all(scene, ("svg",))
+    if plans["svg"].status == "invalid":
+        return False
+    indexed, seen = SVG_MODULE._owners, []
+
+    def compared(cspace, arrays, comps):
+        got = indexed(cspace, arrays, comps)
+        assert got == _owners_every_pair(cspace, arrays, comps)
+        seen.append(got)
+        return got
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(SVG_MODULE, "_owners", compared)
+        planners.explain_svg(scene, plans=plans)
+    assert len(seen) == 1
+    return True
+
+
+@settings(max_examples=40, deadline=None)
+@given(scene=st.one_of(random_scenes(), random_scenes(grid=True)))
+def test_svg_node_owners_through_the_index_are_those_of_every_pair(scene):
+    _owners_both_ways(scene)
+
+
+def test_svg_node_owners_on_many_touching_obstacles():
+    # Triangles on a lattice, corners shared and edges collinear: nodes on two borders.
+    obstacles = [
+        [[x, y], [x + 1.0, y], [x, y + 1.0]] for x in range(1, 9, 1) for y in (2, 3, 5)
+    ]
+    scene = load_scene(
+        scene_dict(obstacles, start=(0.5, 0.5), goal=(9.5, 9.5), radius=0.0)
+    )
+    assert _owners_both_ways(scene)
+
+
+def test_dsb_explanation_makes_a_step_when_it_is_shown():
+    # A run round a big border has thousands of decisions: their records are made at
+    # once, each step's drawing when it is shown, the same as made in one go.
+    scene = _scenario("06_four_obstacles_sensor")
+    ex = planners.explain_dsb(scene, PlanOptions(sensor_range=0.6))
+    assert isinstance(ex.steps, Lazy) and len(ex.steps) == len(ex.tags) > 5
+    again = planners.explain_dsb(scene, PlanOptions(sensor_range=0.6))
+    made = []
+    make = ex.steps._make.__wrapped__
+    ex.steps._make = functools.lru_cache(maxsize=4)(lambda k: made.append(k) or make(k))
+    last = len(ex.steps) - 1
+    for k in (last, 0, 3):
+        a, b = ex.steps[k], list(again.steps)[k]
+        assert (a.kind, a.text, a.detail) == (b.kind, b.text, b.detail)
+        assert [m.role for m in a.marks] == [m.role for m in b.marks]
+        for m, n in zip(a.marks, b.marks, strict=True):
+            np.testing.assert_array_equal(m.segments, n.segments)
+            np.testing.assert_array_equal(m.points, n.points)
+    assert made == [last, 0, 3]
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    offsets=st.lists(st.floats(-30.0, 30.0), min_size=3, max_size=40),
+    seed=st.integers(0, 2**16),
+)
+def test_svg_node_owners_at_every_distance_from_the_borders(offsets, seed):
+    # Points at -30 to 30 eps across the borders of two squares 15 eps apart: owned by
+    # the nearer within 10 eps (the first of equals), else by none (-2).
+    eps = 1e-6
+    comps = [
+        Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),
+        Polygon([(1 + 15 * eps, 0), (2, 0), (2, 1), (1 + 15 * eps, 1)]),
+    ]
+    offsets = [*offsets, -12.0, -9.9, 0.0, 7.5, 9.9, 10.1, 12.5, 20.0, 24.9, 25.1]
+    rng = np.random.default_rng(seed)
+    ys = rng.uniform(0.0, 1.0, len(offsets))
+    points = np.column_stack([1.0 + np.array(offsets) * eps, ys])
+    points = np.vstack([[[-5.0, 0.5], [5.0, 0.5]], points])
+    arrays = types.SimpleNamespace(points=points, start=0, goal=1)
+    cspace = types.SimpleNamespace(eps=eps)
+    got = SVG_MODULE._owners(cspace, arrays, comps)
+    assert got == _owners_every_pair(cspace, arrays, comps)
+    assert set(got[2:]) <= {0, 1, -2} and got[:2] == (-1, -1)
+    assert set(got[2:]) == {0, 1, -2}  # both borders own points, and some are far

@@ -330,7 +330,7 @@ def _owners(
     the points names within twice that (the others are farther anyway): a scene of 500
     obstacles and 7,500 nodes measured every pair, about a second.
     """
-    pts = shapely.points(arrays.points)
+    pts = np.asarray(shapely.points(arrays.points), dtype=object)
     index = shapely.STRtree(pts)
     reach = 10 * cspace.eps
     owner = np.full(len(arrays.points), -2, dtype=np.intp)

@@ -33,11 +33,13 @@ from __future__ import annotations
 __all__ = [
     "METHODS",
     "ROLES",
+    "Abandoned",
     "Explanation",
     "Lazy",
     "Mark",
     "Step",
     "explain",
+    "keep_going",
     "marks",
 ]
 
@@ -263,6 +265,32 @@ def circle_segments(center: Any, radius: float, n: int = 64) -> FloatArray:
     return ring_segments(c + radius * np.stack([np.cos(theta), np.sin(theta)], axis=1))
 
 
+class Abandoned(Exception):
+    """An explanation given up part way: its caller asked for another one (issue 15).
+
+    On a big scene some parts take a second or more (the SVG's tags of 10,000 edges, a
+    VG vertex's blocked lines of sight); they ask the caller's ``abandoned`` function
+    between pieces of work and raise this when it answers True. Nothing half made is
+    returned or kept (a :class:`Lazy` step that raised is made afresh when asked again).
+    """
+
+
+def keep_going(abandoned: Callable[[], bool] | None) -> None:
+    """Raise :class:`Abandoned` when ``abandoned`` (if any) says the work is not wanted.
+
+    Examples
+    --------
+    >>> keep_going(None), keep_going(lambda: False)
+    (None, None)
+    >>> keep_going(lambda: True)
+    Traceback (most recent call last):
+    ...
+    planners.explain.Abandoned
+    """
+    if abandoned is not None and abandoned():
+        raise Abandoned
+
+
 def explain(
     scene: Scene,
     method: str,
@@ -271,7 +299,9 @@ def explain(
 ) -> Explanation:
     """Explain ``method`` (one of :data:`METHODS`) on ``scene``.
 
-    ``kwargs`` go to the method's function (``obstacle=`` for the expansion).
+    ``kwargs`` go to the method's function (``obstacle=`` for the expansion;
+    ``abandoned=`` for the VG and the SVG, whose big scenes take long: see
+    :class:`Abandoned`).
 
     Examples
     --------

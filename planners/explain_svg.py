@@ -27,6 +27,7 @@ from __future__ import annotations
 __all__ = ["ADDITIONS", "RULES", "ObstacleHull", "SvgTag", "explain_svg"]
 
 import dataclasses
+from collections.abc import Callable
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
@@ -40,6 +41,7 @@ from planners.explain import (
     Lazy,
     Step,
     as_segments,
+    keep_going,
     marks,
     point_mark,
     ring_segments,
@@ -185,6 +187,7 @@ def explain_svg(
     options: PlanOptions | None = None,
     *,
     plans: dict[str, Any] | None = None,
+    abandoned: Callable[[], bool] | None = None,
 ) -> Explanation:
     """Explain the SVG of ``scene``: every segment tagged with its step (section 9.5).
 
@@ -197,6 +200,9 @@ def explain_svg(
     plans
         Results of :func:`planners.plan_all` for this scene and options that include
         ``"svg"``, when the caller has them; None computes them.
+    abandoned
+        Asked between pieces of the work (a few thousand edges or nodes each): True
+        gives the explanation up (:class:`~planners.explain.Abandoned` is raised).
 
     Returns
     -------
@@ -226,8 +232,8 @@ def explain_svg(
     cspace = plans.get("cspace")
     if result.status == "invalid" or cspace is None:
         return Explanation("svg", title, (Step("svg:invalid", _invalid(result)),))
-    setting = _setting(scene, cspace, plans)
-    tags = tuple(_tag(setting, e) for e in range(setting.arrays.edges))
+    setting = _setting(scene, cspace, plans, abandoned)
+    tags = _tags(setting, abandoned)
     groups = _groups(setting, tags)
     # Every group's segments in the steps' order: what the steps before step k added.
     added = _tag_segments([t for _, _, group, _ in groups for t in group])
@@ -252,7 +258,10 @@ def _invalid(result: Any) -> str:
 
 
 def _setting(
-    scene: Scene, cspace: ConfigurationSpace, plans: dict[str, Any]
+    scene: Scene,
+    cspace: ConfigurationSpace,
+    plans: dict[str, Any],
+    abandoned: Callable[[], bool] | None = None,
 ) -> _Setting:
     # The planner's own graph, and why each of its nodes may carry segments (the
     # border's flags its builder read): the SVG is not built a second time.
@@ -277,7 +286,7 @@ def _setting(
         )
         for k, comp in enumerate(comps)
     )
-    owner = _owners(cspace, arrays, comps)
+    owner = _owners(cspace, arrays, comps, abandoned)
     outlines = _Outlines(comps, hull_polygons, 10 * cspace.eps)
     nodes: dict[tuple[float, float], int] = {}
     for n, p in enumerate(map(tuple, arrays.points.tolist())):
@@ -321,14 +330,18 @@ def _holds(hull: Any, scene: Scene, eps: float) -> tuple[str, ...]:
 
 
 def _owners(
-    cspace: ConfigurationSpace, arrays: GraphArrays, comps: list[Polygon]
+    cspace: ConfigurationSpace,
+    arrays: GraphArrays,
+    comps: list[Polygon],
+    abandoned: Callable[[], bool] | None = None,
 ) -> tuple[int, ...]:
     """Per graph node: the obstacle whose border it lies on, -1 start/goal, -2 walls.
 
     A node lies on the border of the first obstacle (in ``comps``' order) that is
     closest to it within 10 eps. Each border is measured only to the nodes an index of
     the points names within twice that (the others are farther anyway): a scene of 500
-    obstacles and 7,500 nodes measured every pair, about a second.
+    obstacles and 7,500 nodes measured every pair, about a second. ``abandoned`` is
+    asked before every :data:`_CHUNK` nodes measured.
     """
     pts = np.asarray(shapely.points(arrays.points), dtype=object)
     index = shapely.STRtree(pts)
@@ -337,15 +350,34 @@ def _owners(
     best = np.full(len(arrays.points), np.inf)
     for k, comp in enumerate(comps):
         border = comp.boundary
-        near = index.query(border, predicate="dwithin", distance=2.0 * reach)
-        d = np.asarray(shapely.distance(border, pts[near]), dtype=np.float64)
-        closer = (d <= reach) & (d < best[near])
-        owner[near[closer]], best[near[closer]] = k, d[closer]
+        found = index.query(border, predicate="dwithin", distance=2.0 * reach)
+        for lo in range(0, len(found), _CHUNK):
+            keep_going(abandoned)
+            near = found[lo : lo + _CHUNK]
+            d = np.asarray(shapely.distance(border, pts[near]), dtype=np.float64)
+            closer = (d <= reach) & (d < best[near])
+            owner[near[closer]], best[near[closer]] = k, d[closer]
     owner[arrays.start] = owner[arrays.goal] = -1
     return tuple(owner.tolist())
 
 
 # --------------------------------------------------------------------------- tagging
+
+_CHUNK = 1024
+"""Nodes measured, or edges tagged, between two questions to ``abandoned`` (on the
+10,000-vertex circle about a tenth of a second's work)."""
+
+
+def _tags(
+    setting: _Setting, abandoned: Callable[[], bool] | None
+) -> tuple[SvgTag, ...]:
+    """Tag every edge of the SVG, asking ``abandoned`` every :data:`_CHUNK` edges."""
+    tags: list[SvgTag] = []
+    for e in range(setting.arrays.edges):
+        if e % _CHUNK == 0:
+            keep_going(abandoned)
+        tags.append(_tag(setting, e))
+    return tuple(tags)
 
 
 def _tag(setting: _Setting, e: int) -> SvgTag:

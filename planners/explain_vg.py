@@ -22,6 +22,7 @@ __all__ = ["VertexLook", "explain_vg"]
 
 import dataclasses
 import functools
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -29,7 +30,15 @@ import numpy.typing as npt
 import shapely
 
 from planners.border import ring_geometry
-from planners.explain import Explanation, Lazy, Step, as_segments, marks, point_mark
+from planners.explain import (
+    Explanation,
+    Lazy,
+    Step,
+    as_segments,
+    keep_going,
+    marks,
+    point_mark,
+)
 from planners.sightlines import EdgeGrid, edge_grid, near_pairs
 
 if TYPE_CHECKING:
@@ -72,6 +81,7 @@ def explain_vg(
     options: PlanOptions | None = None,
     *,
     plans: dict[str, Any] | None = None,
+    abandoned: Callable[[], bool] | None = None,
 ) -> Explanation:
     """Explain the VG of ``scene``: each vertex's lines of sight, then the search.
 
@@ -83,6 +93,10 @@ def explain_vg(
         Planner settings; None for the defaults.
     plans
         Results of :func:`planners.plan_all` including ``"vg"``, or None to compute.
+    abandoned
+        Asked while a vertex's step is made (between pieces of a few thousand blocked
+        segments): True gives the step up (:class:`~planners.explain.Abandoned` is
+        raised; the step is made afresh when it is asked for again).
 
     Returns
     -------
@@ -115,7 +129,9 @@ def explain_vg(
     arrays = result.arrays
     order = _stepping_order(arrays)
     border = _BorderEdges.of(cspace)
-    looks = Lazy(len(order), lambda k: _look(cspace, border, arrays, order[k]))
+    looks = Lazy(
+        len(order), lambda k: _look(cspace, border, arrays, order[k], abandoned)
+    )
     story = _Story.of(arrays, order)
     count = len(order) + len(story.settled) + 1
 
@@ -207,16 +223,33 @@ def _neighbours(arrays: GraphArrays, n: int) -> np.ndarray:
     return np.concatenate([arrays.j[arrays.i == n], arrays.i[arrays.j == n]])
 
 
+_CHUNK = 1024
+"""Blocked segments whose blockers are found between two questions to ``abandoned``
+(from a vertex of the 10,000-vertex circle, about a tenth of a second's work)."""
+
+
 def _look(
-    cspace: ConfigurationSpace, border: _BorderEdges, arrays: GraphArrays, n: int
+    cspace: ConfigurationSpace,
+    border: _BorderEdges,
+    arrays: GraphArrays,
+    n: int,
+    abandoned: Callable[[], bool] | None = None,
 ) -> VertexLook:
-    """Return what node n sees (read from the graph) and what blocks the rest."""
+    """Return what node n sees (read from the graph) and what blocks the rest.
+
+    The blocked segments' blockers are found :data:`_CHUNK` segments at a time (each
+    segment's on its own), ``abandoned`` asked before each chunk.
+    """
     seen = _neighbours(arrays, n)
     others = np.setdiff1d(np.arange(len(arrays.points)), np.append(seen, n))
     p = arrays.points[n]
     visible = _from_point(p, arrays.points[seen])
     blocked = _from_point(p, arrays.points[others])
-    blockers = _blockers(cspace, border, blocked)
+    parts = [np.zeros((0, 2, 2))]
+    for lo in range(0, len(blocked), _CHUNK):
+        keep_going(abandoned)
+        parts.append(_blockers(cspace, border, blocked[lo : lo + _CHUNK]))
+    blockers = np.concatenate(parts)
     return VertexLook(n, _name(arrays, n), visible, blocked, blockers)
 
 

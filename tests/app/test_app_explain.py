@@ -6,6 +6,7 @@ import dataclasses
 import itertools
 import math
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -24,7 +25,7 @@ from app.explain_view import ROLE_LOOKS, role_segments
 from app.frames import Frame
 from app.scheduler import Failed, Pending
 from planners import Scene, load_scene, plan_all
-from planners.explain import ROLES
+from planners.explain import ROLES, Abandoned
 from planners.visibility import _build_border
 from tests.app.app_helpers import wait_until
 from tests.browser import use_browser
@@ -292,9 +293,9 @@ def test_the_frames_geometry_is_left_to_the_threads_that_own_it(explainer, monke
     given = []
     real = explain_panel._explain
 
-    def spy(scene, method, obstacle, memo, plans=None):
+    def spy(scene, method, obstacle, memo, *, plans=None, abandoned=None):
         given.append(plans)
-        return real(scene, method, obstacle, memo, plans)
+        return real(scene, method, obstacle, memo, plans=plans, abandoned=abandoned)
 
     monkeypatch.setattr(explain_panel, "_explain", spy)
     ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
@@ -496,3 +497,38 @@ def test_cli_explain_writes_the_picture(tmp_path):
     )
     assert done.returncode == 0, done.stderr
     assert done.stderr == "" and Path(out).is_file()
+
+
+def test_an_edit_abandons_a_long_explanation_at_once(explainer, monkeypatch):
+    """A big scene's explanation takes a second or more; an edit meanwhile stops it
+    (issue 15: a long computation is cancelled by the next edit), and the new scene is
+    explained next."""
+    ex, drawn = explainer
+    scene = load_scene(SCENARIO)
+    plans = plan_all(scene, ("svg",))
+    started, stopped = threading.Event(), []
+    real = explain_panel.explain_svg
+
+    def long_first(scene, options, *, plans=None, abandoned=None):
+        if started.is_set():
+            return real(scene, options, plans=plans, abandoned=abandoned)
+        started.set()
+        deadline = time.monotonic() + 30.0
+        while time.monotonic() < deadline:
+            if abandoned is not None and abandoned():
+                stopped.append(time.monotonic())
+                raise Abandoned
+            time.sleep(0.005)
+        raise AssertionError("the explanation was never abandoned")
+
+    monkeypatch.setattr(explain_panel, "explain_svg", long_first)
+    ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
+    ex.choose("svg")
+    assert started.wait(30)
+    edited = time.monotonic()
+    ex.render(dataclasses.replace(_frame(scene, 2), plans=plans))
+    assert ex.wait_ready(30)
+    assert stopped and stopped[0] - edited < 1.0
+    assert ex.error is None and ex.explanation is not None
+    assert drawn.calls[-1][1] is ex.explanation
+    assert len(ex.explanation.tags) == plans["svg"].edges

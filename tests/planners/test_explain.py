@@ -19,7 +19,7 @@ from shapely import LineString, Point, Polygon
 import planners
 from planners import PlanOptions, load_scene, plan_all
 from planners.expansion import expand_polygon
-from planners.explain import METHODS, ROLES, Explanation, Lazy, explain
+from planners.explain import METHODS, ROLES, Abandoned, Explanation, Lazy, explain
 from planners.explain_dsb import FLOWCHART
 from planners.explain_svg import RULES
 from planners.visibility import segments_free, svg_node_reasons, svg_reasons
@@ -148,6 +148,7 @@ def test_svg_tags_are_exactly_the_svg_edges_on_grid_scenes(scene):
 SVG_MODULE = importlib.import_module(
     "planners.explain_svg"
 )  # the name is a function too
+VG_MODULE = importlib.import_module("planners.explain_vg")
 
 
 @settings(max_examples=40, deadline=None)
@@ -691,8 +692,8 @@ def _owners_both_ways(scene) -> bool:
         return False
     indexed, seen = SVG_MODULE._owners, []
 
-    def compared(cspace, arrays, comps):
-        got = indexed(cspace, arrays, comps)
+    def compared(cspace, arrays, comps, abandoned=None):
+        got = indexed(cspace, arrays, comps, abandoned)
         assert got == _owners_every_pair(cspace, arrays, comps)
         seen.append(got)
         return got
@@ -766,3 +767,44 @@ def test_svg_node_owners_at_every_distance_from_the_borders(offsets, seed):
     assert got == _owners_every_pair(cspace, arrays, comps)
     assert set(got[2:]) <= {0, 1, -2} and got[:2] == (-1, -1)
     assert set(got[2:]) == {0, 1, -2}  # both borders own points, and some are far
+
+
+def test_an_abandoned_explanation_stops_and_leaves_nothing_half_made():
+    # The SVG's tags are made at once: abandoned, it raises. The VG's vertex steps are
+    # made when shown: a step abandoned raises, and asked for again is made afresh,
+    # the same as one never abandoned.
+    scene = _scenario("06_four_obstacles_sensor")
+    with pytest.raises(Abandoned):
+        planners.explain_svg(scene, abandoned=lambda: True)
+    stop = [True]
+    vg = planners.explain_vg(scene, abandoned=lambda: stop[0])
+    with pytest.raises(Abandoned):
+        vg.steps[2]
+    stop[0] = False
+    made, plain = vg.steps[2], planners.explain_vg(scene).steps[2]
+    assert (made.kind, made.text) == (plain.kind, plain.text)
+    for m, n in zip(made.marks, plain.marks, strict=True):
+        np.testing.assert_array_equal(m.segments, n.segments)
+
+
+@pytest.mark.parametrize("stem", ["02_three_obstacles", "06_four_obstacles_sensor"])
+def test_explanations_made_in_small_chunks_are_the_same(stem, monkeypatch):
+    # Work is cut into chunks so that it can be abandoned between them: every chunk's
+    # result is its segments' or nodes' own, whatever the chunks.
+    scene = _scenario(stem)
+    plans = plan_all(scene, ("vg", "svg"))
+    whole_svg = _tags(scene, plans)
+    vg = planners.explain_vg(scene, plans=plans)
+    whole_vg = [vg.steps[k] for k in range(len(vg.data))]
+    monkeypatch.setattr(SVG_MODULE, "_CHUNK", 2)
+    monkeypatch.setattr(VG_MODULE, "_CHUNK", 3)
+    asked = []
+    assert _tags(scene, plans) == whole_svg
+    vg = planners.explain_vg(
+        scene, plans=plans, abandoned=lambda: bool(asked.append(1))
+    )
+    for k, step in enumerate(whole_vg):
+        again = vg.steps[k]
+        for m, n in zip(again.marks, step.marks, strict=True):
+            np.testing.assert_array_equal(m.segments, n.segments)
+    assert len(asked) > len(whole_vg)  # asked between chunks, not once a step

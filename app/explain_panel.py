@@ -168,6 +168,9 @@ class Explainer:
         self._explanation: Explanation | None = None
         self._error: str | None = None
         self._memo = Memo()
+        # The request this thread serves now (None between requests): what a long
+        # explanation is asked to go on with (_asked_to_stop).
+        self._serving: tuple[int, str, int] | None = None
         self._thread = threading.Thread(target=self._run, name="explain", daemon=True)
         self._thread.start()
 
@@ -277,6 +280,7 @@ class Explainer:
             except Abandoned:
                 pass  # something else was asked for meanwhile: the next turn takes it
             finally:
+                self._serving = None
                 with self._cond:
                     self._busy = False
                     self._cond.notify_all()
@@ -287,6 +291,7 @@ class Explainer:
             self._draw(None, None)
             return
         key = (frame.version, method, obstacle)
+        self._serving = key
         if key != self._key:
             plans = _frame_plans(frame, method)
             if plans is None and method != "expansion":
@@ -302,9 +307,7 @@ class Explainer:
                     self._draw(None, None)  # again on each progress frame: cheap
                     return
             with self._turns or contextlib.nullcontext():
-                explanation = self._compute(
-                    frame.scene, method, obstacle, plans, self._abandoned_unless(key)
-                )
+                explanation = self._compute(frame.scene, method, obstacle, plans)
             with self._cond:
                 self._key, self._explanation = key, explanation
                 # The same step number on the new scene, where it still exists.
@@ -313,29 +316,49 @@ class Explainer:
             if self._closed:  # closed while computing: the panel hid its drawing
                 return
             explanation, n = self._explanation, self._step
-        self._draw(
-            explanation.step(n) if explanation is not None else None, explanation
-        )
+        self._draw(self._make_step(explanation, n), explanation)
 
-    def _abandoned_unless(self, key: tuple[int, str, int]) -> Callable[[], bool]:
-        """Return the question a long explanation of ``key`` asks as it goes.
+    def _make_step(self, explanation: Explanation | None, n: int) -> Step | None:
+        """Return step ``n``, made now if it is made when shown; None if making it failed.
 
-        True once something else is wanted: a newer scene (an edit), a drag, another
-        method or obstacle, or the panel closed. A big scene's explanation, or one of its
-        steps, then stops within a tenth of a second instead of running to its end
-        before the next one starts (:class:`planners.explain.Abandoned`).
+        A step that fails says why in the panel (as an explanation that fails does):
+        the thread goes on with the next request.
         """
-
-        def abandoned() -> bool:
-            frame = self._frame  # read without the lock: a stale answer costs a turn
-            return (
-                self._closed
-                or frame is None
-                or bool(frame.dragging)
-                or (frame.version, self._method, self._obstacle) != key
+        if explanation is None:
+            return None
+        try:
+            step = explanation.step(n)
+        except Abandoned:
+            raise
+        except Exception as error:  # a bug in a step must not stop Explain
+            logger.exception(
+                "making step %d of the %s explanation", n, explanation.method
             )
+            self._error = f"{type(error).__name__}: {error}".splitlines()[0]
+            return None
+        self._error = None  # a step before may have failed; this one did not
+        return step
 
-        return abandoned
+    def _asked_to_stop(self) -> bool:
+        """Answer the question a long explanation asks as it goes (``abandoned``).
+
+        True once something else is wanted than the request this thread serves: a newer
+        scene (an edit), a drag, another method or obstacle, or the panel closed. A big
+        scene's explanation, or one of its steps, then stops at its next question (a
+        tenth of a second of work apart) instead of running to its end before the next
+        one starts (:class:`planners.explain.Abandoned`). Asked from any other thread,
+        or between requests (a script making a step of :attr:`explanation`), False.
+        """
+        key = self._serving
+        if key is None or threading.current_thread() is not self._thread:
+            return False
+        frame = self._frame  # read without the lock: a stale answer costs a turn
+        return (
+            self._closed
+            or frame is None
+            or bool(frame.dragging)
+            or (frame.version, self._method, self._obstacle) != key
+        )
 
     def _compute(
         self,
@@ -343,12 +366,16 @@ class Explainer:
         method: str,
         obstacle: int,
         plans: Mapping[str, Any] | None,
-        abandoned: Callable[[], bool] | None = None,
     ) -> Explanation | None:
         try:
             self._error = None
             return _explain(
-                scene, method, obstacle, self._memo, plans=plans, abandoned=abandoned
+                scene,
+                method,
+                obstacle,
+                self._memo,
+                plans=plans,
+                abandoned=self._asked_to_stop,
             )
         except Abandoned:
             raise

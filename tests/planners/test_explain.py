@@ -808,3 +808,23 @@ def test_explanations_made_in_small_chunks_are_the_same(stem, monkeypatch):
         for m, n in zip(again.marks, step.marks, strict=True):
             np.testing.assert_array_equal(m.segments, n.segments)
     assert len(asked) > len(whole_vg)  # asked between chunks, not once a step
+
+
+def test_the_svg_explanation_stops_at_its_next_question_in_each_part(monkeypatch):
+    # Chunks of 2: asked at the second question, the owners stop before any edge is
+    # tagged; asked once the tagging has begun, it stops within one chunk of edges.
+    scene = _scenario("06_four_obstacles_sensor")
+    plans = plan_all(scene, ("svg",))
+    monkeypatch.setattr(SVG_MODULE, "_CHUNK", 2)
+    tagged: list[int] = []
+    tag = SVG_MODULE._tag
+    monkeypatch.setattr(SVG_MODULE, "_tag", lambda s, e: tagged.append(e) or tag(s, e))
+    asked: list[int] = []
+    with pytest.raises(Abandoned):
+        planners.explain_svg(
+            scene, plans=plans, abandoned=lambda: len(asked.append(1) or asked) > 1
+        )
+    assert tagged == []
+    with pytest.raises(Abandoned):
+        planners.explain_svg(scene, plans=plans, abandoned=lambda: bool(tagged))
+    assert tagged == [0, 1] and plans["svg"].edges > 2

@@ -344,9 +344,9 @@ class Explainer:
 
         True once something else is wanted than the request this thread serves: a newer
         scene (an edit), a drag, another method or obstacle, or the panel closed. A big
-        scene's explanation, or one of its steps, then stops at its next question (a
-        tenth of a second of work apart) instead of running to its end before the next
-        one starts (:class:`planners.explain.Abandoned`). Asked from any other thread,
+        scene's explanation, or one of its steps, then stops at its next question (1,024
+        nodes, edges or segments of work apart) instead of running to its end before the
+        next one starts (:class:`planners.explain.Abandoned`). Asked from any other thread,
         or between requests (a script making a step of :attr:`explanation`), False.
         """
         key = self._serving

@@ -201,8 +201,8 @@ def explain_svg(
         Results of :func:`planners.plan_all` for this scene and options that include
         ``"svg"``, when the caller has them; None computes them.
     abandoned
-        Asked between pieces of the work (a few thousand edges or nodes each): True
-        gives the explanation up (:class:`~planners.explain.Abandoned` is raised).
+        Asked between pieces of the work (1,024 nodes or edges each): True gives the
+        explanation up (:class:`~planners.explain.Abandoned` is raised).
 
     Returns
     -------

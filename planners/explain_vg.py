@@ -94,9 +94,9 @@ def explain_vg(
     plans
         Results of :func:`planners.plan_all` including ``"vg"``, or None to compute.
     abandoned
-        Asked while a vertex's step is made (between pieces of a few thousand blocked
-        segments): True gives the step up (:class:`~planners.explain.Abandoned` is
-        raised; the step is made afresh when it is asked for again).
+        Asked while a vertex's step is made (between pieces of 1,024 blocked segments):
+        True gives the step up (:class:`~planners.explain.Abandoned` is raised; the
+        step is made afresh when it is asked for again).
 
     Returns
     -------

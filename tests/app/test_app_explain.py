@@ -503,56 +503,50 @@ def test_cli_explain_writes_the_picture(tmp_path):
     assert done.stderr == "" and Path(out).is_file()
 
 
+class LongExplanation:
+    """Its first SVG explanation runs until it is abandoned (as a big scene's would run
+    for seconds); later ones are the real thing. Started on scenario 05 at version 1."""
+
+    def __init__(self, ex: Explainer, monkeypatch: Any) -> None:
+        self.scene = load_scene(SCENARIO)
+        self.plans = plan_all(self.scene, ("vg", "svg"))
+        self.started, self.stopped = threading.Event(), threading.Event()
+        self.real = explain_panel.explain_svg
+        monkeypatch.setattr(explain_panel, "explain_svg", self._explain)
+        ex.render(self.frame(1))
+        ex.choose("svg")
+        assert self.started.wait(30)
+
+    def frame(self, version: int, dragging: frozenset = frozenset()) -> Frame:
+        return dataclasses.replace(
+            _frame(self.scene, version, dragging), plans=self.plans
+        )
+
+    def _explain(self, scene, options, *, plans=None, abandoned=None):
+        if self.started.is_set():
+            return self.real(scene, options, plans=plans, abandoned=abandoned)
+        self.started.set()
+        deadline = time.monotonic() + 30.0
+        while time.monotonic() < deadline:
+            if abandoned is not None and abandoned():
+                self.stopped.set()
+                raise Abandoned
+            time.sleep(0.005)
+        raise AssertionError("the explanation was never abandoned")
+
+
 def test_an_edit_abandons_a_long_explanation_at_once(explainer, monkeypatch):
     """A big scene's explanation takes a second or more; an edit meanwhile stops it
     (issue 15: a long computation is cancelled by the next edit), and the new scene is
     explained next."""
     ex, drawn = explainer
-    scene = load_scene(SCENARIO)
-    plans = plan_all(scene, ("svg",))
-    started, stopped = threading.Event(), []
-    real = explain_panel.explain_svg
-
-    def long_first(scene, options, *, plans=None, abandoned=None):
-        if started.is_set():
-            return real(scene, options, plans=plans, abandoned=abandoned)
-        started.set()
-        deadline = time.monotonic() + 30.0
-        while time.monotonic() < deadline:
-            if abandoned is not None and abandoned():
-                stopped.append(time.monotonic())
-                raise Abandoned
-            time.sleep(0.005)
-        raise AssertionError("the explanation was never abandoned")
-
-    monkeypatch.setattr(explain_panel, "explain_svg", long_first)
-    ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
-    ex.choose("svg")
-    assert started.wait(30)
-    ex.render(dataclasses.replace(_frame(scene, 2), plans=plans))
+    long = LongExplanation(ex, monkeypatch)
+    ex.render(long.frame(2))
     assert ex.wait_ready(30)
-    assert stopped  # abandoned: else it would have run its 30 s and failed
+    assert long.stopped.is_set()  # abandoned: else it would have run 30 s and failed
     assert ex.error is None and ex.explanation is not None
     assert drawn.calls[-1][1] is ex.explanation
-    assert len(ex.explanation.tags) == plans["svg"].edges
-
-
-def _long_until_abandoned(real, started: threading.Event, stopped: list):
-    """An explanation function that, the first time, runs until it is abandoned."""
-
-    def explain_fn(scene, options, *, plans=None, abandoned=None):
-        if started.is_set():
-            return real(scene, options, plans=plans, abandoned=abandoned)
-        started.set()
-        deadline = time.monotonic() + 30.0
-        while time.monotonic() < deadline:
-            if abandoned is not None and abandoned():
-                stopped.append(True)
-                raise Abandoned
-            time.sleep(0.005)
-        raise AssertionError("the explanation was never abandoned")
-
-    return explain_fn
+    assert len(ex.explanation.tags) == long.plans["svg"].edges
 
 
 def test_a_drag_abandons_an_explanation_and_its_release_explains_again(
@@ -561,23 +555,10 @@ def test_a_drag_abandons_an_explanation_and_its_release_explains_again(
     # Abandoned for a drag, the same scene version comes back undragged: it is
     # explained then (nothing of the abandoned attempt is kept as its answer).
     ex, drawn = explainer
-    scene = load_scene(SCENARIO)
-    plans = plan_all(scene, ("svg",))
-    started, stopped = threading.Event(), []
-    monkeypatch.setattr(
-        explain_panel,
-        "explain_svg",
-        _long_until_abandoned(explain_panel.explain_svg, started, stopped),
-    )
-    ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
-    ex.choose("svg")
-    assert started.wait(30)
-    dragged = dataclasses.replace(
-        _frame(scene, 1, frozenset({("start",)})), plans=plans
-    )
-    ex.render(dragged)
-    assert ex.wait_ready(30) and stopped
-    ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
+    long = LongExplanation(ex, monkeypatch)
+    ex.render(long.frame(1, frozenset({("start",)})))
+    assert ex.wait_ready(30) and long.stopped.is_set()
+    ex.render(long.frame(1))
     assert ex.wait_ready(30)
     assert ex.error is None and ex.explanation is not None
     assert ex.explanation.method == "svg" and drawn.calls[-1][1] is ex.explanation
@@ -587,19 +568,9 @@ def test_another_method_abandons_an_explanation_and_coming_back_explains_it(
     explainer, monkeypatch
 ):
     ex, drawn = explainer
-    scene = load_scene(SCENARIO)
-    plans = plan_all(scene, ("vg", "svg"))
-    started, stopped = threading.Event(), []
-    monkeypatch.setattr(
-        explain_panel,
-        "explain_svg",
-        _long_until_abandoned(explain_panel.explain_svg, started, stopped),
-    )
-    ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
-    ex.choose("svg")
-    assert started.wait(30)
+    long = LongExplanation(ex, monkeypatch)
     ex.choose("vg")
-    assert ex.wait_ready(30) and stopped
+    assert ex.wait_ready(30) and long.stopped.is_set()
     assert ex.explanation is not None and ex.explanation.method == "vg"
     ex.choose("svg")
     assert ex.wait_ready(30)

@@ -271,20 +271,19 @@ def _setting(
         raise RuntimeError("the SVG's nodes are not this scene's")
     # In the scene's order of obstacles (a merged one where its first obstacle is).
     geoms = list(cspace.merged.geoms)
-    order = sorted(
-        range(len(geoms)), key=lambda m: _members(cspace, geoms[m])[:1] or [0]
-    )
+    members = _members(cspace, geoms, abandoned)
+    order = sorted(range(len(geoms)), key=lambda m: members[m][:1] or [0])
     comps = [geoms[m] for m in order]
     hull_polygons = tuple(shapely.convex_hull(c) for c in comps)
     hulls = tuple(
         ObstacleHull(
             k,
             order[k],
-            _component_name(cspace, comp),
+            _component_name(members[order[k]]),
             _ccw(hull_polygons[k]),
             _holds(hull_polygons[k], scene, cspace.eps),
         )
-        for k, comp in enumerate(comps)
+        for k in range(len(comps))
     )
     owner = _owners(cspace, arrays, comps, abandoned)
     outlines = _Outlines(comps, hull_polygons, 10 * cspace.eps)
@@ -296,17 +295,30 @@ def _setting(
     )
 
 
-def _members(cspace: ConfigurationSpace, comp: Polygon) -> list[int]:
-    """Return the scene's obstacles (1-based) that expanded into ``comp``."""
-    return [
-        k + 1
-        for k, e in enumerate(cspace.expanded)
-        if e.intersects(comp) and e.intersection(comp).area > 0
-    ]
+def _members(
+    cspace: ConfigurationSpace,
+    comps: list[Polygon],
+    abandoned: Callable[[], bool] | None = None,
+) -> list[list[int]]:
+    """Return, per component, the scene's obstacles (1-based) that expanded into it.
+
+    An expanded obstacle is in a component when their intersection has an area. Only
+    the expanded obstacles an index names as intersecting the component are tried (the
+    others have no intersection at all): a scene of 500 obstacles tried every pair,
+    about a third of a second. ``abandoned`` is asked before each component.
+    """
+    expanded = list(cspace.expanded)
+    index = shapely.STRtree(expanded)
+    out = []
+    for comp in comps:
+        keep_going(abandoned)
+        touching = sorted(index.query(comp, predicate="intersects").tolist())
+        out.append([k + 1 for k in touching if expanded[k].intersection(comp).area > 0])
+    return out
 
 
-def _component_name(cspace: ConfigurationSpace, comp: Polygon) -> str:
-    names = [str(k) for k in _members(cspace, comp)]
+def _component_name(members: list[int]) -> str:
+    names = [str(k) for k in members]
     if len(names) == 1:
         return f"obstacle {names[0]}"
     return "merged obstacle " + "+".join(names)

@@ -828,3 +828,43 @@ def test_the_svg_explanation_stops_at_its_next_question_in_each_part(monkeypatch
     with pytest.raises(Abandoned):
         planners.explain_svg(scene, plans=plans, abandoned=lambda: bool(tagged))
     assert tagged == [0, 1] and plans["svg"].edges > 2
+
+
+def _members_every_pair(cspace, comps):
+    """The members as first written: every expanded obstacle tried on every component."""
+    return [
+        [
+            k + 1
+            for k, e in enumerate(cspace.expanded)
+            if e.intersects(comp) and e.intersection(comp).area > 0
+        ]
+        for comp in comps
+    ]
+
+
+def _members_both_ways(scene) -> bool:
+    plans = plan_all(scene, ("svg",))
+    cspace = plans.get("cspace")
+    if plans["svg"].status == "invalid" or cspace is None:
+        return False
+    comps = list(cspace.merged.geoms)
+    assert SVG_MODULE._members(cspace, comps) == _members_every_pair(cspace, comps)
+    return True
+
+
+@settings(max_examples=40, deadline=None)
+@given(scene=st.one_of(random_scenes(), random_scenes(grid=True)))
+def test_svg_components_members_through_the_index_are_those_of_every_pair(scene):
+    _members_both_ways(scene)
+
+
+def test_svg_components_members_when_obstacles_touch_and_merge():
+    # Lattice triangles expanded by a disk: neighbours merge, corners just touch.
+    obstacles = [
+        [[x, y], [x + 1.0, y], [x, y + 1.0]] for x in range(1, 9, 1) for y in (2, 3, 5)
+    ]
+    for radius in (0.0, 0.25, 0.5):
+        scene = load_scene(
+            scene_dict(obstacles, start=(0.2, 0.2), goal=(9.8, 9.8), radius=radius)
+        )
+        assert _members_both_ways(scene)

@@ -24,7 +24,7 @@ about 160,000 of them, 73 ms once in every few hundred edits of a 32-obstacle dr
 50 ms in TangentBug's worker, once in about 60 plans). :func:`freeze_long_lived`, called
 by the app once the compiled loops are loaded and by each worker after its first answer,
 moves the objects alive then (modules, classes, functions: they live as long as the
-process) out of the collector's sight (``gc.freeze``); a full collection then walks only
+process) out of the collector's sight (``gc.freeze``), once a process; a full collection then walks only
 what was made since, a few milliseconds' worth. Objects frozen are still freed when
 their last reference goes; only a cycle among them would stay, which the ``gc.collect``
 just before the freeze leaves none of.
@@ -72,8 +72,11 @@ def keep_freed_memory() -> bool:
 def freeze_long_lived() -> int:
     """Collect cycles once, then keep every object alive now out of later collections.
 
-    Returns how many objects were frozen (``gc.get_freeze_count``). See the module
-    docstring; a process calls this once its imports are done.
+    Once a process: where objects are frozen already, nothing more is (a process that
+    starts the app again and again, as the tests do, would otherwise freeze each
+    stopped app's objects for good). Returns how many objects are frozen
+    (``gc.get_freeze_count``). See the module docstring; a process calls this once its
+    imports are done.
 
     Examples
     --------
@@ -82,6 +85,7 @@ def freeze_long_lived() -> int:
     True
     >>> gc.unfreeze()  # a test's process is not the app's: let it collect them again
     """
-    gc.collect()
-    gc.freeze()
+    if gc.get_freeze_count() == 0:
+        gc.collect()
+        gc.freeze()
     return gc.get_freeze_count()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import platform
 import subprocess
 import sys
@@ -10,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from planners.allocator import keep_freed_memory
+from planners.allocator import freeze_long_lived, keep_freed_memory
 
 glibc = pytest.mark.skipif(
     platform.system() != "Linux" or platform.libc_ver()[0] != "glibc",
@@ -62,3 +63,18 @@ def test_an_edits_temporaries_are_reused_instead_of_faulted_in_again():
     # Fresh pages every round: 20 x 60 x ~98 pages with glibc's defaults; reused, few.
     assert default > 20_000, default
     assert tuned < default / 20, (tuned, default)
+
+
+def test_long_lived_objects_are_frozen_once_a_process():
+    # The app's tests start it again and again in one process: a second freeze would
+    # keep each stopped app's objects for good. What is made after the first stays in
+    # the collector's sight.
+    gc.unfreeze()
+    try:
+        assert freeze_long_lived() > 0
+        made_after = [[k] for k in range(1000)]
+        freeze_long_lived()
+        tracked = {id(o) for o in gc.get_objects()}
+        assert all(id(x) in tracked for x in made_after)
+    finally:
+        gc.unfreeze()

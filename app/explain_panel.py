@@ -334,7 +334,7 @@ class Explainer:
             logger.exception(
                 "making step %d of the %s explanation", n, explanation.method
             )
-            self._error = f"{type(error).__name__}: {error}".splitlines()[0]
+            self._error = _why(error)
             return None
         self._error = None  # a step before may have failed; this one did not
         return step
@@ -380,8 +380,13 @@ class Explainer:
         except Abandoned:
             raise
         except Exception as error:  # a bug in an explanation must not stop the app
-            self._error = f"{type(error).__name__}: {error}".splitlines()[0]
+            self._error = _why(error)
             return None
+
+
+def _why(error: Exception) -> str:
+    """Say in one line why an explanation, or one of its steps, failed."""
+    return f"{type(error).__name__}: {error}".splitlines()[0]
 
 
 def _explain(

@@ -686,6 +686,12 @@ def _owners_every_pair(cspace, arrays, comps):
     return tuple(owner.tolist())
 
 
+_LATTICE_TRIANGLES = [
+    [[x, y], [x + 1.0, y], [x, y + 1.0]] for x in range(1, 9) for y in (2, 3, 5)
+]
+"""Right triangles on a lattice: shared corners, collinear edges, merging when grown."""
+
+
 def _owners_both_ways(scene) -> bool:
     plans = plan_all(scene, ("svg",))
     if plans["svg"].status == "invalid":
@@ -713,11 +719,8 @@ def test_svg_node_owners_through_the_index_are_those_of_every_pair(scene):
 
 def test_svg_node_owners_on_many_touching_obstacles():
     # Triangles on a lattice, corners shared and edges collinear: nodes on two borders.
-    obstacles = [
-        [[x, y], [x + 1.0, y], [x, y + 1.0]] for x in range(1, 9, 1) for y in (2, 3, 5)
-    ]
     scene = load_scene(
-        scene_dict(obstacles, start=(0.5, 0.5), goal=(9.5, 9.5), radius=0.0)
+        scene_dict(_LATTICE_TRIANGLES, start=(0.5, 0.5), goal=(9.5, 9.5), radius=0.0)
     )
     assert _owners_both_ways(scene)
 
@@ -860,11 +863,10 @@ def test_svg_components_members_through_the_index_are_those_of_every_pair(scene)
 
 def test_svg_components_members_when_obstacles_touch_and_merge():
     # Lattice triangles expanded by a disk: neighbours merge, corners just touch.
-    obstacles = [
-        [[x, y], [x + 1.0, y], [x, y + 1.0]] for x in range(1, 9, 1) for y in (2, 3, 5)
-    ]
     for radius in (0.0, 0.25, 0.5):
         scene = load_scene(
-            scene_dict(obstacles, start=(0.2, 0.2), goal=(9.8, 9.8), radius=radius)
+            scene_dict(
+                _LATTICE_TRIANGLES, start=(0.2, 0.2), goal=(9.8, 9.8), radius=radius
+            )
         )
         assert _members_both_ways(scene)

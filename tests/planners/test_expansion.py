@@ -13,11 +13,14 @@ from planners.expansion import (
     DEFAULT_ARC_STEP,
     _all_ccw_rings,
     _ccw_rings,
+    _group_unions,
+    _overlapping_groups,
     configuration_space,
     expand_disk,
     expand_square,
     shrink_boundary,
 )
+from planners.memo import Memo
 from tests.conftest import square
 
 L_SHAPE = Polygon([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)])
@@ -305,3 +308,70 @@ def test_all_rings_at_once_are_the_rings_polygon_by_polygon(polygons):
     assert len(fast) == len(slow)
     for a, b in zip(fast, slow, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+# --------------------------------------------------------------------------- grouped union
+
+
+def _slow_groups(shapes):
+    """Groups by intersection, pair by pair: grow each group until nothing joins it."""
+    left, groups = list(range(len(shapes))), []
+    while left:
+        group = [left.pop(0)]
+        grown = True
+        while grown:
+            joining = [
+                j for j in left if any(shapes[j].intersects(shapes[i]) for i in group)
+            ]
+            grown = bool(joining)
+            group += joining
+            left = [j for j in left if j not in joining]
+        groups.append(sorted(group))
+    return sorted(groups)
+
+
+_LATTICE_BOXES = st.lists(
+    st.tuples(_CORNER, st.integers(1, 3), st.integers(1, 3)).map(
+        lambda b: square(b[0][0], b[0][1], b[0][0] + b[1] / 2, b[0][1] + b[2] / 2)
+    ),
+    max_size=8,
+)
+
+
+@given(_LATTICE_BOXES)
+def test_groups_are_the_obstacles_connected_by_intersection(shapes):
+    """Touching at an edge or a corner joins a group, as it does in the union."""
+    groups = _overlapping_groups(tuple(shapes))
+    assert sorted(groups) == _slow_groups(shapes)
+    assert [g[0] for g in groups] == sorted(g[0] for g in groups)
+    assert all(g == sorted(g) for g in groups)
+
+
+@given(st.lists(star_polygons(), max_size=6), st.sampled_from([0.0, 0.3]))
+def test_the_grouped_union_is_the_union_of_everything(polygons, radius):
+    """Uniting group by group covers what one union of everything covers, no more."""
+    space = configuration_space(tuple(polygons), radius)
+    whole = shapely.union_all(space.expanded) if polygons else shapely.MultiPolygon()
+    assert space.merged.is_valid
+    assert space.merged.symmetric_difference(whole).area <= 1e-9 * max(whole.area, 1)
+    assert sum(len(g) for g in _overlapping_groups(space.expanded)) == len(polygons)
+
+
+def test_an_edit_reuses_the_groups_it_left_alone_and_equals_a_cold_build():
+    """Dragging one of two apart groups: the other's union is the one before, the
+    same object, and every ring is bit for bit a cold build's."""
+    left = (square(0, 0, 1, 1), square(0.5, 0.5, 2, 2))  # overlapping: one group
+    memo = Memo()
+    before = configuration_space((*left, square(5, 5, 6, 6)), 0.25, memo=memo)
+    moved = (*left, square(5.3, 5.1, 6.2, 6))
+    after = configuration_space(moved, 0.25, memo=memo)
+    cold = configuration_space(moved, 0.25)
+    kept, now = before.known(_group_unions), after.known(_group_unions)
+    assert kept is not None and now is not None
+    group = after.expanded[:2]
+    assert now[group] is kept[group]
+    assert list(now) == [group, after.expanded[2:]]
+    assert len(after.rings) == len(cold.rings) == 2
+    for warm_ring, cold_ring in zip(after.rings, cold.rings, strict=True):
+        np.testing.assert_array_equal(warm_ring, cold_ring)
+    assert after.merged.equals_exact(cold.merged, 0.0)

@@ -205,11 +205,27 @@ def _point_change(
 
 
 def _match(old_points: FloatArray, new_points: FloatArray) -> IntArray:
-    """For each new vertex, the old vertex at exactly the same place, or -1."""
-    index = {p: k for k, p in enumerate(map(tuple, old_points.tolist()))}
-    return np.array(
-        [index.get(p, -1) for p in map(tuple, new_points.tolist())], dtype=np.intp
-    )
+    """For each new vertex, the old vertex at exactly the same place, or -1.
+
+    Exactly as a dict from each old point's (x, y) to its index would answer (the last
+    index of a point that comes more than once; -0.0 is 0.0): the old points sorted as
+    complex numbers (by x, then y; stably), each new point found by bisection.
+    """
+    old, new = _complex(old_points), _complex(new_points)
+    if not len(old):
+        return np.full(len(new), -1, dtype=np.intp)
+    order = np.argsort(old, kind="stable")
+    keys = old[order]
+    at = np.searchsorted(keys, new, side="right") - 1
+    hit = (at >= 0) & (keys[np.maximum(at, 0)] == new)
+    return np.where(hit, order[np.maximum(at, 0)], -1).astype(np.intp)
+
+
+def _complex(points: FloatArray) -> npt.NDArray[np.complex128]:
+    """Return (n, 2) points as x + iy, bit for bit."""
+    z = np.empty(len(points), dtype=np.complex128)
+    z.real, z.imag = points[:, 0], points[:, 1]
+    return z
 
 
 def _stable(old_b: _Border, new_b: _Border, match: IntArray) -> BoolArray:

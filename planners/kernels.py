@@ -37,7 +37,14 @@ them.
 
 from __future__ import annotations
 
-__all__ = ["astar", "box_pairs", "march_cells", "sweep_intervals", "warm_up"]
+__all__ = [
+    "astar",
+    "box_pairs",
+    "compressed_rows",
+    "march_cells",
+    "sweep_intervals",
+    "warm_up",
+]
 
 import math
 
@@ -224,6 +231,38 @@ def march_cells(  # noqa: PLR0912, PLR0915, PLR0917
 
 
 # --------------------------------------------------------------------------- A*
+
+
+@njit(cache=True, nogil=True)
+def compressed_rows(
+    i: IntArray, j: IntArray, weight: FloatArray, n: int
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """List each node's neighbours of an undirected graph: compressed rows, by counting.
+
+    The edge ends in the order (j, i) of every edge, then (i, j) of every edge, are
+    placed row by row (a stable counting sort by the first end): node u's neighbours
+    are ``other[first[u]:first[u + 1]]``, in the order the ends came, with their edge's
+    length in ``weights``. It is the stable argsort by node of those ends, in one pass.
+    """
+    m = len(i)
+    first = np.zeros(n + 1, dtype=np.intp)
+    for k in range(m):
+        first[j[k] + 1] += 1
+        first[i[k] + 1] += 1
+    for u in range(n):
+        first[u + 1] += first[u]
+    at = first[:n].copy()
+    other = np.empty(2 * m, dtype=np.intp)
+    weights = np.empty(2 * m)
+    for k in range(m):
+        u = j[k]
+        other[at[u]], weights[at[u]] = i[k], weight[k]
+        at[u] += 1
+    for k in range(m):
+        u = i[k]
+        other[at[u]], weights[at[u]] = j[k], weight[k]
+        at[u] += 1
+    return first, other, weights
 
 
 @njit(cache=True, nogil=True)
@@ -847,8 +886,10 @@ def warm_up() -> None:
     offsets = np.array([0, 1], dtype=np.intp)
     one = np.zeros(1, dtype=np.intp)
     march_cells((-1.0, -2.0), 4.0, (1, 1), offsets, one, edges, segs, 1e-9, True)
-    first = np.array([0, 1, 2], dtype=np.intp)
-    astar(first, np.array([1, 0], dtype=np.intp), unit, zero, 0, 1)
+    first, other, weight = compressed_rows(
+        np.zeros(1, dtype=np.intp), np.ones(1, dtype=np.intp), unit[:1], 2
+    )
+    astar(first, other, weight, zero, 0, 1)
     points = np.array([[0.0, 0.0], [1.0, 1.0]])
     wedges = (np.zeros((2, 2)), np.zeros((2, 2)), np.ones(2, dtype=np.bool_))
     nodes = np.array([0, 1], dtype=np.intp)

@@ -172,17 +172,12 @@ class GraphArrays:
         lengths in ``weight``: the order of networkx's adjacency, whose edges are added
         in row-major order. With u as the larger end first, a stable sort by u alone
         lists each node's smaller neighbours, then its larger ones, each ascending
-        (the edges are in row-major order).
+        (the edges are in row-major order); :func:`planners.kernels.compressed_rows`
+        sorts so by counting.
         """
-        u = np.concatenate([self.j, self.i])
-        v = np.concatenate([self.i, self.j])
-        # Small node numbers sort stably by radix, in one pass (same order).
-        keys = u.astype(np.uint16) if len(self.points) <= 1 << 16 else u
-        order = np.argsort(keys, kind="stable")
-        first = np.zeros(len(self.points) + 1, dtype=np.intp)
-        np.cumsum(np.bincount(u, minlength=len(self.points)), out=first[1:])
-        weight = np.concatenate([self.weight, self.weight]).take(order)
-        return first, v.take(order), weight
+        from planners.kernels import compressed_rows  # noqa: PLC0415 - numba only where graphs are built
+
+        return compressed_rows(self.i, self.j, self.weight, len(self.points))
 
     def shortest_path(
         self, settled: list[tuple[int, int, float]] | None = None

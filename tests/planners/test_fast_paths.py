@@ -73,7 +73,7 @@ def test_one_key_stable_sort_is_lexsort_of_pairs(case):
 
 @given(st.integers(2, 60), st.data())
 def test_adjacency_is_a_stable_sort_by_node(n, data):
-    """The radix sort of small node numbers lists each node's neighbours as before."""
+    """The compiled counting sort lists each node's neighbours as a stable argsort."""
     pairs = data.draw(
         st.sets(
             st.tuples(st.integers(0, n - 1), st.integers(0, n - 1)).filter(
@@ -97,8 +97,8 @@ def test_adjacency_is_a_stable_sort_by_node(n, data):
     assert first.tolist() == [0, *np.cumsum(np.bincount(u, minlength=n)).tolist()]
 
 
-def test_adjacency_at_the_radix_sorts_bound():
-    """Node numbers up to 65,535 sort as uint16; one node more, as they are."""
+def test_adjacency_past_sixteen_bit_node_numbers():
+    """Node numbers up to 65,535 and one more (once sorted as uint16) list alike."""
     for n in (1 << 16, (1 << 16) + 1):
         i = np.array([0, 5, n - 2, 7], dtype=np.intp)
         j = np.array([n - 1, n - 1, n - 1, 9], dtype=np.intp)

@@ -23,6 +23,7 @@ from planners.expansion import configuration_space
 from planners.incremental import (
     _change,
     _crossing_box,
+    _match,
     _meets_box,
     _outcodes,
     _pairs_to_test,
@@ -449,3 +450,20 @@ def test_drags_in_a_student_layout_are_carried_exactly(seed):
         if not scene_problems(edited):
             scene = edited
             _same_as_cold(scene, memo)
+
+
+_COORD = st.sampled_from([0.0, -0.0, 0.5, 1.0, -1.0, 1e-300, 2.0**-1074, 3.0])
+_POINTS = st.lists(st.tuples(_COORD, _COORD), max_size=12).map(
+    lambda p: np.array(p, dtype=np.float64).reshape(-1, 2)
+)
+
+
+@given(_POINTS, _POINTS)
+def test_vertices_match_as_a_dict_of_points_says(old, new):
+    """Bisection over the sorted old points answers as a dict from (x, y) to index:
+    repeated points give their last index, -0.0 is 0.0, a subnormal is itself."""
+    index = {p: k for k, p in enumerate(map(tuple, old.tolist()))}
+    expected = [index.get(p, -1) for p in map(tuple, new.tolist())]
+    found = _match(old, new)
+    assert found.dtype == np.intp
+    assert found.tolist() == expected

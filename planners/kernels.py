@@ -9,7 +9,10 @@ scenes students build they took a third of an edit's time in numpy and Python (i
 15). The fourth is the range sensor's angular sweep (section 9.6): a few dozen critical
 angles, a ray through each interval against each facing edge, which Python ran float by
 float; TangentBug senses at every probe of a decision, and the sweep was half of its
-time. numba compiles them here.
+time. Two small ones follow the visibility graphs' edits: bucketing the border's edges
+in the grid (a few cells per edge) and listing a graph's neighbours in compressed rows
+(a counting sort), each a dozen array passes in numpy at a few hundred edges. numba
+compiles them here.
 
 The rules that keep the compiled loops exactly the code they replace:
 
@@ -30,6 +33,7 @@ The rules that keep the compiled loops exactly the code they replace:
   that only imports the planners, checks a scenario or runs Bug2.
 
 The functions here take and return plain arrays; :func:`planners.sightlines.march`,
+:func:`planners.sightlines.edge_grid`,
 :meth:`planners.visibility.GraphArrays.shortest_path`,
 :func:`planners.incremental._crossing_box` and :func:`planners.sensor._sweep` wrap
 them.
@@ -40,6 +44,7 @@ from __future__ import annotations
 __all__ = [
     "astar",
     "box_pairs",
+    "bucket_edges",
     "compressed_rows",
     "march_cells",
     "sweep_intervals",
@@ -228,6 +233,73 @@ def march_cells(  # noqa: PLR0912, PLR0915, PLR0917
             if not (t_next <= t1 and 0 <= c < nx * ny):
                 break
     return crossed, touch_seg[:count], touch_t[:count]
+
+
+@njit(cache=True, nogil=True)
+def _cell_index(value: float, count: int) -> int:
+    """np.clip(np.floor(value), 0, count - 1) as an int: a coordinate's cell."""
+    k = np.floor(value)
+    return int(min(max(k, 0.0), count - 1.0))
+
+
+@njit(cache=True, nogil=True)
+def _edge_rows(  # noqa: PLR0917
+    a: FloatArray, b: FloatArray, k: int, ix: int, grid: FloatArray, ny: int
+) -> tuple[int, int]:
+    """Return the rows of column ``ix`` that edge k's cells span (:func:`bucket_edges`)."""
+    lo_x, lo_y, cell, margin = grid[0], grid[1], grid[2], grid[3]
+    ax, ay, bx, by = a[k, 0], a[k, 1], b[k, 0], b[k, 1]
+    left = max(lo_x + ix * cell - margin, min(ax, bx))
+    right = min(lo_x + (ix + 1) * cell + margin, max(ax, bx))
+    dx = bx - ax
+    t0, t1 = 0.0, 1.0
+    if dx != 0:
+        t0 = min(max((left - ax) / dx, 0.0), 1.0)
+        t1 = min(max((right - ax) / dx, 0.0), 1.0)
+    dy = by - ay
+    y0 = ay + min(t0, t1) * dy
+    y1 = ay + max(t0, t1) * dy
+    r0 = _cell_index((min(y0, y1) - margin - lo_y) / cell, ny)
+    r1 = _cell_index((max(y0, y1) + margin - lo_y) / cell, ny)
+    return r0, r1
+
+
+@njit(cache=True, nogil=True)
+def bucket_edges(
+    a: FloatArray, b: FloatArray, grid: FloatArray, nx: int, ny: int
+) -> tuple[IntArray, IntArray]:
+    """List the edges a[k] -> b[k] cell by cell: the edge grid's compressed rows.
+
+    ``grid`` is (lo_x, lo_y, cell, margin). Edge k is listed in every cell
+    ``ix * ny + iy`` that :func:`planners.sightlines._edge_cells` gives it (its columns
+    widened by the margin, in each its y range over the column widened by the margin),
+    by the same float operations; within a cell, the edges ascend. Two passes: count
+    per cell, then fill.
+    """
+    lo_x, cell, margin = grid[0], grid[2], grid[3]
+    counts = np.zeros(nx * ny + 1, dtype=np.intp)
+    at = np.zeros(0, dtype=np.intp)
+    edges = np.zeros(0, dtype=np.intp)
+    for phase in range(2):
+        if phase == 1:
+            for c in range(nx * ny):
+                counts[c + 1] += counts[c]
+            at = counts[:-1].copy()
+            edges = np.empty(counts[-1], dtype=np.intp)
+        for k in range(len(a)):
+            x0 = min(a[k, 0], b[k, 0]) - margin
+            x1 = max(a[k, 0], b[k, 0]) + margin
+            c0 = _cell_index((x0 - lo_x) / cell, nx)
+            c1 = _cell_index((x1 - lo_x) / cell, nx)
+            for ix in range(c0, c1 + 1):
+                r0, r1 = _edge_rows(a, b, k, ix, grid, ny)
+                for iy in range(r0, r1 + 1):
+                    if phase == 0:
+                        counts[ix * ny + iy + 1] += 1
+                    else:
+                        edges[at[ix * ny + iy]] = k
+                        at[ix * ny + iy] += 1
+    return counts, edges
 
 
 # --------------------------------------------------------------------------- A*
@@ -886,6 +958,8 @@ def warm_up() -> None:
     offsets = np.array([0, 1], dtype=np.intp)
     one = np.zeros(1, dtype=np.intp)
     march_cells((-1.0, -2.0), 4.0, (1, 1), offsets, one, edges, segs, 1e-9, True)
+    corners = np.array([[0.0, 0.0]])
+    bucket_edges(corners, corners + 1.0, np.array([-1.0, -1.0, 4.0, 1e-9]), 1, 1)
     first, other, weight = compressed_rows(
         np.zeros(1, dtype=np.intp), np.ones(1, dtype=np.intp), unit[:1], 2
     )

@@ -197,7 +197,9 @@ def edge_grid(a: FloatArray, b: FloatArray, margin: float) -> EdgeGrid:
     """Bucket the edges a[k] -> b[k] in a uniform grid.
 
     An edge is listed in every cell that contains a point within ``margin`` of it
-    (found column by column, so a long edge costs cells in proportion to its length).
+    (found column by column, so a long edge costs cells in proportion to its length:
+    :func:`_edge_cells`, whose cells a compiled loop lists,
+    :func:`planners.kernels.bucket_edges`).
 
     Examples
     --------
@@ -211,12 +213,13 @@ def edge_grid(a: FloatArray, b: FloatArray, margin: float) -> EdgeGrid:
     size = np.maximum(points.max(axis=0) + 2.0 * margin - lo, margin)
     cell = _cell_size(size, np.hypot(*(b - a).T), len(a))
     nx, ny = (int(k) for k in np.maximum(np.ceil(size / cell), 1).astype(np.int64))
-    edge, ix, iy = _edge_cells(a, b, lo, cell, margin=margin, shape=(nx, ny))
-    key = ix * ny + iy
-    order = np.argsort(key, kind="stable")
-    counts = np.bincount(key, minlength=nx * ny)
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
-    return EdgeGrid(lo, cell, nx, ny, offsets, edge[order])
+    from planners.kernels import bucket_edges  # noqa: PLC0415 - numba only where graphs are built
+
+    setting = np.array([lo[0], lo[1], cell, margin])
+    offsets, edges = bucket_edges(
+        np.ascontiguousarray(a), np.ascontiguousarray(b), setting, nx, ny
+    )
+    return EdgeGrid(lo, cell, nx, ny, offsets, edges)
 
 
 def _cell_size(size: FloatArray, lengths: FloatArray, m: int) -> float:

@@ -22,6 +22,7 @@ from planners.sightlines import (
     Marched,
     Segments,
     _all_inside,
+    _cell_size,
     _edge_cells,
     _pairs_in_cells,
     _unique_touches,
@@ -199,3 +200,19 @@ def _step(grid: EdgeGrid, walk: _Walk, crossed: npt.NDArray[np.bool_]) -> _Walk:
         walk.end[keep],
         t_next[keep],
     )
+
+
+def edge_grid_reference(a: FloatArray, b: FloatArray, margin: float) -> EdgeGrid:
+    """The edge grid as numpy bucketed it before the compiled loop: every (edge, cell)
+    of :func:`_edge_cells`, sorted stably by cell."""
+    points = np.vstack([a, b])
+    lo = points.min(axis=0) - 2.0 * margin
+    size = np.maximum(points.max(axis=0) + 2.0 * margin - lo, margin)
+    cell = _cell_size(size, np.hypot(*(b - a).T), len(a))
+    nx, ny = (int(k) for k in np.maximum(np.ceil(size / cell), 1).astype(np.int64))
+    edge, ix, iy = _edge_cells(a, b, lo, cell, margin=margin, shape=(nx, ny))
+    key = ix * ny + iy
+    order = np.argsort(key, kind="stable")
+    counts = np.bincount(key, minlength=nx * ny)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.intp)
+    return EdgeGrid(lo, cell, nx, ny, offsets, edge[order])

@@ -152,6 +152,8 @@ def test_warm_up_compiles_what_the_planners_call():
     kernels.warm_up()
     loops = (
         kernels.march_cells,
+        kernels.bucket_edges,
+        kernels.compressed_rows,
         kernels.astar,
         kernels.box_pairs,
         kernels.sweep_intervals,

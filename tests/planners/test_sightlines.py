@@ -29,7 +29,7 @@ from planners.sightlines import (
 )
 from planners.visibility import _build_border, _inner_disks, visibility_graph
 from tests.conftest import random_scenes, reference_segment_free
-from tests.planners.march_reference import march_reference
+from tests.planners.march_reference import edge_grid_reference, march_reference
 
 EPS = 1e-9
 
@@ -351,3 +351,50 @@ def test_a_merged_obstacle_of_one_gets_no_second_disk():
     assert len(_inner_disks(configuration_space(apart, 0.0)).radius) == 2
     # The first and the third merge: their union gets a disk of its own.
     assert len(_inner_disks(configuration_space(overlapping, 0.0)).radius) == 4
+
+
+def _same_grid(a, b, margin):
+    compiled, reference = edge_grid(a, b, margin), edge_grid_reference(a, b, margin)
+    assert (compiled.nx, compiled.ny, compiled.cell) == (
+        reference.nx,
+        reference.ny,
+        reference.cell,
+    )
+    np.testing.assert_array_equal(compiled.lo, reference.lo)
+    np.testing.assert_array_equal(compiled.offsets, reference.offsets)
+    np.testing.assert_array_equal(compiled.edges, reference.edges)
+
+
+@given(case=segments_and_edges(), margin=st.sampled_from([4 * EPS, 0.05, 0.5, 3.0]))
+def test_compiled_grid_lists_the_cells_numpy_listed(case, margin):
+    """Every edge in the very cells, each cell's edges ascending: the grid of
+    :func:`_edge_cells` sorted by cell, on lattice edges (horizontal, vertical,
+    diagonal, along cell lines) with margins from eps to wider than a cell."""
+    ea, eb, _, _ = case
+    _same_grid(ea, eb, margin)
+
+
+@settings(max_examples=25, deadline=None)
+@given(scene=random_scenes(grid=True))
+def test_compiled_grid_of_a_border_is_numpy_s(scene):
+    """The grid of a configuration space's border, as the planners build it."""
+    space = configuration_space(scene.obstacles, 0.25, boundary=scene.boundary)
+    border = _build_border(space)
+    _same_grid(border.edge_a, border.edge_b, 4.0 * space.eps)
+
+
+def test_compiled_grid_of_long_and_zero_length_edges():
+    """Among a hundred short edges (small cells): a long diagonal over many cells, a
+    point edge, an edge along a cell line, a vertical one."""
+    x, y = np.meshgrid(np.arange(10.0), np.arange(10.0))
+    short_a = np.column_stack([x.ravel() * 4, y.ravel() * 4])
+    a = np.vstack([[[0.0, 0.0], [5.0, 5.0], [0.0, 2.0], [-3.0, 7.5]], short_a])
+    b = np.vstack(
+        [[[40.0, 13.0], [5.0, 5.0], [40.0, 2.0], [-3.0, -9.0]], short_a + 0.5]
+    )
+    grid = edge_grid(a, b, 4 * EPS)
+    _same_grid(a, b, 4 * EPS)
+    assert grid.nx * grid.ny > 50
+    assert set(grid.edges.tolist()) == set(range(len(a)))
+    per_edge = np.bincount(grid.edges, minlength=len(a))
+    assert per_edge[0] > 10 and per_edge[1] >= 1

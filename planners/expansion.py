@@ -614,8 +614,10 @@ class _Merged(NamedTuple):
     """The union of the expanded obstacles, and the union of each group it was made of."""
 
     geometry: MultiPolygon
-    groups: dict[tuple[Polygon, ...], MultiPolygon]
-    """Per group of overlapping expanded obstacles (in the scene's order), its union."""
+    groups: dict[tuple[int, ...], MultiPolygon]
+    """Per group of overlapping expanded obstacles, its union, keyed by the members'
+    identities (in the scene's order): the configuration space holds the members, so
+    while it lives no other object has their ids."""
 
 
 def _merge(
@@ -638,17 +640,21 @@ def _merge(
     previous
         The configuration space before this one (from the caller's memo), or None.
     """
+    # Both spaces are alive here, so a member of ``previous`` with a new member's id is
+    # that very polygon (an expansion the memo kept, unchanged by the edit); by value
+    # it is no different, and comparing identities spares hashing every polygon.
     known = previous.known(_group_unions) if previous is not None else None
-    groups: dict[tuple[Polygon, ...], MultiPolygon] = {}
+    groups: dict[tuple[int, ...], MultiPolygon] = {}
     parts: list[Polygon] = []
     for group in _overlapping_groups(expanded):
         members = tuple(expanded[i] for i in group)
-        union = known.get(members) if known is not None else None
+        key = tuple(map(id, members))
+        union = known.get(key) if known is not None else None
         if union is None:
             union = _as_multipolygon(
                 shapely.union_all(np.asarray(members, dtype=object))
             )
-        groups[members] = union
+        groups[key] = union
         parts.extend(union.geoms)
     return _Merged(MultiPolygon(parts), groups)
 
@@ -686,7 +692,7 @@ def _overlapping_groups(shapes: tuple[Polygon, ...]) -> list[list[int]]:
     return list(groups.values())
 
 
-def _group_unions(space: ConfigurationSpace) -> dict[tuple[Polygon, ...], MultiPolygon]:
+def _group_unions(space: ConfigurationSpace) -> dict[tuple[int, ...], MultiPolygon]:
     """Return the union of each group of ``space``'s overlapping expanded obstacles."""
     return _merge(space.expanded, None).groups
 

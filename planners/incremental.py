@@ -57,8 +57,6 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
-_BLOCK = 1 << 20
-"""Vertex pairs of the changed vertices' rows listed at once."""
 _MOSTLY = 0.5
 """Carry only when at least this share of the vertices is stable (else build afresh)..."""
 _SMALL = 256
@@ -167,16 +165,16 @@ def _carried(
 def _kept_pairs(
     new_b: _Border, change: _Change, before: _Sight
 ) -> tuple[IntArray, IntArray]:
-    """Old visible pairs of stable vertices clear of the box, in the new numbering."""
-    i, j = change.to_new[before.i], change.to_new[before.j]
-    keep = (i >= 0) & (j >= 0)
-    i, j = i[keep], j[keep]
-    keep = change.stable[i] & change.stable[j]
-    i, j = i[keep], j[keep]
-    keep = ~_meets_box(
-        take_rows(new_b.points, i), take_rows(new_b.points, j), change.box
+    """Old visible pairs of stable vertices clear of the box, in the new numbering.
+
+    One compiled pass over the old pairs (:func:`planners.kernels.kept_pairs`).
+    """
+    from planners.kernels import kept_pairs  # noqa: PLC0415 - numba only where graphs are built
+
+    box = change.box if change.box is not None else np.zeros(0)
+    return kept_pairs(
+        change.to_new, change.stable, before.i, before.j, new_b.points, box
     )
-    return np.minimum(i, j)[keep], np.maximum(i, j)[keep]
 
 
 def _point_change(
@@ -189,15 +187,14 @@ def _point_change(
     """
     n = len(new_b.points)
     p = np.asarray(point, dtype=np.float64)
+    # Per vertex, whether its segment to the point meets the box (row by row, so the
+    # rows of the vertices that still saw it are the same answers).
+    meets = _meets_box(new_b.points, np.broadcast_to(p, (n, 2)), change.box)
     v = change.to_new[rows]
     v = v[v >= 0]
     v = v[change.stable[v]]
-    to_point = np.broadcast_to(p, (len(v), 2))
-    stay = v[~_meets_box(take_rows(new_b.points, v), to_point, change.box)]
-    again = ~change.stable
-    if change.box is not None:
-        again |= _meets_box(new_b.points, np.broadcast_to(p, (n, 2)), change.box)
-    again = np.flatnonzero(again)
+    stay = v[~meets[v]]
+    again = np.flatnonzero(~change.stable | meets)
     d = p - take_rows(new_b.points, again)
     ends = np.full(len(again), n, dtype=np.intp)  # the point: no wedge
     keep = ~_leaves_blocked(new_b.wedges.extended(1), again, ends, d[:, 0], d[:, 1])
@@ -322,19 +319,15 @@ def _pairs_to_test(
     The rows of the vertices that are not stable (each against every vertex), then the
     stable pairs whose segment meets the box; less, in both, the pairs that leave an end
     into its wedge (the screening of a full build). Work is about k n for k vertices
-    that are not stable, plus the stable pairs the box's outcodes cannot rule out.
+    that are not stable, plus the stable pairs the box's outcodes cannot rule out; both
+    listings are compiled loops (:func:`planners.kernels.row_pairs`,
+    :func:`planners.kernels.box_pairs`).
     """
-    n = len(new_b.points)
+    from planners.kernels import row_pairs  # noqa: PLC0415 - numba only where graphs are built
+
     moved = np.flatnonzero(~stable)
-    per_block = max(1, _BLOCK // max(n, 1))
-    for k in range(0, len(moved), per_block):
-        rows = np.repeat(moved[k : k + per_block], n)
-        cols = np.tile(np.arange(n, dtype=np.intp), len(moved[k : k + per_block]))
-        # A pair of two such vertices once, from its lower end.
-        once = (cols != rows) & (stable[cols] | (cols > rows))
-        i, j = np.minimum(rows, cols)[once], np.maximum(rows, cols)[once]
-        i, j = _screened(new_b, i, j)
-        yield i, j
+    w = new_b.wedges
+    yield row_pairs(moved, stable, new_b.points, (w.nxt, w.prv, w.narrow), _ANGLE_TOL)
     if box is not None:
         yield from _crossing_box(new_b, stable, box)
 
@@ -387,10 +380,3 @@ def _outcodes(points: FloatArray, box: FloatArray) -> npt.NDArray[np.uint8]:
     code |= (y < box[1]).astype(np.uint8) << 2
     code |= (y > box[3]).astype(np.uint8) << 3
     return code
-
-
-def _screened(new_b: _Border, i: IntArray, j: IntArray) -> tuple[IntArray, IntArray]:
-    """Leave out the pairs whose segment leaves an end into its blocked wedge."""
-    d = take_rows(new_b.points, j) - take_rows(new_b.points, i)
-    keep = ~_leaves_blocked(new_b.wedges, i, j, d[:, 0], d[:, 1])
-    return i[keep], j[keep]

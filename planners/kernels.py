@@ -46,7 +46,9 @@ __all__ = [
     "box_pairs",
     "bucket_edges",
     "compressed_rows",
+    "kept_pairs",
     "march_cells",
+    "row_pairs",
     "sweep_intervals",
     "warm_up",
 ]
@@ -515,6 +517,61 @@ def _line_misses_box(  # noqa: PLR0917
 
 
 @njit(cache=True, nogil=True)
+def _meets_box(ax: float, ay: float, bx: float, by: float, box: FloatArray) -> bool:
+    """Tell if the segment a -> b meets the closed box (x0, y0, x1, y1).
+
+    Axis by axis, the parameters where the segment enters and leaves the slab (a
+    direction of 0: inside for all t or for none), as
+    :func:`planners.incremental._meets_box` computes them.
+    """
+    t0, t1 = 0.0, 1.0
+    for axis in range(2):
+        p, d = (ax, bx - ax) if axis == 0 else (ay, by - ay)
+        low, high = box[axis], box[axis + 2]
+        if d != 0:
+            ta, tb = (low - p) / d, (high - p) / d
+            enter, leave = min(ta, tb), max(ta, tb)
+        elif low <= p <= high:
+            enter, leave = 0.0, 1.0
+        else:
+            enter, leave = math.inf, -math.inf
+        t0, t1 = max(t0, enter), min(t1, leave)
+    return t0 <= t1
+
+
+@njit(cache=True, nogil=True)
+def kept_pairs(  # noqa: PLR0917
+    to_new: IntArray,
+    stable: BoolArray,
+    i: IntArray,
+    j: IntArray,
+    points: FloatArray,
+    box: FloatArray,
+) -> tuple[IntArray, IntArray]:
+    """Carry visible pairs over an edit: those of stable vertices clear of the box.
+
+    Pair k (``i[k]``, ``j[k]``, old numbering) is kept, in the new numbering as
+    (lower, higher), when both ends have a new vertex (``to_new`` >= 0), both are
+    stable and, unless ``box`` is empty (nothing changed), the segment between them
+    does not meet the box. The pairs keep their order.
+    """
+    out_i = np.empty(len(i), dtype=np.intp)
+    out_j = np.empty(len(i), dtype=np.intp)
+    count = 0
+    for k in range(len(i)):
+        u, v = to_new[i[k]], to_new[j[k]]
+        if u < 0 or v < 0 or not (stable[u] and stable[v]):
+            continue
+        if len(box) and _meets_box(
+            points[u, 0], points[u, 1], points[v, 0], points[v, 1], box
+        ):
+            continue
+        out_i[count], out_j[count] = min(u, v), max(u, v)
+        count += 1
+    return out_i[:count], out_j[:count]
+
+
+@njit(cache=True, nogil=True)
 def box_pairs(  # noqa: PLR0917
     points: FloatArray,
     nodes: IntArray,
@@ -552,6 +609,48 @@ def box_pairs(  # noqa: PLR0917
                 nxt[j], prv[j], narrow[j], dx, dy, tol
             ):
                 continue  # screened: the segment leaves an end into its wedge
+            if count == len(out_i):
+                out_i, out_j = _grow_int(out_i, count), _grow_int(out_j, count)
+            out_i[count], out_j[count] = i, j
+            count += 1
+    return out_i[:count], out_j[:count]
+
+
+@njit(cache=True, nogil=True)
+def row_pairs(
+    moved: IntArray,
+    stable: BoolArray,
+    points: FloatArray,
+    wedges: tuple[FloatArray, FloatArray, BoolArray],
+    angle_tol: float,
+) -> tuple[IntArray, IntArray]:
+    """Return the pairs of each vertex in ``moved`` with every vertex, less the screened.
+
+    Row r of ``moved`` (ascending) against columns 0, 1, ..., n - 1, in that order: the
+    pair (min, max) of the two, unless they are one vertex or the column is a moved
+    vertex before the row's (a pair of two moved vertices comes once, from its lower
+    end), or the segment from the lower to the higher end leaves an end into its
+    blocked wedge (``wedges`` as for :func:`box_pairs`). What
+    :func:`planners.incremental._pairs_to_test` tests again at the vertices an edit
+    changed.
+    """
+    nxt, prv, narrow = wedges
+    n = len(points)
+    out_i = np.empty(1024, dtype=np.intp)
+    out_j = np.empty(1024, dtype=np.intp)
+    count = 0
+    for k in range(len(moved)):
+        r = int(moved[k])
+        for c in range(n):
+            if c == r or not (stable[c] or c > r):
+                continue
+            i, j = min(r, c), max(r, c)
+            dx, dy = points[j, 0] - points[i, 0], points[j, 1] - points[i, 1]
+            tol = angle_tol * math.hypot(dx, dy)
+            if _into_wedge(nxt[i], prv[i], narrow[i], dx, dy, tol) or _out_of_wedge(
+                nxt[j], prv[j], narrow[j], dx, dy, tol
+            ):
+                continue
             if count == len(out_i):
                 out_i, out_j = _grow_int(out_i, count), _grow_int(out_j, count)
             out_i[count], out_j[count] = i, j
@@ -969,6 +1068,8 @@ def warm_up() -> None:
     nodes = np.array([0, 1], dtype=np.intp)
     box = np.array([0.2, 0.2, 0.8, 0.8])
     box_pairs(points, nodes, np.zeros(2, dtype=np.uint8), box, wedges, 1e-12)
+    kept_pairs(nodes, np.ones(2, dtype=np.bool_), one, one + 1, points, box)
+    row_pairs(one, np.zeros(2, dtype=np.bool_), points, wedges, 1e-12)
     # A unit square's left side, seen from (-1, 0.5) standing on nothing.
     start = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     step = np.roll(start, -1, axis=0) - start

@@ -1,8 +1,11 @@
-"""The incremental VG's pair listing as numpy ran it before it was compiled (reference).
+"""The incremental VG's pair listings as numpy ran them before they were compiled.
 
 :func:`planners.incremental._crossing_box` lists the stable pairs whose segment meets
-the changed box with a compiled loop (:func:`planners.kernels.box_pairs`). This is the
-blockwise numpy listing it replaced, kept verbatim; a test holds the two equal.
+the changed box with a compiled loop (:func:`planners.kernels.box_pairs`),
+:func:`planners.incremental._pairs_to_test` the changed vertices' rows
+(:func:`planners.kernels.row_pairs`) and :func:`planners.incremental._kept_pairs` the
+pairs carried over (:func:`planners.kernels.kept_pairs`). These are the numpy listings
+they replaced, kept verbatim; tests hold each pair equal.
 """
 
 from __future__ import annotations
@@ -13,8 +16,8 @@ import numpy as np
 import numpy.typing as npt
 
 from planners.geometry import take_rows
-from planners.incremental import _facing, _outcodes, _screened
-from planners.visibility import _Border
+from planners.incremental import _Change, _facing, _meets_box, _outcodes
+from planners.visibility import _Border, _leaves_blocked, _Sight
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -73,3 +76,42 @@ def _line_meets_box(a: FloatArray, b: FloatArray, box: FloatArray) -> BoolArray:
         above &= side > scale
         below &= side < -scale
     return ~(above | below)
+
+
+def kept_pairs_reference(
+    new_b: _Border, change: _Change, before: _Sight
+) -> tuple[IntArray, IntArray]:
+    """The pairs an edit carries over, as numpy filtered them before the compiled pass
+    (:func:`planners.kernels.kept_pairs`)."""
+    i, j = change.to_new[before.i], change.to_new[before.j]
+    keep = (i >= 0) & (j >= 0)
+    i, j = i[keep], j[keep]
+    keep = change.stable[i] & change.stable[j]
+    i, j = i[keep], j[keep]
+    keep = ~_meets_box(
+        take_rows(new_b.points, i), take_rows(new_b.points, j), change.box
+    )
+    return np.minimum(i, j)[keep], np.maximum(i, j)[keep]
+
+
+def _screened(new_b: _Border, i: IntArray, j: IntArray) -> tuple[IntArray, IntArray]:
+    """Leave out the pairs whose segment leaves an end into its blocked wedge."""
+    d = take_rows(new_b.points, j) - take_rows(new_b.points, i)
+    keep = ~_leaves_blocked(new_b.wedges, i, j, d[:, 0], d[:, 1])
+    return i[keep], j[keep]
+
+
+def row_pairs_reference(
+    new_b: _Border, stable: BoolArray
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Yield, block by block, the screened pairs of each vertex that is not stable."""
+    n = len(new_b.points)
+    moved = np.flatnonzero(~stable)
+    per_block = max(1, _BLOCK // max(n, 1))
+    for k in range(0, len(moved), per_block):
+        rows = np.repeat(moved[k : k + per_block], n)
+        cols = np.tile(np.arange(n, dtype=np.intp), len(moved[k : k + per_block]))
+        # A pair of two such vertices once, from its lower end.
+        once = (cols != rows) & (stable[cols] | (cols > rows))
+        i, j = np.minimum(rows, cols)[once], np.maximum(rows, cols)[once]
+        yield _screened(new_b, i, j)

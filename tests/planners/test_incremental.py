@@ -23,6 +23,7 @@ from planners.expansion import configuration_space
 from planners.incremental import (
     _change,
     _crossing_box,
+    _kept_pairs,
     _match,
     _meets_box,
     _outcodes,
@@ -55,6 +56,8 @@ from tests.conftest import SCENARIOS, random_scenes, scene_dict
 from tests.planners.incremental_reference import (
     _line_meets_box,
     crossing_box_reference,
+    kept_pairs_reference,
+    row_pairs_reference,
 )
 
 HALVES = st.integers(-2, 22).map(lambda k: k / 2.0)  # a lattice: collinear, touching
@@ -385,6 +388,65 @@ def test_compiled_box_pairs_equal_the_numpy_listing(scene, edit, radius):
             np.concatenate([np.zeros(0, dtype=np.intp), *(g[k] for g in got)]),
             np.concatenate([np.zeros(0, dtype=np.intp), *(w[k] for w in want)]),
         )
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),
+    edit=edits(),
+    radius=st.sampled_from([0, 0.25]),
+)
+def test_compiled_row_pairs_equal_the_numpy_listing(scene, edit, radius):
+    """The changed vertices' screened rows, listed by the compiled loop, are the very
+    pairs (same order) numpy's blockwise listing gave, after a random edit."""
+    try:
+        edited = _apply(scene, edit)
+    except (ValueError, ScenarioError):
+        return
+    if scene_problems(edited):
+        return
+    old, new = (
+        configuration_space(s.obstacles, radius, boundary=s.boundary)
+        for s in (scene, edited)
+    )
+    change = _change(old, new)
+    border = new.derive(_build_border)
+    got = next(_pairs_to_test(border, change.stable, None))
+    want = list(row_pairs_reference(border, change.stable))
+    for k in range(2):
+        assert got[k].dtype == np.intp
+        np.testing.assert_array_equal(
+            got[k], np.concatenate([np.zeros(0, dtype=np.intp), *(w[k] for w in want)])
+        )
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),
+    edit=edits(),
+    radius=st.sampled_from([0, 0.25]),
+)
+def test_compiled_kept_pairs_equal_the_numpy_filter(scene, edit, radius):
+    """The visible pairs an edit carries over, filtered by the compiled pass, are the
+    very pairs (same order) numpy's filter kept, after a random edit (nothing
+    changed, vertices gone, a box to keep clear of)."""
+    try:
+        edited = _apply(scene, edit)
+    except (ValueError, ScenarioError):
+        return
+    if scene_problems(edited):
+        return
+    old, new = (
+        configuration_space(s.obstacles, radius, boundary=s.boundary)
+        for s in (scene, edited)
+    )
+    change = _change(old, new)
+    border, before = new.derive(_build_border), old.derive(_vertex_visibility)
+    got = _kept_pairs(border, change, before)
+    want = kept_pairs_reference(border, change, before)
+    for g, w in zip(got, want, strict=True):
+        assert g.dtype == np.intp
+        np.testing.assert_array_equal(g, w)
 
 
 @given(

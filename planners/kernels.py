@@ -186,6 +186,10 @@ def march_cells(  # noqa: PLR0912, PLR0915, PLR0917
     lo_x, lo_y = grid_lo
     hi_x, hi_y = lo_x + cell * nx, lo_y + cell * ny
     crossed = np.zeros(len(ax), dtype=np.bool_)
+    # The segment that last tested each edge: an edge listed in several cells of one
+    # walk is tested once (the same test gives the same answer: not crossed, else the
+    # walk had stopped; its touching vertex is listed once).
+    tested_by = np.full(len(ex), -1, dtype=np.intp)
     touch_seg = np.empty(256, dtype=np.intp)
     touch_t = np.empty(256, dtype=np.float64)
     count = 0
@@ -209,6 +213,9 @@ def march_cells(  # noqa: PLR0912, PLR0915, PLR0917
             hit = False
             for k in range(offsets[c], offsets[c + 1]):
                 e = int(grid_edges[k])
+                if tested_by[e] == s:
+                    continue
+                tested_by[e] = s
                 vx, vy = edx[e], edy[e]
                 cpx, cpy = ex[e] - px, ey[e] - py
                 oc = ux * cpy - uy * cpx

@@ -169,8 +169,9 @@ def march_cells(  # noqa: PLR0912, PLR0915, PLR0917
         cell).
     touch_seg, touch_t : arrays
         For each border vertex (an edge's start) lying inside a segment no edge crosses,
-        the segment and the parameter t in (0, 1) where it lies: one entry per cell the
-        edge was met in, unsorted (the caller sorts and drops repeats).
+        the segment and the parameter t in (0, 1) where it lies: one entry per edge
+        that starts there, unsorted (the caller sorts and drops repeats: where two
+        rings share a vertex, two edges start there).
 
     Notes
     -----

@@ -46,7 +46,6 @@ from planners.visibility import (
     _Border,
     _build_border,
     _exact_free,
-    _into_wedge,
     _leaves_blocked,
     _point_sights,
     _Sight,
@@ -294,21 +293,20 @@ def _union(polygons: Sequence[Geometry]) -> Geometry:
 
 
 def _meets_box(a: FloatArray, b: FloatArray, box: FloatArray | None) -> BoolArray:
-    """Tell which segments a[k] -> b[k] meet the closed box (x0, y0, x1, y1)."""
+    """Tell which segments a[k] -> b[k] meet the closed box (x0, y0, x1, y1).
+
+    Axis by axis, the parameters where each segment enters and leaves the box's slab
+    (:func:`planners.kernels.segments_meet_box`).
+    """
     if box is None:
         return np.zeros(len(a), dtype=bool)
-    t0, t1 = np.zeros(len(a)), np.ones(len(a))
-    for axis in (0, 1):
-        p, d = a[:, axis], b[:, axis] - a[:, axis]
-        low, high = box[axis], box[axis + 2]
-        safe = np.where(d != 0, d, 1.0)
-        with np.errstate(over="ignore"):  # a subnormal direction: t is +-inf, as meant
-            ta, tb = (low - p) / safe, (high - p) / safe
-        inside = (p >= low) & (p <= high)
-        enter = np.where(d != 0, np.minimum(ta, tb), np.where(inside, 0.0, np.inf))
-        leave = np.where(d != 0, np.maximum(ta, tb), np.where(inside, 1.0, -np.inf))
-        t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
-    return t0 <= t1
+    from planners.kernels import segments_meet_box  # noqa: PLC0415 - numba only where graphs are built
+
+    return segments_meet_box(
+        np.ascontiguousarray(a, dtype=np.float64),
+        np.ascontiguousarray(b, dtype=np.float64),
+        box,
+    )
 
 
 def _pairs_to_test(
@@ -360,16 +358,13 @@ def _facing(new_b: _Border, box: FloatArray) -> BoolArray:
     point of the box, with the screen's tolerance (it grows with the direction's
     length, which the triangle inequality bounds): every segment from it that meets
     the box leaves into its wedge and is screened out. The corners are held to twice
-    the tolerance, so rounding never makes a vertex look behind that is not.
+    the tolerance, so rounding never makes a vertex look behind that is not. A
+    compiled loop (:func:`planners.kernels.facing`).
     """
-    points = new_b.points
-    wedges = new_b.wedges
-    behind = wedges.narrow & (_outcodes(points, box) != 0)
-    for cx, cy in ((0, 1), (2, 1), (0, 3), (2, 3)):
-        dx, dy = box[cx] - points[:, 0], box[cy] - points[:, 1]
-        tol = 2.0 * _ANGLE_TOL * np.hypot(dx, dy)
-        behind &= _into_wedge(wedges.nxt, wedges.prv, wedges.narrow, dx, dy, tol)
-    return ~behind
+    from planners.kernels import facing  # noqa: PLC0415 - numba only where graphs are built
+
+    w = new_b.wedges
+    return facing(new_b.points, (w.nxt, w.prv, w.narrow), box, _ANGLE_TOL)
 
 
 def _outcodes(points: FloatArray, box: FloatArray) -> npt.NDArray[np.uint8]:

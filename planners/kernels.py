@@ -46,9 +46,11 @@ __all__ = [
     "box_pairs",
     "bucket_edges",
     "compressed_rows",
+    "facing",
     "kept_pairs",
     "march_cells",
     "row_pairs",
+    "segments_meet_box",
     "sweep_intervals",
     "warm_up",
 ]
@@ -545,6 +547,44 @@ def _meets_box(ax: float, ay: float, bx: float, by: float, box: FloatArray) -> b
             enter, leave = math.inf, -math.inf
         t0, t1 = max(t0, enter), min(t1, leave)
     return t0 <= t1
+
+
+@njit(cache=True, nogil=True)
+def segments_meet_box(a: FloatArray, b: FloatArray, box: FloatArray) -> BoolArray:
+    """Tell which segments a[k] -> b[k] meet the closed box (x0, y0, x1, y1)."""
+    meets = np.empty(len(a), dtype=np.bool_)
+    for k in range(len(a)):
+        meets[k] = _meets_box(a[k, 0], a[k, 1], b[k, 0], b[k, 1], box)
+    return meets
+
+
+@njit(cache=True, nogil=True)
+def facing(
+    points: FloatArray,
+    wedges: tuple[FloatArray, FloatArray, BoolArray],
+    box: FloatArray,
+    angle_tol: float,
+) -> BoolArray:
+    """Tell the vertices from which a segment may leave towards the box unscreened.
+
+    Not facing: a vertex strictly beyond a side of the box whose wedge is narrower than
+    pi and holds the direction to each corner by more than twice ``angle_tol`` times
+    its length (:func:`planners.incremental._facing` says why).
+    """
+    nxt, prv, narrow = wedges
+    out = np.empty(len(points), dtype=np.bool_)
+    for k in range(len(points)):
+        x, y = points[k, 0], points[k, 1]
+        beyond = x < box[0] or x > box[2] or y < box[1] or y > box[3]
+        behind = narrow[k] and beyond
+        for cx, cy in ((0, 1), (2, 1), (0, 3), (2, 3)):
+            if not behind:
+                break
+            dx, dy = box[cx] - x, box[cy] - y
+            tol = 2.0 * angle_tol * math.hypot(dx, dy)
+            behind = _into_wedge(nxt[k], prv[k], narrow[k], dx, dy, tol)
+        out[k] = not behind
+    return out
 
 
 @njit(cache=True, nogil=True)
@@ -1078,14 +1118,16 @@ def warm_up() -> None:
     box_pairs(points, nodes, np.zeros(2, dtype=np.uint8), box, wedges, 1e-12)
     kept_pairs(nodes, np.ones(2, dtype=np.bool_), one, one + 1, points, box)
     row_pairs(one, np.zeros(2, dtype=np.bool_), points, wedges, 1e-12)
+    segments_meet_box(points, points[::-1].copy(), box)
+    facing(points, wedges, box, 1e-12)
     # A unit square's left side, seen from (-1, 0.5) standing on nothing.
     start = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     step = np.roll(start, -1, axis=0) - start
-    facing = (
+    seen = (
         np.array([3], dtype=np.intp),
         start[3:] - (-1.0, 0.5),
         -unit[:1],
         unit[:1],
     )
     border = (start, step, np.ones(4), np.ones(4))
-    sweep_intervals(facing, border, np.zeros((0, 4)), (-1.0, 0.5), 2.0, 1e-9)
+    sweep_intervals(seen, border, np.zeros((0, 4)), (-1.0, 0.5), 2.0, 1e-9)

@@ -4,8 +4,10 @@
 the changed box with a compiled loop (:func:`planners.kernels.box_pairs`),
 :func:`planners.incremental._pairs_to_test` the changed vertices' rows
 (:func:`planners.kernels.row_pairs`) and :func:`planners.incremental._kept_pairs` the
-pairs carried over (:func:`planners.kernels.kept_pairs`). These are the numpy listings
-they replaced, kept verbatim; tests hold each pair equal.
+pairs carried over (:func:`planners.kernels.kept_pairs`); which segments meet the box
+and which vertices face it are compiled too (:func:`planners.kernels.segments_meet_box`,
+:func:`planners.kernels.facing`). These are the numpy versions they replaced, kept
+verbatim; tests hold each pair equal.
 """
 
 from __future__ import annotations
@@ -16,8 +18,8 @@ import numpy as np
 import numpy.typing as npt
 
 from planners.geometry import take_rows
-from planners.incremental import _Change, _facing, _meets_box, _outcodes
-from planners.visibility import _Border, _leaves_blocked, _Sight
+from planners.incremental import _ANGLE_TOL, _Change, _outcodes
+from planners.visibility import _Border, _into_wedge, _leaves_blocked, _Sight
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -35,7 +37,7 @@ def crossing_box_reference(
     Only vertices that face the box can be ends of such a pair (:func:`_facing`).
     """
     points = new_b.points
-    nodes = np.flatnonzero(stable & _facing(new_b, box))
+    nodes = np.flatnonzero(stable & facing_reference(new_b, box))
     code = _outcodes(take_rows(points, nodes), box)
     k = len(nodes)
     r0 = 0
@@ -88,7 +90,7 @@ def kept_pairs_reference(
     i, j = i[keep], j[keep]
     keep = change.stable[i] & change.stable[j]
     i, j = i[keep], j[keep]
-    keep = ~_meets_box(
+    keep = ~meets_box_reference(
         take_rows(new_b.points, i), take_rows(new_b.points, j), change.box
     )
     return np.minimum(i, j)[keep], np.maximum(i, j)[keep]
@@ -115,3 +117,35 @@ def row_pairs_reference(
         once = (cols != rows) & (stable[cols] | (cols > rows))
         i, j = np.minimum(rows, cols)[once], np.maximum(rows, cols)[once]
         yield _screened(new_b, i, j)
+
+
+def meets_box_reference(
+    a: FloatArray, b: FloatArray, box: FloatArray | None
+) -> BoolArray:
+    """Tell which segments a[k] -> b[k] meet the closed box (x0, y0, x1, y1)."""
+    if box is None:
+        return np.zeros(len(a), dtype=bool)
+    t0, t1 = np.zeros(len(a)), np.ones(len(a))
+    for axis in (0, 1):
+        p, d = a[:, axis], b[:, axis] - a[:, axis]
+        low, high = box[axis], box[axis + 2]
+        safe = np.where(d != 0, d, 1.0)
+        with np.errstate(over="ignore"):  # a subnormal direction: t is +-inf, as meant
+            ta, tb = (low - p) / safe, (high - p) / safe
+        inside = (p >= low) & (p <= high)
+        enter = np.where(d != 0, np.minimum(ta, tb), np.where(inside, 0.0, np.inf))
+        leave = np.where(d != 0, np.maximum(ta, tb), np.where(inside, 1.0, -np.inf))
+        t0, t1 = np.maximum(t0, enter), np.minimum(t1, leave)
+    return t0 <= t1
+
+
+def facing_reference(new_b: _Border, box: FloatArray) -> BoolArray:
+    """Tell the vertices from which a segment may leave towards the box unscreened."""
+    points = new_b.points
+    wedges = new_b.wedges
+    behind = wedges.narrow & (_outcodes(points, box) != 0)
+    for cx, cy in ((0, 1), (2, 1), (0, 3), (2, 3)):
+        dx, dy = box[cx] - points[:, 0], box[cy] - points[:, 1]
+        tol = 2.0 * _ANGLE_TOL * np.hypot(dx, dy)
+        behind &= _into_wedge(wedges.nxt, wedges.prv, wedges.narrow, dx, dy, tol)
+    return ~behind

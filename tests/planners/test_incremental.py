@@ -23,6 +23,7 @@ from planners.expansion import configuration_space
 from planners.incremental import (
     _change,
     _crossing_box,
+    _facing,
     _kept_pairs,
     _match,
     _meets_box,
@@ -56,7 +57,9 @@ from tests.conftest import SCENARIOS, random_scenes, scene_dict
 from tests.planners.incremental_reference import (
     _line_meets_box,
     crossing_box_reference,
+    facing_reference,
     kept_pairs_reference,
+    meets_box_reference,
     row_pairs_reference,
 )
 
@@ -447,6 +450,53 @@ def test_compiled_kept_pairs_equal_the_numpy_filter(scene, edit, radius):
     for g, w in zip(got, want, strict=True):
         assert g.dtype == np.intp
         np.testing.assert_array_equal(g, w)
+
+
+_SUBNORMAL = 2.0**-1074
+_ENDS = st.sampled_from([-3.0, -1.0, 0.0, _SUBNORMAL, 0.5, 1.0, 2.0, 1e300])
+
+
+@given(
+    st.lists(st.tuples(_ENDS, _ENDS, _ENDS, _ENDS), max_size=10),
+    st.tuples(_ENDS, _ENDS, _ENDS, _ENDS),
+)
+def test_compiled_box_test_is_the_numpy_one(rows, box):
+    """Segments meet a box as numpy's slab test said, row for row: subnormal and
+    zero directions, ends on the box's sides, coordinates of 1e300 (t of +-inf)."""
+    ends = np.array(rows, dtype=np.float64).reshape(-1, 4)
+    corners = np.array(box, dtype=np.float64)
+    a, b = ends[:, :2], ends[:, 2:]
+    np.testing.assert_array_equal(
+        _meets_box(a, b, corners), meets_box_reference(a, b, corners)
+    )
+    assert not _meets_box(a, b, None).any()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),
+    edit=edits(),
+    radius=st.sampled_from([0, 0.25]),
+)
+def test_compiled_facing_is_the_numpy_one(scene, edit, radius):
+    """Which vertices face the changed box, after a random edit, as numpy said."""
+    try:
+        edited = _apply(scene, edit)
+    except (ValueError, ScenarioError):
+        return
+    if scene_problems(edited):
+        return
+    old, new = (
+        configuration_space(s.obstacles, radius, boundary=s.boundary)
+        for s in (scene, edited)
+    )
+    change = _change(old, new)
+    if change.box is None:
+        return
+    border = new.derive(_build_border)
+    np.testing.assert_array_equal(
+        _facing(border, change.box), facing_reference(border, change.box)
+    )
 
 
 @given(

@@ -156,6 +156,10 @@ def test_warm_up_compiles_what_the_planners_call():
         kernels.compressed_rows,
         kernels.astar,
         kernels.box_pairs,
+        kernels.kept_pairs,
+        kernels.row_pairs,
+        kernels.segments_meet_box,
+        kernels.facing,
         kernels.sweep_intervals,
     )
     before = [len(loop.signatures) for loop in loops]

@@ -522,7 +522,7 @@ class _Labels:
         for k, handle in enumerate(self.handles):
             if k < len(items) and visible and not self.hidden:
                 text, position = items[k]
-                xyz = tuple(float(v) for v in np.asarray(position, dtype=np.float64))
+                xyz = _floats(position)
                 state: tuple[str | None, tuple[float, ...] | None, bool] = (
                     text,
                     xyz,
@@ -537,6 +537,16 @@ class _Labels:
                 handle.text = text
                 handle.position = xyz  # type: ignore[assignment]
             handle.visible = state[2]
+
+
+def _floats(position: npt.ArrayLike) -> tuple[float, ...]:
+    """Return a position as a tuple of Python floats (a tuple of numbers directly)."""
+    values: Iterable[Any] = (
+        position
+        if isinstance(position, tuple)
+        else np.asarray(position, dtype=np.float64)
+    )
+    return tuple(map(float, values))
 
 
 def _place(node: Any, position: tuple[float, float, float]) -> None:

@@ -572,7 +572,8 @@ def _build(key: _SpaceKey, memo: Memo) -> ConfigurationSpace:
         )
         for o in obstacles
     )
-    merged, groups = _merge(expanded, memo.latest("cspace"))
+    union = _merge(expanded, memo.latest("cspace"))
+    merged = union.geometry
     shrunk = (
         memo.get(
             "shrunk",
@@ -606,14 +607,16 @@ def _build(key: _SpaceKey, memo: Memo) -> ConfigurationSpace:
         rings=rings,
         eps=eps,
     )
-    space.adopt(_group_unions, groups)
+    space.adopt(_group_unions, union.groups)
     return space
 
 
-class _Merged(NamedTuple):
+@dataclasses.dataclass(frozen=True)
+class _Merged:
     """The union of the expanded obstacles, and the union of each group it was made of."""
 
     geometry: MultiPolygon
+    """The union: every group's parts, groups in the order of their first members."""
     groups: dict[tuple[int, ...], MultiPolygon]
     """Per group of overlapping expanded obstacles, its union, keyed by the members'
     identities (in the scene's order): the configuration space holds the members, so
@@ -627,11 +630,13 @@ def _merge(
 
     Obstacles that do not intersect stay apart in the union, so the union is the
     union of each connected group (two obstacles are connected when they intersect,
-    touching included). It is computed so even without an edit, because uniting each
-    group is both cheaper than one union of everything (GEOS nodes all the disjoint
-    groups together) and the same function of the group whatever else changed: a
-    group that an edit left alone is taken from the configuration space before it,
-    bit for bit what it would be afresh.
+    touching included): the same region as one union of everything, up to rounding
+    (where a group's obstacles cross, the crossing points are computed within the
+    group). It is computed so even without an edit, because uniting each group is
+    both cheaper than one union of everything (GEOS nodes all the disjoint groups
+    together) and the same function of the group whatever else changed: a group that
+    an edit left alone is taken from the configuration space before it, bit for bit
+    what it would be afresh.
 
     Parameters
     ----------
@@ -639,6 +644,11 @@ def _merge(
         The expanded obstacles, in the scene's order.
     previous
         The configuration space before this one (from the caller's memo), or None.
+
+    Returns
+    -------
+    _Merged
+        The union, and each group's union (kept on the new configuration space).
     """
     # Both spaces are alive here, so a member of ``previous`` with a new member's id is
     # that very polygon (an expansion the memo kept, unchanged by the edit); by value

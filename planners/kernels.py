@@ -1,4 +1,4 @@
-"""Compiled loops: the grid march, the A* search, the pair listing, the sensor's sweep.
+"""Compiled loops: the grid march, the A* search, an edit's pair listings, the sweep.
 
 Three computations of the visibility graphs (sections 9.4 and 9.5) are loops that numpy
 can only run as many small array operations: the march of a segment through the cells
@@ -9,10 +9,11 @@ scenes students build they took a third of an edit's time in numpy and Python (i
 15). The fourth is the range sensor's angular sweep (section 9.6): a few dozen critical
 angles, a ray through each interval against each facing edge, which Python ran float by
 float; TangentBug senses at every probe of a decision, and the sweep was half of its
-time. Two small ones follow the visibility graphs' edits: bucketing the border's edges
-in the grid (a few cells per edge) and listing a graph's neighbours in compressed rows
-(a counting sort), each a dozen array passes in numpy at a few hundred edges. numba
-compiles them here.
+time. Smaller passes, each a dozen array operations in numpy on a few hundred to a few
+thousand rows, add up over an edit: bucketing the border's edges in the grid, listing a
+graph's neighbours in compressed rows (a counting sort), and in the incremental VG the
+pairs an edit carries over, the changed vertices' screened rows, which segments meet the
+changed box and which vertices face it. numba compiles them here.
 
 The rules that keep the compiled loops exactly the code they replace:
 
@@ -24,7 +25,8 @@ The rules that keep the compiled loops exactly the code they replace:
   (``tests/planners/march_reference.py``, ``astar_reference.py``,
   ``incremental_reference.py``, ``sweep_reference.py``; and networkx's A*), on random
   and degenerate scenes, result for result;
-- ``cache=True``: compiled once per machine (about 3 s per loop), then loaded from
+- ``cache=True``: compiled once per machine (about 3 s per loop, half a minute in
+  all), then loaded from
   ``__pycache__`` (or numba's user cache where that is read-only) in a fraction of a
   second; ``nogil=True``: while a loop runs, the server's other threads run;
 - no state: a dispatcher holds its machine code, nothing a call could leave behind;
@@ -34,9 +36,9 @@ The rules that keep the compiled loops exactly the code they replace:
 
 The functions here take and return plain arrays; :func:`planners.sightlines.march`,
 :func:`planners.sightlines.edge_grid`,
-:meth:`planners.visibility.GraphArrays.shortest_path`,
-:func:`planners.incremental._crossing_box` and :func:`planners.sensor._sweep` wrap
-them.
+:meth:`planners.visibility.GraphArrays.shortest_path` (and ``_adjacency``),
+:func:`planners.incremental._crossing_box`, ``_pairs_to_test``, ``_kept_pairs``,
+``_meets_box`` and ``_facing``, and :func:`planners.sensor._sweep` wrap them.
 """
 
 from __future__ import annotations
@@ -531,8 +533,12 @@ def _meets_box(ax: float, ay: float, bx: float, by: float, box: FloatArray) -> b
     """Tell if the segment a -> b meets the closed box (x0, y0, x1, y1).
 
     Axis by axis, the parameters where the segment enters and leaves the slab (a
-    direction of 0: inside for all t or for none), as
-    :func:`planners.incremental._meets_box` computes them.
+    direction of 0: inside for all t or for none), with the arithmetic of the numpy
+    test it replaced (``meets_box_reference`` in
+    ``tests/planners/incremental_reference.py``). The same answers wherever the
+    parameters are numbers or +-inf; where both ends' parameters overflow on one axis
+    (coordinates near 1e308), numpy's NaN said no and this says yes: the segment does
+    meet the box there.
     """
     t0, t1 = 0.0, 1.0
     for axis in range(2):

@@ -208,17 +208,17 @@ def edge_grid(a: FloatArray, b: FloatArray, margin: float) -> EdgeGrid:
     >>> g.nx * g.ny >= 1, sorted(set(g.edges.tolist()))
     (True, [0, 1])
     """
+    from planners.kernels import bucket_edges  # noqa: PLC0415 - numba only where graphs are built
+
     points = np.vstack([a, b])
     lo = points.min(axis=0) - 2.0 * margin
     size = np.maximum(points.max(axis=0) + 2.0 * margin - lo, margin)
     cell = _cell_size(size, np.hypot(*(b - a).T), len(a))
     nx, ny = (int(k) for k in np.maximum(np.ceil(size / cell), 1).astype(np.int64))
-    from planners.kernels import bucket_edges  # noqa: PLC0415 - numba only where graphs are built
-
     setting = np.array([lo[0], lo[1], cell, margin])
-    offsets, edges = bucket_edges(
-        np.ascontiguousarray(a), np.ascontiguousarray(b), setting, nx, ny
-    )
+    # The types the warm-up compiled (a read-only or float32 array would compile anew).
+    a, b = (np.require(e, np.float64, ["C", "W"]) for e in (a, b))
+    offsets, edges = bucket_edges(a, b, setting, nx, ny)
     return EdgeGrid(lo, cell, nx, ny, offsets, edges)
 
 
@@ -357,8 +357,8 @@ def march(grid: EdgeGrid, edges: Edges, segs: Segments, eps: float) -> Marched:
 def _unique_touches(seg: IntArray, t: FloatArray) -> tuple[IntArray, FloatArray]:
     """Order touching vertices by segment, then t, each (segment, t) once.
 
-    An edge listed in several cells along a segment was met once per cell: the same
-    vertex at the very same t (computed from the same pair), kept once. Ordered by t,
+    A vertex that two rings share (a pinch) starts two edges and is met once for each:
+    the same vertex at the very same t, kept once. Ordered by t,
     then stably by segment (faster than np.lexsort on floats; the order among equal
     (segment, t) is moot, they are one).
     """

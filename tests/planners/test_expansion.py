@@ -376,3 +376,27 @@ def test_an_edit_reuses_the_groups_it_left_alone_and_equals_a_cold_build():
     for warm_ring, cold_ring in zip(after.rings, cold.rings, strict=True):
         np.testing.assert_array_equal(warm_ring, cold_ring)
     assert after.merged.equals_exact(cold.merged, 0.0)
+
+
+def test_groups_are_reused_when_an_edit_renumbers_the_obstacles():
+    """Deleting the first obstacle shifts every index: the groups left alone are still
+    taken from the space before (by their members), and the rings are a cold build's;
+    adding one that bridges two groups unites them afresh."""
+    pair = (square(0, 0, 1, 1), square(0.5, 0.5, 2, 2))
+    lone = square(5, 5, 6, 6)
+    memo = Memo()
+    before = configuration_space((square(-5, -5, -4, -4), *pair, lone), 0.25, memo=memo)
+    after = configuration_space((*pair, lone), 0.25, memo=memo)
+    kept, now = before.known(_group_unions), after.known(_group_unions)
+    assert kept is not None and now is not None
+    for key in now:
+        assert now[key] is kept[key]
+    bridge = Polygon([(1.5, 1.5), (5.5, 5.2), (5.2, 5.5)])
+    joined = configuration_space((*pair, lone, bridge), 0.25, memo=memo)
+    grouped = joined.known(_group_unions)
+    assert grouped is not None and [len(k) for k in grouped] == [4]
+    for space, obstacles in ((after, (*pair, lone)), (joined, (*pair, lone, bridge))):
+        cold = configuration_space(obstacles, 0.25)
+        assert len(space.rings) == len(cold.rings)
+        for warm_ring, cold_ring in zip(space.rings, cold.rings, strict=True):
+            np.testing.assert_array_equal(warm_ring, cold_ring)

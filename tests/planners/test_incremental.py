@@ -472,6 +472,17 @@ def test_compiled_box_test_is_the_numpy_one(rows, box):
     assert not _meets_box(a, b, None).any()
 
 
+def test_a_segment_whose_box_parameters_overflow_meets_the_box():
+    """Near 1e308 both of an axis's parameters overflow: numpy's NaN said the segment
+    misses the box, the compiled test says it meets it, as shapely does."""
+    a, b = np.array([[0.0, 1e308]]), np.array([[0.0, -8e307]])
+    box = np.array([-1.0, -8e307, 1.0, 0.0])
+    assert shapely.intersects(shapely.LineString([a[0], b[0]]), shapely.box(*box))
+    assert _meets_box(a, b, box)[0]
+    with np.errstate(over="ignore", invalid="ignore"):  # numpy's inf - inf, inf / inf
+        assert not meets_box_reference(a, b, box)[0]  # the one known difference
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),

@@ -30,7 +30,7 @@ $(STAMP): pyproject.toml
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
-	$(PY) -c 'import planners.kernels as k; k.warm_up()'  # compile the loops once (about 9 s)
+	$(PY) -c 'import planners.kernels as k; k.warm_up()'  # compile the loops once (about 20 s)
 	touch $@
 
 # The peers pin numpy<2, so they live in their own environment; the project never imports them.

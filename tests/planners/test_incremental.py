@@ -319,6 +319,34 @@ def test_degenerate_scenes_reached_by_edits_are_carried_exactly(name, monkeypatc
 # --------------------------------------------------------------------------- the screening
 
 
+def _spaces_after(scene, edit, radius):
+    """The configuration spaces before and after ``edit`` and how they relate; None
+    when the app refuses the edit or the scene it makes is invalid (a
+    self-intersecting obstacle: the app plans nothing)."""
+    try:
+        edited = _apply(scene, edit)
+    except (ValueError, ScenarioError):
+        return None
+    if scene_problems(edited):
+        return None
+    old, new = (
+        configuration_space(s.obstacles, radius, boundary=s.boundary)
+        for s in (scene, edited)
+    )
+    return old, new, _change(old, new)
+
+
+def _after_a_random_edit(test):
+    """Run ``test(scene, edit, radius)`` on random and lattice scenes and edits."""
+    return settings(max_examples=60, deadline=None)(
+        given(
+            scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),
+            edit=edits(),
+            radius=st.sampled_from([0, 0.25]),
+        )(test)
+    )
+
+
 @settings(max_examples=40, deadline=None)
 @given(scene=random_scenes(grid=True), edit=edits(), radius=st.sampled_from([0, 0.25]))
 def test_the_pairs_tested_again_hold_every_pair_a_slow_screen_names(
@@ -327,19 +355,10 @@ def test_the_pairs_tested_again_hold_every_pair_a_slow_screen_names(
     """Every pair that may change (at a vertex that is not stable, or whose segment
     meets the changed box, shapely's intersects) and that the wedges do not rule out
     is among the pairs the carry tests again."""
-    try:
-        edited = _apply(scene, edit)
-    except (ValueError, ScenarioError):
+    spaces = _spaces_after(scene, edit, radius)
+    if spaces is None or spaces[0].eps != spaces[1].eps:
         return
-    if scene_problems(edited):
-        return  # a self-intersecting obstacle: the app plans nothing
-    old, new = (
-        configuration_space(s.obstacles, radius, boundary=s.boundary)
-        for s in (scene, edited)
-    )
-    if old.eps != new.eps:
-        return
-    change = _change(old, new)
+    _, new, change = spaces
     border = new.derive(_build_border)
     tested = {
         (i, j)
@@ -361,27 +380,15 @@ def test_the_pairs_tested_again_hold_every_pair_a_slow_screen_names(
             assert (i, j) in tested
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),
-    edit=edits(),
-    radius=st.sampled_from([0, 0.25]),
-)
+@_after_a_random_edit
 def test_compiled_box_pairs_equal_the_numpy_listing(scene, edit, radius):
     """The pairs crossing the changed box, listed by the compiled loop, are the very
     pairs (same order) the blockwise numpy listing gave, after a random edit."""
-    try:
-        edited = _apply(scene, edit)
-    except (ValueError, ScenarioError):
+    spaces = _spaces_after(scene, edit, radius)
+    if spaces is None or spaces[0].eps != spaces[1].eps:
         return
-    if scene_problems(edited):
-        return
-    old, new = (
-        configuration_space(s.obstacles, radius, boundary=s.boundary)
-        for s in (scene, edited)
-    )
-    change = _change(old, new)
-    if old.eps != new.eps or change.box is None:
+    _, new, change = spaces
+    if change.box is None:
         return
     border = new.derive(_build_border)
     got = list(_crossing_box(border, change.stable, change.box))
@@ -393,26 +400,14 @@ def test_compiled_box_pairs_equal_the_numpy_listing(scene, edit, radius):
         )
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),
-    edit=edits(),
-    radius=st.sampled_from([0, 0.25]),
-)
+@_after_a_random_edit
 def test_compiled_row_pairs_equal_the_numpy_listing(scene, edit, radius):
     """The changed vertices' screened rows, listed by the compiled loop, are the very
     pairs (same order) numpy's blockwise listing gave, after a random edit."""
-    try:
-        edited = _apply(scene, edit)
-    except (ValueError, ScenarioError):
+    spaces = _spaces_after(scene, edit, radius)
+    if spaces is None:
         return
-    if scene_problems(edited):
-        return
-    old, new = (
-        configuration_space(s.obstacles, radius, boundary=s.boundary)
-        for s in (scene, edited)
-    )
-    change = _change(old, new)
+    _, new, change = spaces
     border = new.derive(_build_border)
     got = next(_pairs_to_test(border, change.stable, None))
     want = list(row_pairs_reference(border, change.stable))
@@ -423,27 +418,15 @@ def test_compiled_row_pairs_equal_the_numpy_listing(scene, edit, radius):
         )
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),
-    edit=edits(),
-    radius=st.sampled_from([0, 0.25]),
-)
+@_after_a_random_edit
 def test_compiled_kept_pairs_equal_the_numpy_filter(scene, edit, radius):
     """The visible pairs an edit carries over, filtered by the compiled pass, are the
     very pairs (same order) numpy's filter kept, after a random edit (nothing
     changed, vertices gone, a box to keep clear of)."""
-    try:
-        edited = _apply(scene, edit)
-    except (ValueError, ScenarioError):
+    spaces = _spaces_after(scene, edit, radius)
+    if spaces is None:
         return
-    if scene_problems(edited):
-        return
-    old, new = (
-        configuration_space(s.obstacles, radius, boundary=s.boundary)
-        for s in (scene, edited)
-    )
-    change = _change(old, new)
+    old, new, change = spaces
     border, before = new.derive(_build_border), old.derive(_vertex_visibility)
     got = _kept_pairs(border, change, before)
     want = kept_pairs_reference(border, change, before)
@@ -483,25 +466,13 @@ def test_a_segment_whose_box_parameters_overflow_meets_the_box():
         assert not meets_box_reference(a, b, box)[0]  # the one known difference
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)),
-    edit=edits(),
-    radius=st.sampled_from([0, 0.25]),
-)
+@_after_a_random_edit
 def test_compiled_facing_is_the_numpy_one(scene, edit, radius):
     """Which vertices face the changed box, after a random edit, as numpy said."""
-    try:
-        edited = _apply(scene, edit)
-    except (ValueError, ScenarioError):
+    spaces = _spaces_after(scene, edit, radius)
+    if spaces is None:
         return
-    if scene_problems(edited):
-        return
-    old, new = (
-        configuration_space(s.obstacles, radius, boundary=s.boundary)
-        for s in (scene, edited)
-    )
-    change = _change(old, new)
+    _, new, change = spaces
     if change.box is None:
         return
     border = new.derive(_build_border)

@@ -25,10 +25,9 @@ The rules that keep the compiled loops exactly the code they replace:
   (``tests/planners/march_reference.py``, ``astar_reference.py``,
   ``incremental_reference.py``, ``sweep_reference.py``; and networkx's A*), on random
   and degenerate scenes, result for result;
-- ``cache=True``: compiled once per machine (about 20 s for all of them), then
-  loaded from
-  ``__pycache__`` (or numba's user cache where that is read-only) in a fraction of a
-  second; ``nogil=True``: while a loop runs, the server's other threads run;
+- ``cache=True``: compiled once per machine (about 20 s for all of them), then loaded
+  from ``__pycache__`` (or numba's user cache where that is read-only) in a fraction of
+  a second; ``nogil=True``: while a loop runs, the server's other threads run;
 - no state: a dispatcher holds its machine code, nothing a call could leave behind;
 - imported on first use by its callers: numba and LLVM take about 160 MB of resident
   memory, which only the processes that build graphs or run TangentBug pay, not one

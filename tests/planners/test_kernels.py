@@ -169,10 +169,7 @@ def test_warm_up_compiles_what_the_planners_call():
         "after = [len(loop.signatures) for loop in loops]\n"
         "print(len(loops), before == after, min(before))\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True
-    )
-    count, same, least = out.stdout.split()
+    count, same, least = _printed_by_a_fresh_python(code)
     assert int(count) == 10  # every compiled loop of the module
     assert same == "True"
     assert least == "1"  # the warm-up compiled each
@@ -192,7 +189,12 @@ def test_numba_loads_only_with_the_first_compiled_loop():
         "assert plan_all(scene, ('dsb',))['dsb'].status == 'reached'\n"
         "print('numba' in sys.modules)\n"
     )
+    assert _printed_by_a_fresh_python(code) == ["False", "True"]
+
+
+def _printed_by_a_fresh_python(code):
+    """Run ``code`` in a new interpreter; return the words it printed."""
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     )
-    assert out.stdout.split() == ["False", "True"]
+    return out.stdout.split()

@@ -13,7 +13,8 @@ time. Smaller passes, each a dozen array operations in numpy on a few hundred to
 thousand rows, add up over an edit: bucketing the border's edges in the grid, listing a
 graph's neighbours in compressed rows (a counting sort), and in the incremental VG the
 pairs an edit carries over, the changed vertices' screened rows, which segments meet the
-changed box and which vertices face it. numba compiles them here.
+changed box and which vertices face it; and the SVG's tangent test over the VG's
+visible pairs. numba compiles them here.
 
 The rules that keep the compiled loops exactly the code they replace:
 
@@ -37,7 +38,8 @@ The functions here take and return plain arrays; :func:`planners.sightlines.marc
 :func:`planners.sightlines.edge_grid`,
 :meth:`planners.visibility.GraphArrays.shortest_path` (and ``_adjacency``),
 :func:`planners.incremental._crossing_box`, ``_pairs_to_test``, ``_kept_pairs``,
-``_meets_box`` and ``_facing``, and :func:`planners.sensor._sweep` wrap them.
+``_meets_box`` and ``_facing``, :func:`planners.visibility._tangents_of_known` and
+:func:`planners.sensor._sweep` wrap them.
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ __all__ = [
     "row_pairs",
     "segments_meet_box",
     "sweep_intervals",
+    "tangent_pairs",
     "warm_up",
 ]
 
@@ -670,6 +673,55 @@ def box_pairs(  # noqa: PLR0917
 
 
 @njit(cache=True, nogil=True)
+def _enters(  # noqa: PLR0917
+    nx: float, ny: float, qx: float, qy: float, dx: float, dy: float, tol: float
+) -> bool:
+    """Tell if the line along (dx, dy) enters a narrow wedge (sides n, q) by more than tol.
+
+    The arithmetic of one end of :func:`planners.visibility._not_tangent`.
+    """
+    a = nx * dy - ny * dx  # cross(nxt, d)
+    b = dx * qy - dy * qx  # cross(d, prv)
+    return (a > tol and b > tol) or (a < -tol and b < -tol)
+
+
+@njit(cache=True, nogil=True)
+def tangent_pairs(  # noqa: PLR0917
+    i: IntArray,
+    j: IntArray,
+    candidate: BoolArray,
+    points: FloatArray,
+    wedges: tuple[FloatArray, FloatArray],
+    angle_tol: float,
+) -> tuple[IntArray, IntArray]:
+    """Keep the pairs of candidates whose line is tangent at both ends (section 9.5).
+
+    Pair k (``i[k]``, ``j[k]``) is kept, in order, when both ends are candidates and
+    the line along ``points[j] - points[i]`` enters neither end's narrow wedge by more
+    than ``angle_tol`` times its length (``wedges``: the unit directions to the next
+    and the previous ring vertex; zero at start and goal). What
+    :func:`planners.visibility._tangents_of_known` keeps of the VG's visible pairs.
+    """
+    nxt, prv = wedges
+    out_i = np.empty(len(i), dtype=np.intp)
+    out_j = np.empty(len(i), dtype=np.intp)
+    count = 0
+    for k in range(len(i)):
+        u, v = i[k], j[k]
+        if not (candidate[u] and candidate[v]):
+            continue
+        dx, dy = points[v, 0] - points[u, 0], points[v, 1] - points[u, 1]
+        tol = angle_tol * math.hypot(dx, dy)
+        if _enters(nxt[u, 0], nxt[u, 1], prv[u, 0], prv[u, 1], dx, dy, tol):
+            continue
+        if _enters(nxt[v, 0], nxt[v, 1], prv[v, 0], prv[v, 1], dx, dy, tol):
+            continue
+        out_i[count], out_j[count] = u, v
+        count += 1
+    return out_i[:count], out_j[:count]
+
+
+@njit(cache=True, nogil=True)
 def row_pairs(
     moved: IntArray,
     stable: BoolArray,
@@ -1125,6 +1177,7 @@ def warm_up() -> None:
     row_pairs(one, np.zeros(2, dtype=np.bool_), points, wedges, 1e-12)
     segments_meet_box(points, points[::-1].copy(), box)
     facing(points, wedges, box, 1e-12)
+    tangent_pairs(one, one + 1, wedges[2], points, wedges[:2], 1e-12)
     # A unit square's left side, seen from (-1, 0.5) standing on nothing.
     start = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     step = np.roll(start, -1, axis=0) - start

@@ -170,7 +170,7 @@ def test_warm_up_compiles_what_the_planners_call():
         "print(len(loops), before == after, min(before))\n"
     )
     count, same, least = _printed_by_a_fresh_python(code)
-    assert int(count) == 10  # every compiled loop of the module
+    assert int(count) == 11  # every compiled loop of the module
     assert same == "True"
     assert least == "1"  # the warm-up compiled each
 

@@ -605,3 +605,29 @@ def test_skipping_pairs_of_a_big_convex_ring_finds_the_same_graph(scene):
             tuple(points[a]), tuple(points[b])
         ):
             assert not reference_segment_free(space, points[a], points[b])
+
+
+@settings(max_examples=60, deadline=None)
+@given(scene=st.booleans().flatmap(lambda grid: random_scenes(grid=grid)))
+def test_compiled_tangent_filter_keeps_what_numpy_kept(scene):
+    """The SVG's tangent pairs among the VG's visible ones, by the compiled pass, are
+    the pairs (same order) numpy's filter kept: the candidates' pairs less those whose
+    line enters a narrow wedge at an end (_not_tangent)."""
+    plans = plan_all(scene)
+    assume(plans["vg"].status != "invalid")
+    space = plans["cspace"]
+    known = space.known(visibility._vertex_visibility)
+    border, q = visibility._query(space, scene.start, scene.goal)
+    wedges = visibility._query_wedges(border, q)
+    convex = np.append(border.convex_nodes, False)
+    pinch = np.append(border.pinch_nodes, False)
+    candidate = np.flatnonzero((q.node < 0) | convex[q.node] | pinch[q.node])
+    got = visibility._tangents_of_known(known, q, wedges, candidate)
+    is_candidate = np.zeros(len(q.points), dtype=bool)
+    is_candidate[candidate] = True
+    both = np.flatnonzero(is_candidate[known.i] & is_candidate[known.j])
+    i, j = known.i[both], known.j[both]
+    d = q.points[j] - q.points[i]
+    keep = ~visibility._not_tangent(wedges, i, j, d[:, 0], d[:, 1])
+    np.testing.assert_array_equal(got[0], i[keep])
+    np.testing.assert_array_equal(got[1], j[keep])

@@ -545,14 +545,9 @@ def _meets_box(ax: float, ay: float, bx: float, by: float, box: FloatArray) -> b
     t0, t1 = 0.0, 1.0
     for axis in range(2):
         p, d = (ax, bx - ax) if axis == 0 else (ay, by - ay)
-        low, high = box[axis], box[axis + 2]
-        if d != 0:
-            ta, tb = (low - p) / d, (high - p) / d
-            enter, leave = min(ta, tb), max(ta, tb)
-        elif low <= p <= high:
-            enter, leave = 0.0, 1.0
-        else:
-            enter, leave = math.inf, -math.inf
+        # A direction of 0 inside the slab gives (-inf, inf), outside it an empty
+        # range: within [0, 1] the same as numpy's (0, 1) and (inf, -inf).
+        enter, leave = _clip(p, d, box[axis], box[axis + 2])
         t0, t1 = max(t0, enter), min(t1, leave)
     return t0 <= t1
 

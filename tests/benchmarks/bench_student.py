@@ -1,9 +1,17 @@
 """Student layouts in the app: edit-to-redraw while dragging, incremental against full (issue 15).
 
 Seeded random layouts of a 20 m room with 8, 16, 24 and 32 obstacles of 4 to 8 vertices
-(convex, jittered on a circle; they may overlap and merge once expanded), a disk robot of
-radius 0.3 m, start and goal in opposite corners: the scenes students build in a "what
-if" session. Each layout is opened in the real app (viser server, 3-D view, panel,
+(convex, jittered on a circle), a disk robot of radius 0.3 m, start and goal in opposite
+corners: the scenes students build in a "what if" session. Two kinds of layout
+(``--layouts``):
+
+``merging``
+    obstacles placed anywhere: they may overlap and merge once expanded (443
+    configuration-space vertices at 32 obstacles);
+``apart``
+    obstacles that stay apart once expanded, so none merge: 160, 318, 462 and 612
+    configuration-space vertices, the sizes of the issue's table (156 to 609) and its
+    title's "up to 600". Each layout is opened in the real app (viser server, 3-D view, panel,
 controller; no browser) and dragged through
 ``controller.edits.drag_handle`` -- the gizmo's call -- as in ``bench_app.py``:
 
@@ -26,7 +34,7 @@ The app's fast lane carries the vertex visibility over from the previous edit
 builds the visibility graph from scratch), for the scaling against vertex count.
 
 Run: ``python tests/benchmarks/bench_student.py [--events 300] [--obstacles 8,16,24,32]
-[--drag vertex,move] [--full] [--no-dsb] [--plan-only]``. ``--no-dsb`` runs only the first
+[--layouts merging,apart] [--drag vertex,move] [--full] [--no-dsb] [--plan-only]``. ``--no-dsb`` runs only the first
 of the two; ``--plan-only`` times ``plan_all`` alone on the same drags instead of it (no
 app, no drawing): the planning's share of the budget. A report: exit 0 unless
 ``--strict``.
@@ -71,11 +79,27 @@ FULL_BUDGET_MS = 50.0
 ROOM = 20.0
 
 
-def student_layout(obstacles: int, seed: int = 15) -> dict[str, Any]:
-    """A seeded room of ``obstacles`` convex obstacles of 4 to 8 vertices (scenario dict)."""
+ROBOT_RADIUS = 0.3
+LAYOUTS = ("merging", "apart")
+
+
+def student_layout(
+    obstacles: int, seed: int = 15, layout: str = "merging"
+) -> dict[str, Any]:
+    """A seeded room of ``obstacles`` convex obstacles of 4 to 8 vertices (scenario dict).
+
+    Each obstacle's corners lie on a circle (its centre and radius drawn first). With
+    ``layout="apart"`` an obstacle whose circle comes within twice the robot's radius
+    (and 1 cm) of another's is drawn again, so no two expanded obstacles meet.
+    """
+    if layout not in LAYOUTS:
+        raise ValueError(f"layout must be one of {LAYOUTS}, got {layout!r}")
     rng = np.random.default_rng(seed * 1000 + obstacles)
-    rings = []
-    while len(rings) < obstacles:
+    rings: list[list[list[float]]] = []
+    circles: list[tuple[np.ndarray, float]] = []
+    for _ in range(1000 * obstacles):
+        if len(rings) == obstacles:
+            break
         centre = rng.uniform(2.0, ROOM - 2.0, 2)
         if min(np.hypot(*(centre - 1.0)), np.hypot(*(centre - (ROOM - 1.0)))) < 2.5:
             continue  # keep the start and goal corners free
@@ -85,16 +109,25 @@ def student_layout(obstacles: int, seed: int = 15) -> dict[str, Any]:
             np.arange(k) + rng.uniform(-0.3, 0.3, k)
         )
         radius = rng.uniform(0.5, 1.3)
+        clearance = 2.0 * ROBOT_RADIUS + 0.01
+        if layout == "apart" and any(
+            np.hypot(*(centre - c)) < radius + r + clearance for c, r in circles
+        ):
+            continue
+        circles.append((centre, radius))
         ring = centre + radius * np.column_stack([np.cos(angles), np.sin(angles)])
         rings.append(np.round(ring, 3).tolist())
+    if len(rings) < obstacles:
+        raise ValueError(f"no room for {obstacles} obstacles {layout} (seed {seed})")
     return {
         "format": 1,
-        "name": f"student layout, {obstacles} obstacles",
+        "name": f"student layout, {obstacles} obstacles"
+        + (", apart" if layout == "apart" else ""),
         "boundary": [[0, 0], [ROOM, 0], [ROOM, ROOM], [0, ROOM]],
         "obstacles": rings,
         "start": [1.0, 1.0],
         "goal": [ROOM - 1.0, ROOM - 1.0],
-        "robot": {"radius": 0.3},
+        "robot": {"radius": ROBOT_RADIUS},
         "expansion": "disk",
         "sensor_range": 2.0,
     }
@@ -132,12 +165,14 @@ def full_builds(enabled: bool):
         planners.api.carry_visibility = saved
 
 
-def bench(obstacles: int, drag: str, events: int, dsb: bool) -> dict[str, Any]:
+def bench(
+    obstacles: int, drag: str, events: int, dsb: bool, layout: str = "merging"
+) -> dict[str, Any]:
     """Load one layout into the app and drag; return the step timings."""
     steal = StealMeter()
-    layout = planners.load_scene(student_layout(obstacles))
+    room = planners.load_scene(student_layout(obstacles, layout=layout))
     with contextlib.redirect_stdout(io.StringIO()):
-        app = start_app(layout, port=0, print_url=False)
+        app = start_app(room, port=0, print_url=False)
     try:
         controller = app.controller
         if not dsb:
@@ -167,7 +202,9 @@ def bench(obstacles: int, drag: str, events: int, dsb: bool) -> dict[str, Any]:
             app.stop()
 
 
-def bench_plan(obstacles: int, drag: str, events: int) -> dict[str, Any]:
+def bench_plan(
+    obstacles: int, drag: str, events: int, layout: str = "merging"
+) -> dict[str, Any]:
     """The same drag without the app: ``plan_all`` (expansion + VG + SVG) per event.
 
     One memo across the drag, as the app's fast lane keeps; each event's scene is made
@@ -175,7 +212,7 @@ def bench_plan(obstacles: int, drag: str, events: int) -> dict[str, Any]:
     its centroid follows the handle), outside the timing.
     """
     keep_freed_memory()  # as in the app (start_app sets it)
-    scene = planners.load_scene(student_layout(obstacles))
+    scene = planners.load_scene(student_layout(obstacles, layout=layout))
     handle, points = drag_points(scene, drag, events)
     i = handle[1]
     centre = np.asarray(scene.obstacles[i].centroid.coords[0], dtype=np.float64)
@@ -205,6 +242,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--events", type=int, default=300)
     parser.add_argument("--obstacles", default="8,16,24,32")
+    parser.add_argument("--layouts", default=",".join(LAYOUTS))
     parser.add_argument("--drag", default="vertex,move")
     parser.add_argument("--full", action="store_true", help="no incremental visibility")
     parser.add_argument(
@@ -229,11 +267,12 @@ def main(argv: list[str] | None = None) -> int:
     print("-" * len(_HEAD))
     missed = False
     with full_builds(args.full):
-        for count in (int(k) for k in args.obstacles.split(",")):
-            for drag in args.drag.split(","):
-                row = _row(count, drag, args, dsb)
-                missed |= row.missed
-                print(row.text, flush=True)
+        for layout in args.layouts.split(","):
+            for count in (int(k) for k in args.obstacles.split(",")):
+                for drag in args.drag.split(","):
+                    row = _row(count, drag, layout, args, dsb)
+                    missed |= row.missed
+                    print(row.text, flush=True)
     _print_spread("after")
     print(
         f"budgets (p95 <= {FAST_BUDGET_MS:g} ms for expansion + VG + SVG,"
@@ -253,7 +292,7 @@ def _print_spread(when: str) -> None:
 
 
 _HEAD = (
-    f"{'obstacles':>9} {'drag':6} {'c-space vertices':>16} {'VG edges':>8} |"
+    f"{'layout':7} {'obstacles':>9} {'drag':6} {'c-space vertices':>16} {'VG edges':>8} |"
     f" {'VG+SVG p50/p95':>15} | {'with DSB on: VG+SVG':>19} {'+DSB p50/p95':>15}"
     f" {'steal':>6}"
 )
@@ -264,7 +303,9 @@ class _Row(NamedTuple):
     missed: bool
 
 
-def _row(count: int, drag: str, args: argparse.Namespace, dsb: bool) -> _Row:
+def _row(
+    count: int, drag: str, layout: str, args: argparse.Namespace, dsb: bool
+) -> _Row:
     """Measure one layout and drag: DSB off (the 16 ms budget), then on (the 50 ms one).
 
     The budget of 16 ms is for expansion + VG + SVG, the planners of the issue's
@@ -273,16 +314,16 @@ def _row(count: int, drag: str, args: argparse.Namespace, dsb: bool) -> _Row:
     frame is judged against 50 ms.
     """
     if args.plan_only:
-        off = bench_plan(count, drag, args.events)
+        off = bench_plan(count, drag, args.events, layout)
     else:
-        off = bench(count, drag, args.events, dsb=False)
-    on = bench(count, drag, args.events, dsb=True) if dsb else None
+        off = bench(count, drag, args.events, dsb=False, layout=layout)
+    on = bench(count, drag, args.events, dsb=True, layout=layout) if dsb else None
     off95 = percentile(off["fast"], 95)
     full95 = percentile(on["full"], 95) if on else math.nan
     steals = [s["steal"] for s in (off, on) if s is not None and s["steal"] is not None]
     steal = format(max(steals), "6.0%") if steals else "n/a"
     text = (
-        f"{count:>9} {drag:6} {off['vertices']:>16} {off['vg_edges']:>8} |"
+        f"{layout:7} {count:>9} {drag:6} {off['vertices']:>16} {off['vg_edges']:>8} |"
         f" {percentile(off['fast'], 50):6.1f}/{off95:6.1f}  |"
         f" {_pair(on['fast'] if on else []):>19} {_pair(on['full'] if on else []):>15}"
         f" {steal:>6}"

@@ -546,6 +546,30 @@ def test_drags_in_a_student_layout_are_carried_exactly(seed):
             _same_as_cold(scene, memo)
 
 
+def test_the_benchmark_apart_rooms_keep_their_obstacles_apart_and_are_carried():
+    """bench_student's ``apart`` rooms: no two expanded obstacles meet, so the
+    configuration space has a ring per obstacle and the room's (612 vertices at 32
+    obstacles, the issue's "up to 600"); the benchmark's two drags there are carried
+    exactly."""
+    from tests.benchmarks.bench_student import drag_points, student_layout
+
+    scene = load_scene(student_layout(32, layout="apart"))
+    rings = plan_all(scene, ())["cspace"].rings
+    assert len(rings) == 32 + 1
+    assert sum(len(r) for r in rings) == 612
+    for drag in ("vertex", "move"):
+        memo = Memo()
+        handle, points = drag_points(scene, drag, 12)
+        i = handle[1]
+        centre = np.asarray(scene.obstacles[i].centroid.coords[0], dtype=np.float64)
+        for xy in points:
+            if drag == "vertex":
+                edited = move_vertex(scene, i, 0, tuple(xy))
+            else:
+                edited = move_obstacle(scene, i, tuple(xy - centre))
+            _same_as_cold(edited, memo)
+
+
 _COORD = st.sampled_from([0.0, -0.0, 0.5, 1.0, -1.0, 1e-300, 2.0**-1074, 3.0])
 _POINTS = st.lists(st.tuples(_COORD, _COORD), max_size=12).map(
     lambda p: np.array(p, dtype=np.float64).reshape(-1, 2)

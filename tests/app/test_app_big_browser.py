@@ -1,5 +1,8 @@
 """A student's 32-obstacle room in headless Chromium while an obstacle is dragged.
 
+Both of ``bench_student``'s kinds of room: obstacles that merge once expanded (443
+configuration-space vertices) and obstacles kept apart (612, the issue's largest).
+
 The browser watches (top view) while an obstacle is dragged through the middle of the
 room through the controller -- the gizmo's call -- and the graph layers follow. The
 pictures (during and after the drag, and with "VG edges: all") are saved in the test's
@@ -19,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 from PIL import Image
 
 import planners
@@ -48,8 +52,12 @@ def _shot(page: Any, path: Path) -> np.ndarray:
     return np.asarray(Image.open(path).convert("RGB"), dtype=np.int16)
 
 
-def test_dragging_an_obstacle_of_a_student_room_in_the_browser(browser, tmp_path):
-    app = start_app(planners.load_scene(student_layout(32)), port=0, print_url=False)
+@pytest.mark.parametrize("layout", ["merging", "apart"])
+def test_dragging_an_obstacle_of_a_student_room_in_the_browser(
+    browser, tmp_path, layout
+):
+    room = planners.load_scene(student_layout(32, layout=layout))
+    app = start_app(room, port=0, print_url=False)
     try:
         CAMERA.apply(app.server)
         controller = app.controller
@@ -67,12 +75,12 @@ def test_dragging_an_obstacle_of_a_student_room_in_the_browser(browser, tmp_path
             for xy in points[:12]:  # to the middle of the room
                 controller.edits.drag_handle(handle, xy, "update")
             assert app.wait_idle(60)
-            during = _shot(page, tmp_path / "h3_drag_during.png")
+            during = _shot(page, tmp_path / f"h3_{layout}_drag_during.png")
             for xy in points[12:]:
                 controller.edits.drag_handle(handle, xy, "update")
             controller.edits.drag_handle(handle, points[-1], "end")
             assert app.wait_idle(60)
-            after = _shot(page, tmp_path / "h3_drag_after.png")
+            after = _shot(page, tmp_path / f"h3_{layout}_drag_after.png")
             # The obstacle moved between the two pictures; the graph followed it.
             assert np.abs(during - after).max() > 60
             frame = _frame(controller)
@@ -87,7 +95,7 @@ def test_dragging_an_obstacle_of_a_student_room_in_the_browser(browser, tmp_path
             assert app.wait_idle(60)
             assert wait_until(lambda: note.count() == 0, 30)
             time.sleep(0.5)
-            everything = _shot(page, tmp_path / "h3_all_edges.png")
+            everything = _shot(page, tmp_path / f"h3_{layout}_all_edges.png")
             assert controller_view_points(app) == frame.plans["vg"].edges
             # Every edge drawn covers more of the room in the graph's blue than the
             # thinned layer does.

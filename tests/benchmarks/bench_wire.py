@@ -13,7 +13,7 @@ until drawn and received. For every event we count:
   carry (viser's ``SceneApi._queue_scene_message``, wrapped), to see which layer costs.
 
 Run: ``python tests/benchmarks/bench_wire.py [--events 60] [--obstacles 32]
-[--drag move,vertex] [--all-edges]``. ``--all-edges`` switches the panel's "VG edges:
+[--layout merging|apart] [--drag move,vertex] [--all-edges]``. ``--all-edges`` switches the panel's "VG edges:
 all" on (the whole graph drawn, as before thinning). A report: always exit 0.
 """
 
@@ -105,11 +105,13 @@ def _drain(app: Any, client: CountingClient) -> None:
             last, quiet_since = client.received, time.monotonic()
 
 
-def bench(obstacles: int, drag: str, events: int, all_edges: bool) -> dict[str, Any]:
+def bench(
+    obstacles: int, drag: str, events: int, all_edges: bool, layout: str = "merging"
+) -> dict[str, Any]:
     """Drag ``events`` steps; return bytes and messages per event, and the server tally."""
-    layout = planners.load_scene(student_layout(obstacles))
+    room = planners.load_scene(student_layout(obstacles, layout=layout))
     with contextlib.redirect_stdout(io.StringIO()):
-        app = start_app(layout, port=0, print_url=False)
+        app = start_app(room, port=0, print_url=False)
     client = None
     try:
         controller = app.controller
@@ -149,19 +151,20 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--events", type=int, default=60)
     parser.add_argument("--obstacles", default="32")
+    parser.add_argument("--layout", default="merging", choices=("merging", "apart"))
     parser.add_argument("--drag", default="move,vertex")
     parser.add_argument("--all-edges", action="store_true")
     args = parser.parse_args(argv)
     print(f"load average: {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
     for count in (int(k) for k in args.obstacles.split(",")):
         for drag in args.drag.split(","):
-            r = bench(count, drag, args.events, args.all_edges)
+            r = bench(count, drag, args.events, args.all_edges, args.layout)
             print(
-                f"{count} obstacles, {drag}, VG edges {r['vg_edges']},"
+                f"{count} obstacles {args.layout}, {drag}, VG edges {r['vg_edges']},"
                 f" 'VG edges: all' {'on' if args.all_edges else 'off'}:"
                 f" {r['bytes'] / 1024:.1f} KiB and {r['messages']:.1f} messages per event"
             )
-            rows = sorted(r["by_node"].items(), key=lambda kv: -kv[1][1])[:6]
+            rows = sorted(r["by_node"].items(), key=lambda kv: -kv[1][1])[:8]
             for name, (n, size) in rows:
                 print(
                     f"    {name:28} {n / args.events:5.2f} msg/event"

@@ -39,7 +39,7 @@ import contextlib
 import functools
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from typing import Any, Generic, Literal, NamedTuple, TypeVar
+from typing import Any, Generic, Literal, NamedTuple, Protocol, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -76,6 +76,11 @@ STALE_RGB = (176, 176, 176)
 # for each of the others; a bigger polygon (a CAD floor plan's) is drawn afresh.
 _KEPT_DRAWINGS = 256
 _KEPT_VERTICES = 200
+
+CHUNK_NODES = 16
+"""Most nodes a chunked layer (:class:`_Chunked`) spreads its polygons over."""
+MIN_CHUNK = 4
+"""Fewest polygons a node of a chunked layer holds."""
 
 # One degenerate segment / triangle: viser nodes keep a valid shape while hidden.
 _NO_SEGMENTS = np.zeros((1, 2, 3))
@@ -488,6 +493,90 @@ class _Mesh:
         self.handle.visible = visible
 
 
+def chunk_size(count: int) -> int:
+    """Polygons per node of a chunked layer of ``count``: 4, or more for at most 16 nodes.
+
+    Examples
+    --------
+    >>> chunk_size(0), chunk_size(32), chunk_size(64), chunk_size(65), chunk_size(500)
+    (4, 4, 4, 5, 32)
+    """
+    return max(MIN_CHUNK, -(-count // CHUNK_NODES))
+
+
+class _NodeLayer(Protocol):
+    """One node's layer of a chunked layer: a handle, and a drawing to show on it."""
+
+    handle: Any
+
+    def set(self, drawing: Any, visible: bool = True, /) -> None: ...
+
+
+L = TypeVar("L", bound=_NodeLayer)
+
+
+class _Chunked(Generic[L]):
+    """Polygons drawn on a few nodes of a few polygons each (``prefix/0``, ``prefix/1``..).
+
+    Node ``k`` draws polygons ``k * size`` to ``(k + 1) * size - 1`` (:func:`chunk_size`)
+    and is sent again only when they differ from the ones it drew (by identity, then by
+    value): while one obstacle is dragged, one node of 4 obstacles goes to the browsers
+    instead of the whole layer. At most :data:`CHUNK_NODES` nodes, so a floor plan of
+    thousands of polygons is still a few draw calls. Nodes are made as needed and hidden
+    when unused.
+
+    Parameters
+    ----------
+    make
+        Makes one node's layer, given its name.
+    prefix
+        The nodes' parent name.
+    draw
+        The drawing of a few polygons for the layer's ``set`` (a mesh or segments).
+    """
+
+    def __init__(
+        self,
+        make: Callable[[str], L],
+        prefix: str,
+        draw: Callable[[Sequence[Polygon]], Any],
+    ) -> None:
+        self._make = make
+        self._prefix = prefix
+        self._draw = draw
+        self.layers: list[L] = []
+        self._drawn: list[tuple[tuple[Polygon, ...], bool] | None] = []
+
+    def set(self, polygons: Sequence[Polygon], visible: bool = True) -> None:
+        """Draw ``polygons``; send only the nodes whose polygons or visibility changed."""
+        size = chunk_size(len(polygons))
+        chunks = [tuple(polygons[k : k + size]) for k in range(0, len(polygons), size)]
+        while len(self.layers) < len(chunks):
+            self.layers.append(self._make(f"{self._prefix}/{len(self.layers)}"))
+            self._drawn.append(None)
+        for k, layer in enumerate(self.layers):
+            key = (chunks[k], visible) if k < len(chunks) else None
+            if _same_drawing(self._drawn[k], key):
+                continue
+            self._drawn[k] = key
+            if key is None or not visible:
+                layer.handle.visible = False
+            else:
+                layer.set(self._draw(chunks[k]))
+
+    def shown(self) -> list[Any]:
+        """Return the handles of the nodes shown now, in order (what browsers draw)."""
+        return [layer.handle for layer in self.layers if layer.handle.visible]
+
+
+def _same_drawing(old: object, new: object) -> bool:
+    """Whether a chunk's key is the one drawn (tuples of polygons compare by value)."""
+    try:
+        return old is new or bool(old == new)
+    except (TypeError, ValueError):
+        return False
+
+
 class _Labels:
     """A pool of labels; only grows, hides what it does not need."""
 
@@ -738,24 +827,48 @@ class PlannerView:
         self.walls = _Mesh(
             s, "/walls", COLORS["wall"], flat_shading=True, side="double"
         )
-        self.obstacles = _Mesh(
-            s, "/obstacles/body", COLORS["obstacle"], flat_shading=True, side="double"
+        # Obstacles and the configuration space in chunks of a few polygons each: a
+        # drag sends the changed obstacle's chunk, not the whole layer (_Chunked).
+        self.obstacles = _Chunked(
+            functools.partial(
+                _Mesh, s, color=COLORS["obstacle"], flat_shading=True, side="double"
+            ),
+            "/obstacles/body",
+            functools.partial(prism_mesh, height=HEIGHTS["obstacle"]),
         )
-        self.obstacle_edges = _Segments(
-            s, "/obstacles/edges", COLORS["obstacle_edge"], WIDTHS["outline"]
+        self.obstacle_edges = _Chunked(
+            functools.partial(
+                _Segments,
+                s,
+                color=COLORS["obstacle_edge"],
+                thickness=WIDTHS["outline"],
+            ),
+            "/obstacles/edges",
+            functools.partial(rings_to_segments, z=HEIGHTS["obstacle"] + 0.002),
         )
         self.obstacle_labels = _Labels(s, "/obstacles/labels", 0.9, "center-center")
-        self.expanded_fill = _Mesh(
-            s,
+        self.expanded_fill = _Chunked(
+            functools.partial(
+                _Mesh,
+                s,
+                color=COLORS["expanded"],
+                opacity=0.4,
+                side="double",
+                cast_shadow=False,
+                receive_shadow=False,
+            ),
             "/expanded/fill",
-            COLORS["expanded"],
-            opacity=0.4,
-            side="double",
-            cast_shadow=False,
-            receive_shadow=False,
+            functools.partial(polygon_to_mesh, z=HEIGHTS["expanded_fill"]),
         )
-        self.expanded_edges = _Segments(
-            s, "/expanded/edges", COLORS["expanded_edge"], WIDTHS["outline"]
+        self.expanded_edges = _Chunked(
+            functools.partial(
+                _Segments,
+                s,
+                color=COLORS["expanded_edge"],
+                thickness=WIDTHS["outline"],
+            ),
+            "/expanded/edges",
+            functools.partial(rings_to_segments, z=HEIGHTS["expanded_edge"]),
         )
         self.other_edges = _Segments(
             s, "/expanded/other", COLORS["other_expansion"], WIDTHS["outline"] * 0.8
@@ -930,10 +1043,8 @@ class PlannerView:
         show = frame.layers.get("obstacles", True)
         if not self._changed("obstacles", (scene.obstacles, show)):
             return
-        self.obstacles.set(prism_mesh(scene.obstacles, HEIGHTS["obstacle"]), show)
-        self.obstacle_edges.set(
-            rings_to_segments(scene.obstacles, HEIGHTS["obstacle"] + 0.002), show
-        )
+        self.obstacles.set(scene.obstacles, show)
+        self.obstacle_edges.set(scene.obstacles, show)
         numbered = len(scene.obstacles) <= MAX_NUMBERED_OBSTACLES
         self.obstacle_labels.set(
             [
@@ -952,18 +1063,14 @@ class PlannerView:
         # can be reused once the old configuration space is freed.
         if self._changed("expanded", (cspace, show)):
             if cspace is not None and show:
-                self.expanded_fill.set(
-                    polygon_to_mesh(cspace.merged, HEIGHTS["expanded_fill"])
-                )
+                self.expanded_fill.set(polygons_of(cspace.merged))
                 outlines = list(cspace.expanded)
                 if cspace.boundary is not None:
                     outlines += polygons_of(cspace.boundary)
-                self.expanded_edges.set(
-                    rings_to_segments(outlines, HEIGHTS["expanded_edge"])
-                )
+                self.expanded_edges.set(outlines)
             else:
-                self.expanded_fill.set(_NO_MESH, False)
-                self.expanded_edges.set(_NO_SEGMENTS, False)
+                self.expanded_fill.set((), False)
+                self.expanded_edges.set((), False)
         layers = frame.layers
         other = frame.other_expanded if layers.get("other_expansion", False) else None
         if self._changed("other", other):

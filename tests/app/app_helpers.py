@@ -6,6 +6,9 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from app.controller import Frame, RobotPose
 
@@ -23,6 +26,19 @@ def wait_until(
             return True
         time.sleep(poll)
     return False
+
+
+def shown_mesh(chunked: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices and faces a chunked mesh layer of the view shows, joined in order."""
+    handles = chunked.shown()
+    vertices = [np.asarray(h.vertices, dtype=np.float64) for h in handles]
+    offsets = np.cumsum([0] + [len(v) for v in vertices])[:-1]
+    faces = [
+        np.asarray(h.faces) + offset for h, offset in zip(handles, offsets, strict=True)
+    ]
+    if not handles:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
+    return np.concatenate(vertices), np.concatenate(faces)
 
 
 class FakeView:

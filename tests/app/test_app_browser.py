@@ -17,7 +17,7 @@ from shapely import LineString
 
 from app import start_app
 from app.controller import TOOLS
-from tests.app.app_helpers import TopCamera, wait_until
+from tests.app.app_helpers import TopCamera, shown_mesh, wait_until
 
 WIDTH, HEIGHT = 1280, 800
 # Straight down at the floor of 01_two_convex (10 m x 8 m), left of the panel.
@@ -199,7 +199,7 @@ def test_clicking_the_floor_adds_an_obstacle_the_planners_avoid(browser, planner
         assert dsb.status == "reached", dsb.reason
         assert not LineString(dsb.path).intersects(keep_out)
     # And the drawn obstacle prisms now include it: more triangles than before.
-    assert len(planner.view.obstacles.handle.faces) > 0
+    assert len(shown_mesh(planner.view.obstacles)[1]) > 0
     page.close()
 
 

@@ -40,7 +40,7 @@ from app.view import (
     yaw_quaternion,
 )
 from planners.tangent_bug import BugEvent
-from tests.app.app_helpers import SCENARIO_DIR
+from tests.app.app_helpers import SCENARIO_DIR, shown_mesh
 
 L_SHAPE = Polygon([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)])
 WITH_HOLE = Polygon(
@@ -204,20 +204,12 @@ def test_view_layers_hold_exactly_what_was_planned(drawn):
     )
     assert len(view.graphs["vg"].edges.handle.points) == vg.graph.number_of_edges()
     assert len(view.graphs["svg"].edges.handle.points) == svg.graph.number_of_edges()
-    assert view.graphs["vg"].edges.handle.visible and view.obstacles.handle.visible
-    top = view.obstacles.handle.faces[
-        np.all(
-            np.isclose(
-                view.obstacles.handle.vertices[view.obstacles.handle.faces][:, :, 2],
-                0.4,
-                atol=1e-6,
-            ),
-            axis=1,
-        )
-    ]
-    assert mesh_area(
-        np.asarray(view.obstacles.handle.vertices, float), top
-    ) == pytest.approx(sum(o.area for o in frame.scene.obstacles), rel=1e-5)
+    assert view.graphs["vg"].edges.handle.visible and view.obstacles.shown()
+    vertices, faces = shown_mesh(view.obstacles)
+    top = faces[np.all(np.isclose(vertices[faces][:, :, 2], 0.4, atol=1e-6), axis=1)]
+    assert mesh_area(vertices, top) == pytest.approx(
+        sum(o.area for o in frame.scene.obstacles), rel=1e-5
+    )
     # Start and goal handles sit on the scene's points; labels name the obstacles.
     assert_allclose(view.handles["start"].position[:2], frame.scene.start)
     assert_allclose(view.handles["goal"].position[:2], frame.scene.goal)
@@ -255,10 +247,7 @@ def test_view_follows_edits_and_hides_what_has_no_path(drawn):
     controller.set_layer("vg_edges", False)
     controller.set_layer("expanded", False)
     assert controller.wait_idle(10)
-    assert (
-        not view.graphs["vg"].edges.handle.visible
-        and not view.expanded_fill.handle.visible
-    )
+    assert not view.graphs["vg"].edges.handle.visible and not view.expanded_fill.shown()
 
 
 def _gizmo_drag(

@@ -81,8 +81,8 @@ def test_opened_from_disk_offline_it_shows_the_scene_and_the_robot_moves(
             page.evaluate("() => Object.keys(window.__viserMutable.nodeRefFromName)")
         )
         for node in (
-            "/obstacles/body",
-            "/expanded/fill",
+            "/obstacles/body/0",
+            "/expanded/fill/0",
             "/vg/path",
             "/vg/edges",
             "/svg/path",

@@ -33,6 +33,7 @@ from app.view import prism_mesh
 from planners.live import LiveOptions, live_space
 from planners.motion import Motion, scene_at
 from planners.scene import Scene, load_scene
+from tests.app.app_helpers import shown_mesh
 from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -187,7 +188,7 @@ def test_the_view_draws_the_frames_scene_and_robot(planner_app, films) -> None:
                 scene_at(film.scene, t).obstacles, HEIGHTS["obstacle"]
             )
             np.testing.assert_allclose(
-                view.obstacles.handle.vertices, vertices, atol=1e-6
+                shown_mesh(view.obstacles)[0], vertices, atol=1e-6
             )
             assert tuple(view.robot.position[:2]) == pytest.approx(frame.pose.xy)
             assert view.robot.visible and view.sensing_circle.handle.visible
@@ -218,7 +219,7 @@ def recorded(browser, planner_app, tmp_path_factory):
 
     def spy_render(frame):
         render(frame)
-        obstacles.append(np.array(view.obstacles.handle.vertices))
+        obstacles.append(shown_mesh(view.obstacles)[0])
 
     def spy_robot(pose):
         render_robot(pose)

@@ -1,0 +1,195 @@
+"""Chunked layers: an edit sends only the chunks whose polygons changed (issue 15, item 2).
+
+First ``_Chunked`` alone, held to the drawing of every polygon at once over random
+sequences of edits; then the real view on a viser server, where the messages queued for
+the browsers are counted per node while one obstacle of a student room is moved.
+"""
+
+from __future__ import annotations
+
+import collections
+from collections.abc import Iterator
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+import viser
+import viser._scene_api
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from shapely import Polygon
+
+import planners
+from app import robot
+from app.controller import Controller
+from app.style import HEIGHTS
+from app.view import PlannerView, _Chunked, chunk_size, prism_mesh, rings_to_segments
+from tests.app.app_helpers import shown_mesh
+from tests.benchmarks.bench_student import student_layout
+
+
+class _Layer:
+    """A node's layer that records what it was given (as _Mesh/_Segments are used)."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.handle = SimpleNamespace(visible=False)
+        self.drawing: list[Polygon] = []
+        self.sent = 0
+
+    def set(self, drawing: list[Polygon], visible: bool = True) -> None:
+        self.drawing = drawing
+        self.handle.visible = visible and bool(drawing)
+        self.sent += 1
+
+
+def _square(x: float) -> Polygon:
+    return Polygon([(x, 0), (x + 1, 0), (x + 1, 1), (x, 1)])
+
+
+_EDITS = st.lists(
+    st.one_of(
+        st.tuples(st.just("move"), st.integers(0, 99), st.integers(0, 3)),
+        st.tuples(st.just("insert"), st.integers(0, 99), st.integers(0, 3)),
+        st.tuples(st.just("delete"), st.integers(0, 99), st.just(0)),
+        st.tuples(st.just("hide"), st.just(0), st.just(0)),
+    ),
+    max_size=25,
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 90), _EDITS)
+def test_chunks_show_what_drawing_everything_shows_and_send_only_changes(n, edits):
+    """After every edit the shown nodes, in order, hold the polygons in order (as one
+    drawing of them all); a node is sent again only when its polygons or the layer's
+    visibility changed."""
+    chunked = _Chunked(_Layer, "/p", list)
+    polygons = [_square(float(k)) for k in range(n)]
+    visible = True
+    previous: list[Any] = []
+    for kind, where, value in [("start", 0, 0), *edits]:
+        if kind == "move" and polygons:
+            polygons[where % len(polygons)] = _square(100.0 + value)
+        elif kind == "insert":
+            polygons.insert(where % (len(polygons) + 1), _square(200.0 + value))
+        elif kind == "delete" and polygons:
+            del polygons[where % len(polygons)]
+        elif kind == "hide":
+            visible = not visible
+        sent_before = [layer.sent for layer in chunked.layers]
+        chunked.set(tuple(polygons), visible)
+        shown = [
+            p for layer in chunked.layers if layer.handle.visible for p in layer.drawing
+        ]
+        assert shown == (polygons if visible else [])
+        size = chunk_size(len(polygons))
+        chunks = [tuple(polygons[k : k + size]) for k in range(0, len(polygons), size)]
+        for k, layer in enumerate(chunked.layers):
+            sent = layer.sent - (sent_before[k] if k < len(sent_before) else 0)
+            before = previous[k] if k < len(previous) else None
+            now = (chunks[k], visible) if k < len(chunks) else None
+            assert sent == int(visible and now is not None and now != before)
+        assert len(chunked.layers) <= 16
+        previous = [
+            (chunks[k], visible) if k < len(chunks) else None
+            for k in range(len(chunked.layers))
+        ]
+
+
+def test_a_floor_plan_of_many_polygons_is_drawn_on_at_most_sixteen_nodes():
+    chunked = _Chunked(_Layer, "/p", list)
+    chunked.set(tuple(_square(float(k)) for k in range(1000)), True)
+    assert len(chunked.layers) == 16
+    assert [len(layer.drawing) for layer in chunked.layers] == [63] * 15 + [55]
+
+
+# ----------------------------------------------------------------------------- real view
+
+
+@pytest.fixture
+def room() -> Iterator[tuple[PlannerView, Controller]]:
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    view = PlannerView(server)
+    view.robot_model_fn = robot.robot_model
+    scene = planners.load_scene(student_layout(32, layout="apart"))
+    controller = Controller(
+        view,
+        scene,
+        trajectory=robot.trajectory,
+        sample=robot.sample,
+        slow_process=False,
+    )
+    controller.set_planner_enabled("dsb", False)
+    assert controller.wait_idle(60)
+    yield view, controller
+    controller.close()
+    server.stop()
+
+
+class _Queued:
+    """Scene messages queued for the browsers, counted per node."""
+
+    def __init__(self) -> None:
+        self.by_node: collections.Counter[str] = collections.Counter()
+        self._saved = viser._scene_api.SceneApi._queue_scene_message
+
+    def __enter__(self) -> _Queued:
+        saved, counts = self._saved, self.by_node
+
+        def queue(api: Any, message: Any) -> None:
+            counts[str(getattr(message, "name", ""))] += 1
+            saved(api, message)
+
+        viser._scene_api.SceneApi._queue_scene_message = queue  # type: ignore[method-assign]
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        viser._scene_api.SceneApi._queue_scene_message = self._saved  # type: ignore[method-assign]
+
+    def nodes(self, prefix: str) -> set[str]:
+        return {name for name in self.by_node if name.startswith(prefix + "/")}
+
+
+def test_moving_one_obstacle_sends_only_its_chunks(room):
+    """Obstacle 13 of 32 (chunks of 4) moves: its prism, outline and expanded outline
+    are sent in node 3 of each layer, nothing else of them, and so is its part of the
+    configuration space's fill (the parts are apart, in the obstacles' order). What is
+    shown is still the whole scene's drawing."""
+    view, controller = room
+    with _Queued() as queued:
+        controller.edits.move_obstacle(13, (0.05, 0.0))
+        assert controller.wait_idle(30)
+    assert queued.nodes("/obstacles/body") == {"/obstacles/body/3"}
+    assert queued.nodes("/obstacles/edges") == {"/obstacles/edges/3"}
+    assert queued.nodes("/expanded/edges") == {"/expanded/edges/3"}
+    assert queued.nodes("/expanded/fill") == {"/expanded/fill/3"}  # parts apart
+    moved = controller.scene
+    vertices, faces = shown_mesh(view.obstacles)
+    expected, _ = prism_mesh(moved.obstacles, HEIGHTS["obstacle"])
+    np.testing.assert_allclose(vertices, expected, atol=1e-6)
+    assert len(faces) == len(expected) // 3
+    outlines = np.concatenate([h.points for h in view.obstacle_edges.shown()])
+    np.testing.assert_allclose(
+        outlines,
+        rings_to_segments(moved.obstacles, HEIGHTS["obstacle"] + 0.002),
+        atol=1e-6,
+    )
+
+
+def test_hiding_a_layer_hides_every_chunk_and_showing_it_draws_them_again(room):
+    view, controller = room
+    controller.set_layer("obstacles", False)
+    controller.set_layer("expanded", False)
+    assert controller.wait_idle(30)
+    assert not view.obstacles.shown() and not view.obstacle_edges.shown()
+    assert not view.expanded_fill.shown() and not view.expanded_edges.shown()
+    controller.set_layer("obstacles", True)
+    controller.set_layer("expanded", True)
+    assert controller.wait_idle(30)
+    vertices, _ = shown_mesh(view.obstacles)
+    expected, _ = prism_mesh(controller.scene.obstacles, HEIGHTS["obstacle"])
+    np.testing.assert_allclose(vertices, expected, atol=1e-6)
+    # 32 parts apart, 4 a node.
+    assert len(view.expanded_fill.shown()) == len(view.expanded_fill.layers) == 8

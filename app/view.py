@@ -569,6 +569,17 @@ class _Chunked(Generic[L]):
         return [layer.handle for layer in self.layers if layer.handle.visible]
 
 
+def _chunked_outlines(
+    scene: viser.SceneApi, prefix: str, color: tuple[int, int, int], z: float
+) -> _Chunked[_Segments]:
+    """Polygons' outlines at height ``z`` [m], drawn in chunks (:class:`_Chunked`)."""
+    return _Chunked(
+        functools.partial(_Segments, scene, color=color, thickness=WIDTHS["outline"]),
+        prefix,
+        functools.partial(rings_to_segments, z=z),
+    )
+
+
 def _same_drawing(old: object, new: object) -> bool:
     """Whether a chunk's key is the one drawn (tuples of polygons compare by value)."""
     try:
@@ -836,15 +847,8 @@ class PlannerView:
             "/obstacles/body",
             functools.partial(prism_mesh, height=HEIGHTS["obstacle"]),
         )
-        self.obstacle_edges = _Chunked(
-            functools.partial(
-                _Segments,
-                s,
-                color=COLORS["obstacle_edge"],
-                thickness=WIDTHS["outline"],
-            ),
-            "/obstacles/edges",
-            functools.partial(rings_to_segments, z=HEIGHTS["obstacle"] + 0.002),
+        self.obstacle_edges = _chunked_outlines(
+            s, "/obstacles/edges", COLORS["obstacle_edge"], HEIGHTS["obstacle"] + 0.002
         )
         self.obstacle_labels = _Labels(s, "/obstacles/labels", 0.9, "center-center")
         self.expanded_fill = _Chunked(
@@ -860,15 +864,8 @@ class PlannerView:
             "/expanded/fill",
             functools.partial(polygon_to_mesh, z=HEIGHTS["expanded_fill"]),
         )
-        self.expanded_edges = _Chunked(
-            functools.partial(
-                _Segments,
-                s,
-                color=COLORS["expanded_edge"],
-                thickness=WIDTHS["outline"],
-            ),
-            "/expanded/edges",
-            functools.partial(rings_to_segments, z=HEIGHTS["expanded_edge"]),
+        self.expanded_edges = _chunked_outlines(
+            s, "/expanded/edges", COLORS["expanded_edge"], HEIGHTS["expanded_edge"]
         )
         self.other_edges = _Segments(
             s, "/expanded/other", COLORS["other_expansion"], WIDTHS["outline"] * 0.8

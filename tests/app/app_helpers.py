@@ -9,8 +9,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import viser
 
-from app.controller import Frame, RobotPose
+from app import robot
+from app.controller import Controller, Frame, RobotPose
+from app.view import PlannerView
+from planners import Scene
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO_DIR = ROOT / "static_scenarios"
@@ -26,6 +30,22 @@ def wait_until(
             return True
         time.sleep(poll)
     return False
+
+
+def view_and_controller(
+    server: viser.ViserServer, scene: Scene
+) -> tuple[PlannerView, Controller]:
+    """A real view on ``server`` and a controller of ``scene`` planning in this process."""
+    view = PlannerView(server)
+    view.robot_model_fn = robot.robot_model
+    controller = Controller(
+        view,
+        scene,
+        trajectory=robot.trajectory,
+        sample=robot.sample,
+        slow_process=False,
+    )
+    return view, controller
 
 
 def shown_mesh(chunked: Any) -> tuple[np.ndarray, np.ndarray]:

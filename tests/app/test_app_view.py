@@ -40,7 +40,7 @@ from app.view import (
     yaw_quaternion,
 )
 from planners.tangent_bug import BugEvent
-from tests.app.app_helpers import SCENARIO_DIR, shown_mesh
+from tests.app.app_helpers import SCENARIO_DIR, shown_mesh, view_and_controller
 
 L_SHAPE = Polygon([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)])
 WITH_HOLE = Polygon(
@@ -173,16 +173,8 @@ def server() -> Iterator[Any]:
 @pytest.fixture
 def drawn(server) -> Iterator[tuple[PlannerView, Controller]]:
     server.scene.reset()
-    view = PlannerView(server)
-    view.robot_model_fn = robot.robot_model
     scene = planners.load_scene(SCENARIO_DIR / "04_convex_nonconvex_b.json")
-    controller = Controller(
-        view,
-        scene,
-        trajectory=robot.trajectory,
-        sample=robot.sample,
-        slow_process=False,
-    )
+    view, controller = view_and_controller(server, scene)
     assert controller.wait_idle(20)
     yield view, controller
     controller.close()

@@ -16,6 +16,7 @@ from app.thinning import (
     frame_note,
     path_nodes,
 )
+from tests.app.app_helpers import view_and_controller
 from tests.benchmarks.bench_student import student_layout
 
 
@@ -121,20 +122,9 @@ def test_a_student_layout_is_thinned_to_the_planners_edges_at_the_path():
 def test_the_view_draws_a_big_graph_thinned_and_all_on_request():
     import viser
 
-    from app import robot
-    from app.controller import Controller
-    from app.view import PlannerView
-
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    view = PlannerView(server)
-    view.robot_model_fn = robot.robot_model
-    scene = planners.load_scene(student_layout(32))
-    controller = Controller(
-        view,
-        scene,
-        trajectory=robot.trajectory,
-        sample=robot.sample,
-        slow_process=False,
+    view, controller = view_and_controller(
+        server, planners.load_scene(student_layout(32))
     )
     try:
         assert controller.wait_idle(60)

@@ -21,11 +21,10 @@ from hypothesis import strategies as st
 from shapely import Polygon
 
 import planners
-from app import robot
 from app.controller import Controller
 from app.style import HEIGHTS
 from app.view import PlannerView, _Chunked, chunk_size, prism_mesh, rings_to_segments
-from tests.app.app_helpers import shown_mesh
+from tests.app.app_helpers import shown_mesh, view_and_controller
 from tests.benchmarks.bench_student import student_layout
 
 
@@ -111,16 +110,8 @@ def test_a_floor_plan_of_many_polygons_is_drawn_on_at_most_sixteen_nodes():
 @pytest.fixture
 def room() -> Iterator[tuple[PlannerView, Controller]]:
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
-    view = PlannerView(server)
-    view.robot_model_fn = robot.robot_model
     scene = planners.load_scene(student_layout(32, layout="apart"))
-    controller = Controller(
-        view,
-        scene,
-        trajectory=robot.trajectory,
-        sample=robot.sample,
-        slow_process=False,
-    )
+    view, controller = view_and_controller(server, scene)
     controller.set_planner_enabled("dsb", False)
     assert controller.wait_idle(60)
     yield view, controller

@@ -175,7 +175,7 @@ def test_closing_one_presenter_browser_leaves_the_others_explain(planner):
         assert wait_until(lambda: planner.classroom.seat(aid) is None, 20)
         assert planner.wait_idle(30) and explainer.wait_ready(30)
         assert explainer.method == "svg" and explainer.step == 1
-        assert _explanation_shown(b)
+        assert b.wait_for(lambda: _explanation_shown(b), 20)  # B's messages arrive
         assert not planner.controller.frame.layers["svg_edges"]
         # B still drives it: a step forward, then off, which gives the layers back.
         b.set_gui(b.uuid("Step"), ">")

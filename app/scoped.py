@@ -70,11 +70,23 @@ class PrefixedScene:
             return self._inert_gizmo
 
         def add(node: str, *args: Any, **kwargs: Any) -> Any:
+            self._ensure_root()
             return method(self.root_name + node, *args, **kwargs)
 
         return add
 
+    def _ensure_root(self) -> None:
+        """Refuse to add a node once the root is removed.
+
+        viser would accept it and make the missing root again, visible: a view drawn
+        late, after its browser left, would bring back nodes nobody removes. Assigning
+        to a removed node raises already; so does adding one here.
+        """
+        if self.root._impl.removed:
+            raise RuntimeError(f"{self.root_name} was removed: nothing more is drawn")
+
     def _inert_gizmo(self, node: str, **kwargs: Any) -> InertGizmo:
+        self._ensure_root()
         frame = self._scene.add_frame(
             self.root_name + node,
             show_axes=False,

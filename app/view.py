@@ -512,10 +512,10 @@ class _NodeLayer(Protocol):
     def set(self, drawing: Any, visible: bool = True, /) -> None: ...
 
 
-L = TypeVar("L", bound=_NodeLayer)
+_LayerT = TypeVar("_LayerT", bound=_NodeLayer)
 
 
-class _Chunked(Generic[L]):
+class _Chunked(Generic[_LayerT]):
     """Polygons drawn on a few nodes of a few polygons each (``prefix/0``, ``prefix/1``..).
 
     Node ``k`` draws polygons ``k * size`` to ``(k + 1) * size - 1`` (:func:`chunk_size`)
@@ -537,14 +537,14 @@ class _Chunked(Generic[L]):
 
     def __init__(
         self,
-        make: Callable[[str], L],
+        make: Callable[[str], _LayerT],
         prefix: str,
         draw: Callable[[Sequence[Polygon]], Any],
     ) -> None:
         self._make = make
         self._prefix = prefix
         self._draw = draw
-        self.layers: list[L] = []
+        self.layers: list[_LayerT] = []
         self._drawn: list[tuple[tuple[Polygon, ...], bool] | None] = []
 
     def set(self, polygons: Sequence[Polygon], visible: bool = True) -> None:
@@ -556,13 +556,13 @@ class _Chunked(Generic[L]):
             self._drawn.append(None)
         for k, layer in enumerate(self.layers):
             key = (chunks[k], visible) if k < len(chunks) else None
-            if _same_drawing(self._drawn[k], key):
+            if _same(self._drawn[k], key):
                 continue
-            self._drawn[k] = key
             if key is None or not visible:
                 layer.handle.visible = False
             else:
                 layer.set(self._draw(chunks[k]))
+            self._drawn[k] = key  # once drawn: a drawing that failed is tried again
 
     def shown(self) -> list[Any]:
         """Return the handles of the nodes shown now, in order (what browsers draw)."""
@@ -580,8 +580,12 @@ def _chunked_outlines(
     )
 
 
-def _same_drawing(old: object, new: object) -> bool:
-    """Whether a chunk's key is the one drawn (tuples of polygons compare by value)."""
+def _same(old: object, new: object) -> bool:
+    """Whether ``new`` is what was drawn (``old``): the same object, or equal by value.
+
+    Polygons, and tuples of them, compare by value; a value that cannot say (an array)
+    counts as changed.
+    """
     try:
         return old is new or bool(old == new)
     except (TypeError, ValueError):
@@ -992,11 +996,7 @@ class PlannerView:
     def _changed(self, key: str, value: Any) -> bool:
         """Tell whether ``value`` differs from the last one drawn for ``key`` (and remember it)."""
         old = self._last.get(key, _MISSING)
-        try:
-            same = old is not _MISSING and (old is value or bool(old == value))
-        except (TypeError, ValueError):
-            same = False
-        if same:
+        if old is not _MISSING and _same(old, value):
             return False
         self._last[key] = value
         return True

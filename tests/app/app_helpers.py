@@ -13,6 +13,7 @@ import viser
 
 from app import robot
 from app.controller import Controller, Frame, RobotPose
+from app.scoped import ScopedTarget
 from app.view import PlannerView
 from planners import Scene
 
@@ -33,10 +34,10 @@ def wait_until(
 
 
 def view_and_controller(
-    server: viser.ViserServer, scene: Scene
+    target: viser.ViserServer | ScopedTarget, scene: Scene
 ) -> tuple[PlannerView, Controller]:
-    """A real view on ``server`` and a controller of ``scene`` planning in this process."""
-    view = PlannerView(server)
+    """A real view on ``target`` and a controller of ``scene`` planning in this process."""
+    view = PlannerView(target)
     view.robot_model_fn = robot.robot_model
     controller = Controller(
         view,
@@ -51,13 +52,13 @@ def view_and_controller(
 def shown_mesh(chunked: Any) -> tuple[np.ndarray, np.ndarray]:
     """The vertices and faces a chunked mesh layer of the view shows, joined in order."""
     handles = chunked.shown()
+    if not handles:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
     vertices = [np.asarray(h.vertices, dtype=np.float64) for h in handles]
     offsets = np.cumsum([0] + [len(v) for v in vertices])[:-1]
     faces = [
         np.asarray(h.faces) + offset for h, offset in zip(handles, offsets, strict=True)
     ]
-    if not handles:
-        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
     return np.concatenate(vertices), np.concatenate(faces)
 
 

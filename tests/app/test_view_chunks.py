@@ -8,7 +8,8 @@ the browsers are counted per node while one obstacle of a student room is moved.
 from __future__ import annotations
 
 import collections
-from collections.abc import Iterator
+import dataclasses
+from collections.abc import Iterator, Sequence
 from types import SimpleNamespace
 from typing import Any
 
@@ -16,14 +17,24 @@ import numpy as np
 import pytest
 import viser
 import viser._scene_api
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
 
 import planners
 from app.controller import Controller
+from app.scoped import ScopedTarget
 from app.style import HEIGHTS
-from app.view import PlannerView, _Chunked, chunk_size, prism_mesh, rings_to_segments
+from app.view import (
+    PlannerView,
+    _Chunked,
+    chunk_size,
+    polygon_to_mesh,
+    polygons_of,
+    prism_mesh,
+    rings_to_segments,
+)
+from planners.scene import add_obstacle
 from tests.app.app_helpers import shown_mesh, view_and_controller
 from tests.benchmarks.bench_student import student_layout
 
@@ -58,13 +69,25 @@ _EDITS = st.lists(
 )
 
 
+def _drawing(polygons: Sequence[Polygon]) -> list[Polygon]:
+    """A chunk's drawing: its polygons, but none of a moved-to-103 one (draws nothing)."""
+    return [p for p in polygons if not _blank(p)]
+
+
+def _blank(polygon: Polygon) -> bool:
+    return polygon.bounds[0] == 103.0
+
+
 @settings(max_examples=150, deadline=None)
 @given(st.integers(0, 90), _EDITS)
+@example(65, [("delete", 0, 0), ("insert", 3, 1), ("hide", 0, 0), ("hide", 0, 0)])
+@example(8, [("move", 1, 3), ("move", 2, 3), ("move", 0, 3), ("move", 3, 3)])
 def test_chunks_show_what_drawing_everything_shows_and_send_only_changes(n, edits):
     """After every edit the shown nodes, in order, hold the polygons in order (as one
     drawing of them all); a node is sent again only when its polygons or the layer's
-    visibility changed."""
-    chunked = _Chunked(_Layer, "/p", list)
+    visibility changed. The examples cross 64 polygons (4 a node, then 5) and back, and
+    make a node's whole drawing empty."""
+    chunked = _Chunked(_Layer, "/p", _drawing)
     polygons = [_square(float(k)) for k in range(n)]
     visible = True
     previous: list[Any] = []
@@ -82,7 +105,7 @@ def test_chunks_show_what_drawing_everything_shows_and_send_only_changes(n, edit
         shown = [
             p for layer in chunked.layers if layer.handle.visible for p in layer.drawing
         ]
-        assert shown == (polygons if visible else [])
+        assert shown == ([p for p in polygons if not _blank(p)] if visible else [])
         size = chunk_size(len(polygons))
         chunks = [tuple(polygons[k : k + size]) for k in range(0, len(polygons), size)]
         for k, layer in enumerate(chunked.layers):
@@ -147,7 +170,7 @@ def test_moving_one_obstacle_sends_only_its_chunks(room):
     """Obstacle 13 of 32 (chunks of 4) moves: its prism, outline and expanded outline
     are sent in node 3 of each layer, nothing else of them, and so is its part of the
     configuration space's fill (the parts are apart, in the obstacles' order). What is
-    shown is still the whole scene's drawing."""
+    shown is still the whole scene's drawing, layer by layer."""
     view, controller = room
     with _Queued() as queued:
         controller.edits.move_obstacle(13, (0.05, 0.0))
@@ -161,12 +184,24 @@ def test_moving_one_obstacle_sends_only_its_chunks(room):
     expected, _ = prism_mesh(moved.obstacles, HEIGHTS["obstacle"])
     np.testing.assert_allclose(vertices, expected, atol=1e-6)
     assert len(faces) == len(expected) // 3
-    outlines = np.concatenate([h.points for h in view.obstacle_edges.shown()])
     np.testing.assert_allclose(
-        outlines,
+        _shown_segments(view.obstacle_edges),
         rings_to_segments(moved.obstacles, HEIGHTS["obstacle"] + 0.002),
         atol=1e-6,
     )
+    cspace = controller.frame.plans["cspace"]
+    fill, _ = polygon_to_mesh(cspace.merged, HEIGHTS["expanded_fill"])
+    np.testing.assert_allclose(shown_mesh(view.expanded_fill)[0], fill, atol=1e-6)
+    outlines = [*cspace.expanded, *polygons_of(cspace.boundary)]
+    np.testing.assert_allclose(
+        _shown_segments(view.expanded_edges),
+        rings_to_segments(outlines, HEIGHTS["expanded_edge"]),
+        atol=1e-6,
+    )
+
+
+def _shown_segments(chunked: Any) -> np.ndarray:
+    return np.concatenate([h.points for h in chunked.shown()])
 
 
 def test_hiding_a_layer_hides_every_chunk_and_showing_it_draws_them_again(room):
@@ -184,3 +219,30 @@ def test_hiding_a_layer_hides_every_chunk_and_showing_it_draws_them_again(room):
     np.testing.assert_allclose(vertices, expected, atol=1e-6)
     # 32 parts apart, 4 a node.
     assert len(view.expanded_fill.shown()) == len(view.expanded_fill.layers) == 8
+
+
+def test_a_scoped_view_drawn_after_its_root_is_removed_adds_no_node():
+    """A classroom's view drawn late, after its browser left and its root was removed:
+    chunks (and labels) it would add for a new obstacle are refused, not made again
+    under a root viser would bring back, visible."""
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        target = ScopedTarget(server, "/own")
+        scene = planners.load_scene(student_layout(4, layout="apart"))
+        view, controller = view_and_controller(target, scene)
+        assert controller.wait_idle(60)
+        frame = controller.frame
+        controller.close()
+        assert frame is not None and len(view.obstacles.layers) == 1
+        target.remove()
+        grown = dataclasses.replace(
+            frame,
+            scene=add_obstacle(frame.scene, [(9.0, 9.0), (10.0, 9.0), (10.0, 10.0)]),
+            version=frame.version + 1,
+        )
+        with pytest.raises(RuntimeError, match="was removed"):
+            view.render(grown)
+        names = server.scene._handle_from_node_name  # viser's own registry
+        assert not [name for name in names if name.startswith("/own")]
+    finally:
+        server.stop()

@@ -11,9 +11,11 @@ corners: the scenes students build in a "what if" session. Two kinds of layout
 ``apart``
     obstacles that stay apart once expanded, so none merge: 160, 318, 462 and 612
     configuration-space vertices, the sizes of the issue's table (156 to 609) and its
-    title's "up to 600". Each layout is opened in the real app (viser server, 3-D view, panel,
-controller; no browser) and dragged through
-``controller.edits.drag_handle`` -- the gizmo's call -- as in ``bench_app.py``:
+    title's "up to 600".
+
+Each layout is opened in the real app (viser server, 3-D view, panel, controller; no
+browser) and dragged through ``controller.edits.drag_handle`` -- the gizmo's call -- as
+in ``bench_app.py``:
 
 ``vertex``
     a vertex of the obstacle nearest the room's centre, along a loop 1 m wide;
@@ -34,10 +36,10 @@ The app's fast lane carries the vertex visibility over from the previous edit
 builds the visibility graph from scratch), for the scaling against vertex count.
 
 Run: ``python tests/benchmarks/bench_student.py [--events 300] [--obstacles 8,16,24,32]
-[--layouts merging,apart] [--drag vertex,move] [--full] [--no-dsb] [--plan-only]``. ``--no-dsb`` runs only the first
-of the two; ``--plan-only`` times ``plan_all`` alone on the same drags instead of it (no
-app, no drawing): the planning's share of the budget. A report: exit 0 unless
-``--strict``.
+[--layouts merging,apart] [--drag vertex,move] [--full] [--no-dsb] [--plan-only]``.
+``--no-dsb`` runs only the first of the two; ``--plan-only`` times ``plan_all`` alone on
+the same drags instead of it (no app, no drawing): the planning's share of the budget. A
+report: exit 0 unless ``--strict``.
 
 Before the first row and after the last, the machine's own spread: the same fixed
 12 ms of work timed 150 times (:func:`clock.spread`). A p95 cannot be steadier than the
@@ -73,6 +75,7 @@ import planners.api  # noqa: E402
 import planners.scene  # noqa: E402
 from app import start_app  # noqa: E402
 from planners.allocator import keep_freed_memory  # noqa: E402
+from planners.expansion import DEFAULT_ARC_STEP  # noqa: E402
 
 FAST_BUDGET_MS = 16.0
 FULL_BUDGET_MS = 50.0
@@ -86,11 +89,25 @@ LAYOUTS = ("merging", "apart")
 def student_layout(
     obstacles: int, seed: int = 15, layout: str = "merging"
 ) -> dict[str, Any]:
-    """A seeded room of ``obstacles`` convex obstacles of 4 to 8 vertices (scenario dict).
+    """A seeded room of convex obstacles of 4 to 8 vertices, as a scenario dict.
 
-    Each obstacle's corners lie on a circle (its centre and radius drawn first). With
-    ``layout="apart"`` an obstacle whose circle comes within twice the robot's radius
-    (and 1 cm) of another's is drawn again, so no two expanded obstacles meet.
+    Each obstacle's corners lie on a circle, its centre and radius drawn first.
+
+    Parameters
+    ----------
+    obstacles
+        How many obstacles.
+    seed
+        With ``obstacles``, seeds the random numbers.
+    layout
+        ``"merging"``: obstacles anywhere (clear of the start's and goal's corners).
+        ``"apart"``: an obstacle whose circle comes within :func:`_apart` of another's
+        is drawn again, so no two expanded obstacles meet.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``layout``, or when 1000 draws per obstacle do not place them all.
     """
     if layout not in LAYOUTS:
         raise ValueError(f"layout must be one of {LAYOUTS}, got {layout!r}")
@@ -109,12 +126,10 @@ def student_layout(
             np.arange(k) + rng.uniform(-0.3, 0.3, k)
         )
         radius = rng.uniform(0.5, 1.3)
-        clearance = 2.0 * ROBOT_RADIUS + 0.01
-        if layout == "apart" and any(
-            np.hypot(*(centre - c)) < radius + r + clearance for c, r in circles
-        ):
-            continue
-        circles.append((centre, radius))
+        if layout == "apart":
+            if any(np.hypot(*(centre - c)) < radius + r + _apart() for c, r in circles):
+                continue
+            circles.append((centre, radius))
         ring = centre + radius * np.column_stack([np.cos(angles), np.sin(angles)])
         rings.append(np.round(ring, 3).tolist())
     if len(rings) < obstacles:
@@ -131,6 +146,17 @@ def student_layout(
         "expansion": "disk",
         "sensor_range": 2.0,
     }
+
+
+def _apart() -> float:
+    """The gap [m] between two obstacles' circles in an ``apart`` room.
+
+    A disk-expanded obstacle reaches at most ``radius / cos(arc_step / 2)`` beyond its
+    polygon (the arcs' tangent edges, :func:`planners.expansion.expand_disk`), so two
+    stay apart when their circles are further apart than twice that; 1 cm more covers
+    the corners' rounding to the millimetre.
+    """
+    return 2.0 * ROBOT_RADIUS / math.cos(DEFAULT_ARC_STEP / 2) + 0.01
 
 
 def _central(scene: planners.Scene) -> int:

@@ -13,8 +13,9 @@ until drawn and received. For every event we count:
   carry (viser's ``SceneApi._queue_scene_message``, wrapped), to see which layer costs.
 
 Run: ``python tests/benchmarks/bench_wire.py [--events 60] [--obstacles 32]
-[--layout merging|apart] [--drag move,vertex] [--all-edges]``. ``--all-edges`` switches the panel's "VG edges:
-all" on (the whole graph drawn, as before thinning). A report: always exit 0.
+[--layout merging|apart] [--drag move,vertex] [--all-edges]``. ``--all-edges`` switches
+the panel's "VG edges: all" on (the whole graph drawn, as before thinning); ``--layout``
+picks the kind of room (``bench_student.student_layout``). A report: always exit 0.
 """
 
 from __future__ import annotations
@@ -147,7 +148,7 @@ def bench(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Print bytes and messages per drag event, and the five costliest layers."""
+    """Print bytes and messages per drag event, and the eight costliest nodes."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--events", type=int, default=60)
     parser.add_argument("--obstacles", default="32")

@@ -81,7 +81,8 @@ def _parser() -> argparse.ArgumentParser:
         "--robot-time",
         type=float,
         default=None,
-        help="snapshot: robot at this trajectory time [s]",
+        help="snapshot: robot at this trajectory time [s]; with moving obstacles, "
+        "the live run at that time",
     )
     _media_arguments(parser)
     _explain_arguments(parser)

@@ -165,7 +165,18 @@ class Studio:
         options: SlideOptions = SlideOptions(),  # noqa: B008
         robot_time: float | None = None,
     ) -> bytes:
-        """Return a settled PNG of the current scenario, laid out for slides."""
+        """Return a settled PNG of the current scenario, laid out for slides.
+
+        ``robot_time``: where the robot is drawn along its trajectory; None, at the
+        start. In a scenario whose obstacles move, a ``robot_time`` draws the live run
+        at that time instead, obstacles and robot alike, as a recording's frame
+        (:func:`app.record_live.live_picture`); None draws what the app shows: every
+        planner's answer for the scene at t = 0.
+        """
+        if robot_time is not None and self.app.controller.scene.motions:
+            from app.record_live import live_picture  # noqa: PLC0415 - imports this
+
+            return live_picture(self, float(robot_time), view, options)
         self.app.set_robot_time(0.0 if robot_time is None else float(robot_time))
         self._wait_idle()
         self.compose(view, options)

@@ -31,6 +31,10 @@ Data flow::
     show_live(app, frame)                 view.render / render_robot (property sets)
     relabel(slide, frame...)              -> the frame's labels over the same camera
     Studio.shot(t_k, [tick])              -> PNG, once the browser shows frame k
+
+A still of such a scenario at a time (``--snapshot --robot-time T``:
+:func:`live_picture`) is one frame of the same run, with its time stamp; without a time
+the still is what the app shows (the planners' answers for the scene at t = 0).
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ __all__ = [
     "LiveFrame",
     "LiveWalk",
     "live_layers",
+    "live_picture",
     "live_trace",
     "record_live_video",
     "show_live",
@@ -336,6 +341,48 @@ def record_live_video(
             planner_app.view.render(planner_app.controller.frame)
             planner_app.set_robot_time(0.0)
     return Recording(path, fps, times, end, base.camera, width, height, live=film.trace)
+
+
+def live_picture(
+    studio: Any,
+    t: float,
+    view: str = "top",
+    options: SlideOptions = SlideOptions(),  # noqa: B008
+) -> bytes:
+    """Return a still (PNG) of the live run of the studio's scene at time ``t`` [s].
+
+    The frame a recording would show at ``t`` (:meth:`LiveFilm.frame`): the obstacles
+    where they are then, the robot, its sensing and the path driven so far. With the
+    labels on, the picture says its time (``t = 4.5 s``). The app's own drawing is put
+    back afterwards.
+    """
+    app = studio.app
+    scene = app.controller.scene
+    film = LiveFilm(scene, live_trace(scene, until=t))
+    frame = film.frame(t)
+    if options.labels:
+        options = dataclasses.replace(options, time_stamp=True)
+    slide = layout(
+        frame.scene,
+        frame.plans,
+        live_layers(app.controller.frame.layers),
+        studio.width,
+        studio.height,
+        view=view,
+        options=options,
+        registry=app.controller.registry,
+        bounds=film.bounds((t,)),
+    )
+    tick = app.server.scene.add_frame(
+        TICK, show_axes=False, visible=False, position=(-1.0, 0.0, 0.0)
+    )
+    try:
+        studio.compose(options=options, slide=slide)
+        return _shoot(studio, frame, slide, options, (0, tick))
+    finally:
+        tick.remove()
+        app.view.render(app.controller.frame)
+        app.set_robot_time(0.0)
 
 
 def _base_slide(

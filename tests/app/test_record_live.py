@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 
 from app import start_app
 from app.jobs import JobFailure
+from app.pictures import shoot
 from app.record import LIVE_FOLLOW, record, record_video
 from app.record_live import FIGURE_EVENTS, LiveFilm, live_trace, show_live
 from app.server import resolve_scenario
@@ -297,6 +298,47 @@ def test_two_live_recordings_are_the_same_frame_for_frame(
     for k in range(len(first)):
         off = np.abs(first[k].astype(int) - again[k]).max(axis=2) > 16
         assert off.mean() <= 0.005, f"frame {k} differs in {off.mean():.2%} of pixels"
+
+
+def test_a_still_at_a_time_is_the_recordings_frame_then(
+    recorded, browser, planner_app, films
+) -> None:
+    """``--snapshot --robot-time T`` of a moving scenario: the live run at T, as the
+    recording's frame at T draws it (the person where it is then, the robot at the
+    trace's pose); afterwards the app draws its own frame (t = 0) again."""
+    _, _, video = recorded
+    film = films[PERSON]
+    view = planner_app.view
+    drawn: list[tuple[np.ndarray, tuple[float, float]]] = []
+    render_robot = view.render_robot
+
+    def spy_robot(pose):
+        render_robot(pose)
+        if pose is not None and pose.planner == "live":
+            drawn.append((shown_mesh(view.obstacles)[0], pose.xy))
+
+    view.render_robot = spy_robot
+    try:
+        png = shoot(
+            planner_app, browser, width=W, height=H, robot_time=UNTIL, options=BARE
+        )
+    finally:
+        del view.render_robot
+    [(vertices, xy)] = drawn
+    assert xy == tuple(film.trace.poses[round(UNTIL / film.trace.dt)][:2])
+    expected, _ = prism_mesh(scene_at(film.scene, UNTIL).obstacles, HEIGHTS["obstacle"])
+    np.testing.assert_allclose(vertices, expected, atol=1e-6)
+    still = np.asarray(iio3.imread(png, extension=".png"))[..., :3].astype(int)
+    assert still.shape == video[-1].shape
+    # The recording's frame at T, but for its compression: thin coloured lines are
+    # smeared a little (yuv420), nothing moves (a 2 px shift would make 8 % of pixels
+    # and 11 levels on average).
+    diff = np.abs(still - video[-1])
+    assert diff.mean() < 2.0, diff.mean()
+    off = diff.max(axis=2) > 60
+    assert off.mean() <= 0.005, f"differs from the frame in {off.mean():.2%} of pixels"
+    back, _ = prism_mesh(film.scene.obstacles, HEIGHTS["obstacle"])
+    np.testing.assert_allclose(shown_mesh(view.obstacles)[0], back, atol=1e-6)
 
 
 # --------------------------------------------------------------------------- errors

@@ -15,6 +15,9 @@ drawn by the same client as the app, with every layer the app draws:
    between frames, so the page plays the run at the trajectory's real time (and loops);
 4. write the page, with a small title and legend added as plain HTML.
 
+A scenario whose obstacles move is recorded as its live run instead, frame ``k`` the run
+at ``t_k`` as ``--record`` films it (:func:`_live_page`).
+
 Nothing in the page is fetched from the network: the fonts, scripts and styles are in
 the file (the test opens it from disk with the network cut off).
 """
@@ -26,23 +29,32 @@ __all__ = ["export_html", "export_page", "legend_html"]
 import html
 import math
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import planners
 from app import headless
 from app.jobs import JobFailure, start_quietly
-from app.record import MAX_FPS, frame_times
+from app.record import LIVE_FOLLOW, MAX_FPS, frame_times
 from app.slides import legend_rows
 
 
-def legend_html(planner_app: Any, title: str) -> str:
-    """Return the title and legend block added to the page (plain HTML, inline styles)."""
+def legend_html(
+    planner_app: Any,
+    title: str,
+    plans: Mapping[str, Any] | None = None,
+    layers: Mapping[str, bool] | None = None,
+) -> str:
+    """Return the title and legend block added to the page (plain HTML, inline styles).
+
+    ``plans`` and ``layers``: what the page shows, when not the app's own (a live run).
+    """
     controller = planner_app.controller
     frame = controller.frame
     rows = legend_rows(
-        controller.plans,
-        frame.layers if frame else {},
+        controller.plans if plans is None else plans,
+        (frame.layers if frame else {}) if layers is None else layers,
         controller.registry,
         moving=bool(controller.scene.motions),
     )
@@ -100,9 +112,22 @@ def export_page(
     until: float | None = None,
     title: str | None = None,
 ) -> str:
-    """Record a running app's scene and robot run; return the self-contained page."""
+    """Record a running app's scene and robot run; return the self-contained page.
+
+    A scene whose obstacles move is recorded as its live run (:func:`_live_page`);
+    ``follow`` must then be None.
+
+    Raises
+    ------
+    JobFailure
+        ``follow`` given for a scene with moving obstacles (exit code 2).
+    """
     controller = planner_app.controller
     planner_app.view.present(labels=True)
+    if controller.scene.motions:
+        if follow is not None:
+            raise JobFailure(LIVE_FOLLOW.format(follow=follow), 2)
+        return _live_page(planner_app, fps, until, title)
     if follow is not None:
         controller.playback.set_follow(follow)
     planner_app.set_robot_time(0.0)
@@ -115,9 +140,52 @@ def export_page(
         planner_app.set_robot_time(t)
         _wait(planner_app)
         serializer.insert_sleep(1.0 / fps)
-    page = serializer.as_html()
-    name = controller.scene.name or ""
-    block = legend_html(planner_app, name if title is None else title)
+    return _with_legend(serializer.as_html(), planner_app, title)
+
+
+def _live_page(
+    planner_app: Any, fps: float, until: float | None, title: str | None
+) -> str:
+    """Record the live run of a scene whose obstacles move, as ``--record`` films it.
+
+    Frame ``k`` is :meth:`app.record_live.LiveFilm.frame` at ``t_k = k / fps``: every
+    obstacle where it is then, the robot, its sensing and the path driven so far,
+    drawn by the app's view; only what changed is recorded (one obstacle's chunk of
+    the obstacle layers, the robot). The legend is the whole run's.
+    """
+    from app.record_live import (  # noqa: PLC0415 - the live run's modules, only here
+        LiveFilm,
+        legend_plans,
+        live_layers,
+        live_trace,
+        show_live,
+    )
+
+    controller = planner_app.controller
+    planner_app.set_robot_time(0.0)  # the app's own robot stays still meanwhile
+    _wait(planner_app)
+    film = LiveFilm(controller.scene, live_trace(controller.scene, until))
+    end = film.trace.duration if until is None else min(film.trace.duration, until)
+    times = frame_times(end, fps)
+    serializer = planner_app.server.get_scene_serializer()
+    for t in times:
+        show_live(planner_app, film.frame(t))  # drawn here: recorded in order
+        serializer.insert_sleep(1.0 / fps)
+    plans = legend_plans(film, film.frame(times[-1] if times else 0.0))
+    layers = live_layers(controller.frame.layers)
+    return _with_legend(serializer.as_html(), planner_app, title, plans, layers)
+
+
+def _with_legend(
+    page: str,
+    planner_app: Any,
+    title: str | None,
+    plans: Mapping[str, Any] | None = None,
+    layers: Mapping[str, bool] | None = None,
+) -> str:
+    """Return ``page`` with the title and legend block (:func:`legend_html`) added."""
+    name = planner_app.controller.scene.name or ""
+    block = legend_html(planner_app, name if title is None else title, plans, layers)
     # The client's document has one </body>; the legend goes just before it.
     at = page.rindex("</body>")
     return page[:at] + block + page[at:]

@@ -44,6 +44,7 @@ __all__ = [
     "LiveFilm",
     "LiveFrame",
     "LiveWalk",
+    "legend_plans",
     "live_layers",
     "live_picture",
     "live_trace",
@@ -385,6 +386,15 @@ def live_picture(
         app.set_robot_time(0.0)
 
 
+def legend_plans(film: LiveFilm, last: LiveFrame) -> dict[str, Any]:
+    """Return the plans a legend of the whole run describes: ``last``'s, every event's.
+
+    One legend for a whole video or page, so it does not change from frame to frame.
+    """
+    whole = dataclasses.replace(last.walk, events=film.walk(film.trace.duration).events)
+    return {**last.plans, PLANNER: whole}
+
+
 def _base_slide(
     planner_app: Any,
     film: LiveFilm,
@@ -395,10 +405,9 @@ def _base_slide(
     """Lay out what every frame shares: camera, title, legend (of the whole run), stamp."""
     controller = planner_app.controller
     last = film.frame(times[-1] if times else 0.0)
-    whole = dataclasses.replace(last.walk, events=film.walk(film.trace.duration).events)
     return layout(
         last.scene,
-        {**last.plans, PLANNER: whole},
+        legend_plans(film, last),
         live_layers(controller.frame.layers),
         *size,
         options=options,

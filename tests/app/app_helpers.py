@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +48,27 @@ def view_and_controller(
         slow_process=False,
     )
     return view, controller
+
+
+@contextlib.contextmanager
+def live_drawings(
+    view: PlannerView,
+) -> Iterator[list[tuple[np.ndarray, tuple[float, float]]]]:
+    """Collect, for each live robot the view draws, the obstacles' prism vertices shown
+    then and the robot's position."""
+    drawn: list[tuple[np.ndarray, tuple[float, float]]] = []
+    render_robot = view.render_robot
+
+    def spy_robot(pose: Any) -> None:
+        render_robot(pose)
+        if pose is not None and pose.planner == "live":
+            drawn.append((shown_mesh(view.obstacles)[0], pose.xy))
+
+    view.render_robot = spy_robot  # type: ignore[method-assign]
+    try:
+        yield drawn
+    finally:
+        del view.render_robot
 
 
 def shown_mesh(chunked: Any) -> tuple[np.ndarray, np.ndarray]:

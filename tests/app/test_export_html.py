@@ -6,12 +6,14 @@ The page is opened as a ``file://`` URL in headless Chromium with every request 
 
 from __future__ import annotations
 
+import contextlib
 import re
 import subprocess
 import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -19,10 +21,19 @@ from PIL import Image
 
 from app import start_app
 from app.export_html import export_html, export_page
+from app.jobs import JobFailure
+from app.record_live import live_trace
+from app.server import resolve_scenario
+from app.style import HEIGHTS
+from app.view import prism_mesh
+from planners.motion import scene_at
+from planners.scene import load_scene
+from tests.app.app_helpers import live_drawings
 from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]
 NAME = "02_three_obstacles"
+PERSON = "10_person_crossing"  # obstacle 2 walks across the robot's way
 LOCAL = ("file:", "data:", "blob:")
 
 ROBOT_JS = """() => {
@@ -53,9 +64,10 @@ def test_the_page_has_everything_inline(page_file) -> None:
         assert attr.startswith(("data:", "#")) or attr == "", attr
 
 
-def test_opened_from_disk_offline_it_shows_the_scene_and_the_robot_moves(
-    browser, page_file, tmp_path
-) -> None:
+@contextlib.contextmanager
+def _offline(browser, page_file: Path) -> Iterator[tuple[Any, list[str]]]:
+    """Open ``page_file`` from disk with the network refused; yield the page and the
+    URLs it asked for, once the robot's node is there."""
     context = browser.new_context(
         viewport={"width": 800, "height": 500}, device_scale_factor=1
     )
@@ -77,6 +89,28 @@ def test_opened_from_disk_offline_it_shows_the_scene_and_the_robot_moves(
             " return m && m.nodeRefFromName && m.nodeRefFromName['/robot']; }",
             timeout=60_000,
         )
+        yield page, asked
+    finally:
+        context.close()
+
+
+def _two_moments(page: Any, tmp_path: Path) -> tuple[Any, Any, np.ndarray, np.ndarray]:
+    """The robot's position and a picture, then both again 2 s later."""
+    pictures, robots = [], []
+    for k in range(2):
+        if k:
+            time.sleep(2.0)
+        robots.append(page.evaluate(ROBOT_JS))
+        shot = tmp_path / f"moment{k}.png"
+        page.screenshot(path=shot)
+        pictures.append(np.asarray(Image.open(shot).convert("RGB"), dtype=int))
+    return robots[0], robots[1], pictures[0], pictures[1]
+
+
+def test_opened_from_disk_offline_it_shows_the_scene_and_the_robot_moves(
+    browser, page_file, tmp_path
+) -> None:
+    with _offline(browser, page_file) as (page, asked):
         names = set(
             page.evaluate("() => Object.keys(window.__viserMutable.nodeRefFromName)")
         )
@@ -95,20 +129,49 @@ def test_opened_from_disk_offline_it_shows_the_scene_and_the_robot_moves(
             "/robot/wheel0/spin",
         ):
             assert node in names, node
-        first = page.evaluate(ROBOT_JS)
-        shot_a = tmp_path / "a.png"
-        page.screenshot(path=shot_a)
-        time.sleep(2.0)
-        second = page.evaluate(ROBOT_JS)
-        shot_b = tmp_path / "b.png"
-        page.screenshot(path=shot_b)
-    finally:
-        context.close()
+        first, second, a, b = _two_moments(page, tmp_path)
     assert first is not None and second is not None
     assert np.hypot(second[0] - first[0], second[1] - first[1]) > 0.3  # [m]
-    a = np.asarray(Image.open(shot_a).convert("RGB"), dtype=int)
-    b = np.asarray(Image.open(shot_b).convert("RGB"), dtype=int)
     assert (np.abs(a - b).max(axis=2) > 32).mean() > 1e-4  # the picture moved too
+    assert asked and all(url.startswith(LOCAL) for url in asked), asked
+
+
+# --------------------------------------------------------------------------- moving obstacles
+
+
+def test_a_moving_scenarios_page_plays_its_live_run() -> None:
+    """Frame k of the page is the live run at k / fps, as a recording draws it: every
+    obstacle where it is then, the robot at the trace's pose; the legend is the run's.
+    ``--follow`` is refused for it in one line (exit code 2)."""
+    planner_app = start_app(PERSON, print_url=False)
+    try:
+        with live_drawings(planner_app.view) as drawn:
+            page = export_page(planner_app, fps=2, until=3.0)
+        with pytest.raises(JobFailure, match="--follow vg: this scenario's obstacles"):
+            export_page(planner_app, follow="vg")
+    finally:
+        planner_app.stop()
+    scene = load_scene(resolve_scenario(PERSON)[1])
+    trace = live_trace(scene, until=3.0)
+    assert len(drawn) == 7  # t = 0, 0.5, ..., 3
+    for k, (vertices, xy) in enumerate(drawn):
+        t = k / 2
+        assert xy == tuple(trace.poses[round(t / trace.dt)][:2])
+        expected, _ = prism_mesh(scene_at(scene, t).obstacles, HEIGHTS["obstacle"])
+        np.testing.assert_allclose(vertices, expected, atol=1e-6)
+    assert "moving obstacle" in page and "DSB to goal" in page
+
+
+def test_a_moving_scenarios_page_opened_offline_moves_the_person(
+    browser, tmp_path
+) -> None:
+    out = tmp_path / "person.html"
+    assert export_html(PERSON, out, fps=10) == 0
+    with _offline(browser, out) as (page, asked):
+        first, second, a, b = _two_moments(page, tmp_path)
+    assert first is not None and second is not None
+    assert np.hypot(second[0] - first[0], second[1] - first[1]) > 0.3  # [m]
+    assert (np.abs(a - b).max(axis=2) > 32).mean() > 1e-4
     assert asked and all(url.startswith(LOCAL) for url in asked), asked
 
 

@@ -34,7 +34,7 @@ from app.view import prism_mesh
 from planners.live import LiveOptions, live_space
 from planners.motion import Motion, scene_at
 from planners.scene import Scene, load_scene
-from tests.app.app_helpers import shown_mesh
+from tests.app.app_helpers import live_drawings, shown_mesh
 from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -309,21 +309,10 @@ def test_a_still_at_a_time_is_the_recordings_frame_then(
     _, _, video = recorded
     film = films[PERSON]
     view = planner_app.view
-    drawn: list[tuple[np.ndarray, tuple[float, float]]] = []
-    render_robot = view.render_robot
-
-    def spy_robot(pose):
-        render_robot(pose)
-        if pose is not None and pose.planner == "live":
-            drawn.append((shown_mesh(view.obstacles)[0], pose.xy))
-
-    view.render_robot = spy_robot
-    try:
+    with live_drawings(view) as drawn:
         png = shoot(
             planner_app, browser, width=W, height=H, robot_time=UNTIL, options=BARE
         )
-    finally:
-        del view.render_robot
     [(vertices, xy)] = drawn
     assert xy == tuple(film.trace.poses[round(UNTIL / film.trace.dt)][:2])
     expected, _ = prism_mesh(scene_at(film.scene, UNTIL).obstacles, HEIGHTS["obstacle"])

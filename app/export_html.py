@@ -168,12 +168,16 @@ def _live_page(
     end = film.trace.duration if until is None else min(film.trace.duration, until)
     times = frame_times(end, fps)
     serializer = planner_app.server.get_scene_serializer()
-    for t in times:
-        show_live(planner_app, film.frame(t))  # drawn here: recorded in order
-        serializer.insert_sleep(1.0 / fps)
+    try:
+        for t in times:
+            show_live(planner_app, film.frame(t))  # drawn here: recorded in order
+            serializer.insert_sleep(1.0 / fps)
+        page = serializer.as_html()  # before the app's own drawing comes back
+    finally:
+        planner_app.view.render(controller.frame)
     plans = legend_plans(film, film.frame(times[-1] if times else 0.0))
     layers = live_layers(controller.frame.layers)
-    return _with_legend(serializer.as_html(), planner_app, title, plans, layers)
+    return _with_legend(page, planner_app, title, plans, layers)
 
 
 def _with_legend(

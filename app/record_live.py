@@ -52,11 +52,12 @@ __all__ = [
     "show_live",
 ]
 
+import contextlib
 import dataclasses
 import functools
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -326,21 +327,13 @@ def record_live_video(
         first=FirstPicture("top", options),
     ) as studio:
         studio._wait_idle()
-        # At -1 first: frame k moves it to k, so even frame 0 waits for its changes.
-        tick = planner_app.server.scene.add_frame(
-            TICK, show_axes=False, visible=False, position=(-1.0, 0.0, 0.0)
-        )
-        try:
+        with _live_drawing(planner_app) as tick:
             studio.compose(options=options, slide=base)
             with _writer(path, fps) as write:
                 for k, t in enumerate(times):
                     write(
                         _pixels(_shoot(studio, film.frame(t), base, options, (k, tick)))
                     )
-        finally:
-            tick.remove()
-            planner_app.view.render(planner_app.controller.frame)
-            planner_app.set_robot_time(0.0)
     return Recording(path, fps, times, end, base.camera, width, height, live=film.trace)
 
 
@@ -374,16 +367,28 @@ def live_picture(
         registry=app.controller.registry,
         bounds=film.bounds((t,)),
     )
-    tick = app.server.scene.add_frame(
+    with _live_drawing(app) as tick:
+        studio.compose(options=options, slide=slide)
+        return _shoot(studio, frame, slide, options, (0, tick))
+
+
+@contextlib.contextmanager
+def _live_drawing(planner_app: Any) -> Iterator[Any]:
+    """Yield the tick node live frames are shot by; then the app's own drawing again.
+
+    The tick starts at -1: frame ``k`` moves it to ``k``, so even frame 0 waits for its
+    changes. Afterwards the tick goes, and the view draws the controller's frame and its
+    robot at the start.
+    """
+    tick = planner_app.server.scene.add_frame(
         TICK, show_axes=False, visible=False, position=(-1.0, 0.0, 0.0)
     )
     try:
-        studio.compose(options=options, slide=slide)
-        return _shoot(studio, frame, slide, options, (0, tick))
+        yield tick
     finally:
         tick.remove()
-        app.view.render(app.controller.frame)
-        app.set_robot_time(0.0)
+        planner_app.view.render(planner_app.controller.frame)
+        planner_app.set_robot_time(0.0)
 
 
 def legend_plans(film: LiveFilm, last: LiveFrame) -> dict[str, Any]:

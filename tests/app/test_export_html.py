@@ -139,14 +139,32 @@ def test_opened_from_disk_offline_it_shows_the_scene_and_the_robot_moves(
 # --------------------------------------------------------------------------- moving obstacles
 
 
-def test_a_moving_scenarios_page_plays_its_live_run() -> None:
+def test_a_moving_scenarios_page_plays_its_live_run(monkeypatch) -> None:
     """Frame k of the page is the live run at k / fps, as a recording draws it: every
     obstacle where it is then, the robot at the trace's pose; the legend is the run's.
-    ``--follow`` is refused for it in one line (exit code 2)."""
+    The app's own drawing comes back only once the page is made, so it is not the
+    page's last frame. ``--follow`` is refused for it in one line (exit code 2)."""
     planner_app = start_app(PERSON, print_url=False)
+    order: list[str] = []
+    make_serializer = planner_app.server.get_scene_serializer
+    render = planner_app.view.render
+
+    def serializer() -> Any:
+        order.append("recording")
+        made = make_serializer()
+        as_html = made.as_html
+        monkeypatch.setattr(made, "as_html", lambda: order.append("page") or as_html())
+        return made
+
+    monkeypatch.setattr(planner_app.server, "get_scene_serializer", serializer)
+    monkeypatch.setattr(
+        planner_app.view, "render", lambda f: order.append("render") or render(f)
+    )
     try:
         with live_drawings(planner_app.view) as drawn:
             page = export_page(planner_app, fps=2, until=3.0)
+        recorded = order[order.index("recording") + 1 :]
+        assert recorded == ["render"] * 7 + ["page", "render"]
         with pytest.raises(JobFailure, match="--follow vg: this scenario's obstacles"):
             export_page(planner_app, follow="vg")
     finally:

@@ -36,7 +36,7 @@ from typing import Any
 import planners
 from app import headless
 from app.jobs import JobFailure, start_quietly
-from app.record import LIVE_FOLLOW, MAX_FPS, frame_times
+from app.record import LIVE_FOLLOW, MAX_FPS, RECORD_FPS, check_until, frame_times
 from app.slides import legend_rows
 
 
@@ -107,7 +107,7 @@ _SWATCH_HEIGHT = {
 def export_page(
     planner_app: Any,
     *,
-    fps: float = 15.0,
+    fps: float = RECORD_FPS,
     follow: str | None = None,
     until: float | None = None,
     title: str | None = None,
@@ -123,10 +123,10 @@ def export_page(
         ``follow`` given for a scene with moving obstacles (exit code 2).
     """
     controller = planner_app.controller
+    if controller.scene.motions and follow is not None:
+        raise JobFailure(LIVE_FOLLOW.format(follow=follow), 2)
     planner_app.view.present(labels=True)
     if controller.scene.motions:
-        if follow is not None:
-            raise JobFailure(LIVE_FOLLOW.format(follow=follow), 2)
         return _live_page(planner_app, fps, until, title)
     if follow is not None:
         controller.playback.set_follow(follow)
@@ -155,6 +155,7 @@ def _live_page(
     """
     from app.record_live import (  # noqa: PLC0415 - the live run's modules, only here
         LiveFilm,
+        draw_app_again,
         legend_plans,
         live_layers,
         live_trace,
@@ -174,7 +175,7 @@ def _live_page(
             serializer.insert_sleep(1.0 / fps)
         page = serializer.as_html()  # before the app's own drawing comes back
     finally:
-        planner_app.view.render(controller.frame)
+        draw_app_again(planner_app)
     plans = legend_plans(film, film.frame(times[-1] if times else 0.0))
     layers = live_layers(controller.frame.layers)
     return _with_legend(page, planner_app, title, plans, layers)
@@ -202,7 +203,9 @@ def _wait(planner_app: Any) -> None:
         )
 
 
-def _check(path: Path, fps: float, follow: str | None) -> str | None:
+def _check(
+    path: Path, fps: float, follow: str | None, until: float | None
+) -> str | None:
     """Return the one-line problem with the arguments, or None."""
     if path.suffix.lower() not in (".html", ".htm"):
         return f"{path}: the page must end in .html"
@@ -210,21 +213,21 @@ def _check(path: Path, fps: float, follow: str | None) -> str | None:
         return f"fps must be from 1 to {MAX_FPS}, got {fps!r}"
     if follow is not None and follow not in planners.REGISTRY:
         return f"unknown planner {follow!r} to follow (known: {', '.join(planners.REGISTRY)})"
-    return None
+    return check_until(until)
 
 
 def export_html(
     scenario: Any,
     out: str | os.PathLike[str],
     *,
-    fps: float = 15.0,
+    fps: float = RECORD_FPS,
     follow: str | None = None,
     until: float | None = None,
     title: str | None = None,
 ) -> int:
     """Write ``scenario``'s page to ``out``; return the exit code (0, 1 or 2, as :mod:`app.jobs`)."""
     path = Path(out)
-    problem = _check(path, fps, follow)
+    problem = _check(path, fps, follow, until)
     if problem is not None:
         return headless._fail(problem, 2)
     planner_app = None

@@ -24,7 +24,9 @@ from __future__ import annotations
 __all__ = [
     "FORMATS",
     "LIVE_FOLLOW",
+    "RECORD_FPS",
     "Recording",
+    "check_until",
     "frame_times",
     "record",
     "record_video",
@@ -55,6 +57,8 @@ if TYPE_CHECKING:
 FORMATS = (".mp4", ".gif")
 """File suffixes :func:`record` writes."""
 MAX_FPS = 60
+RECORD_FPS = 15.0
+"""Frames a second of a recording (and of an exported page) unless told otherwise."""
 LIVE_FOLLOW = (
     "--follow {follow}: this scenario's obstacles move, so it is recorded live (the DSB"
     " robot sensing as it drives); --follow is for scenarios without moving obstacles"
@@ -104,7 +108,7 @@ def record_video(
     *,
     width: int = 640,
     height: int = 360,
-    fps: float = 15.0,
+    fps: float = RECORD_FPS,
     follow: str | None = None,
     until: float | None = None,
     options: SlideOptions = SlideOptions(),  # noqa: B008
@@ -231,6 +235,11 @@ def _check(
         return f"an MP4 needs an even width and height, got {width} x {height}"
     if not (math.isfinite(fps) and 1 <= fps <= MAX_FPS):
         return f"fps must be from 1 to {MAX_FPS}, got {fps!r}"
+    return check_until(until)
+
+
+def check_until(until: float | None) -> str | None:
+    """Return the one-line problem with an end time (``--until``), or None."""
     if until is not None and not (math.isfinite(until) and until >= 0):
         return f"the end time must be a finite time >= 0 s, got {until!r}"
     return None
@@ -258,7 +267,7 @@ def record(
     *,
     width: int = 640,
     height: int = 360,
-    fps: float = 15.0,
+    fps: float = RECORD_FPS,
     follow: str | None = None,
     until: float | None = None,
     options: SlideOptions = SlideOptions(),  # noqa: B008

@@ -44,6 +44,7 @@ __all__ = [
     "LiveFilm",
     "LiveFrame",
     "LiveWalk",
+    "draw_app_again",
     "legend_plans",
     "live_layers",
     "live_picture",
@@ -68,7 +69,7 @@ from app.frames import RobotPose
 from app.headless import scene_bounds
 from app.live import step_pose
 from app.pictures import FirstPicture, open_studio
-from app.record import Recording, _pixels, _writer, frame_times
+from app.record import RECORD_FPS, Recording, _pixels, _writer, frame_times
 from app.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout, relabel
 from planners.expansion import ConfigurationSpace
 from planners.live import (
@@ -92,6 +93,9 @@ FIGURE_EVENTS = ("hit", "leave", "local_min")
 """The live events drawn with their figure labels (H, D/L, M of Fig. 9.19)."""
 PLANNER = "dsb"
 """The registry's planner whose layer draws the live walk: the live robot is DSB's."""
+MAX_RUN_S = 120.0
+"""The longest live run drawn [s] (:func:`planners.live.run_live`'s own limit): a later
+time is drawn as the run's end."""
 TICK = "/record/tick"
 """An invisible node moved last in every frame: when the browser has it, it has the
 frame's other changes too (viser's messages arrive in order)."""
@@ -142,8 +146,8 @@ def live_trace(
     The run is :func:`planners.live.run_live`'s, so it is the same every time.
     """
     options = options if options is not None else LiveOptions()
-    if until is None:
-        return run_live(scene, options)
+    if until is None or until >= MAX_RUN_S:
+        return run_live(scene, options, duration=MAX_RUN_S)
     return run_live(scene, options, duration=until + options.dt)
 
 
@@ -302,7 +306,7 @@ def record_live_video(
     *,
     width: int = 640,
     height: int = 360,
-    fps: float = 15.0,
+    fps: float = RECORD_FPS,
     until: float | None = None,
     options: SlideOptions = SlideOptions(),  # noqa: B008
     timeout: float = 60.0,
@@ -345,27 +349,31 @@ def live_picture(
 ) -> bytes:
     """Return a still (PNG) of the live run of the studio's scene at time ``t`` [s].
 
-    The frame a recording would show at ``t`` (:meth:`LiveFilm.frame`): the obstacles
-    where they are then, the robot, its sensing and the path driven so far. With the
-    labels on, the picture says its time (``t = 4.5 s``). The app's own drawing is put
-    back afterwards.
+    The frame at ``t`` of a recording that ends there (``--record --until T``): the
+    obstacles where they are then, the robot, its sensing and the path driven so far,
+    laid out as that recording is (legend and camera of the run until ``t``). Past the
+    run's end (the goal reached, or :data:`MAX_RUN_S`), its last frame. With the labels on, the
+    picture says its time (``t = 4.5 s``). The app's own drawing is put back afterwards.
     """
     app = studio.app
+    studio._wait_idle()
     scene = app.controller.scene
     film = LiveFilm(scene, live_trace(scene, until=t))
+    t = min(float(t), film.trace.duration)  # past the run's end: its last frame
+    times = (*frame_times(t, RECORD_FPS), t)  # a recording's frames until t, and t
     frame = film.frame(t)
     if options.labels:
         options = dataclasses.replace(options, time_stamp=True)
     slide = layout(
         frame.scene,
-        frame.plans,
+        legend_plans(film, frame),
         live_layers(app.controller.frame.layers),
         studio.width,
         studio.height,
         view=view,
         options=options,
         registry=app.controller.registry,
-        bounds=film.bounds((t,)),
+        bounds=film.bounds(times),
     )
     with _live_drawing(app) as tick:
         studio.compose(options=options, slide=slide)
@@ -387,8 +395,13 @@ def _live_drawing(planner_app: Any) -> Iterator[Any]:
         yield tick
     finally:
         tick.remove()
-        planner_app.view.render(planner_app.controller.frame)
-        planner_app.set_robot_time(0.0)
+        draw_app_again(planner_app)
+
+
+def draw_app_again(planner_app: Any) -> None:
+    """Draw the app's own frame and its robot at the start again, after live frames."""
+    planner_app.view.render(planner_app.controller.frame)
+    planner_app.set_robot_time(0.0)
 
 
 def legend_plans(film: LiveFilm, last: LiveFrame) -> dict[str, Any]:

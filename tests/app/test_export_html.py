@@ -164,7 +164,11 @@ def test_a_moving_scenarios_page_plays_its_live_run(monkeypatch) -> None:
         with live_drawings(planner_app.view) as drawn:
             page = export_page(planner_app, fps=2, until=3.0)
         recorded = order[order.index("recording") + 1 :]
-        assert recorded == ["render"] * 7 + ["page", "render"]
+        assert recorded[:8] == ["render"] * 7 + ["page"]
+        assert recorded[8:] and set(recorded[8:]) == {"render"}  # the app's own again
+        assert planner_app.wait_idle(30)
+        start = planner_app.controller.scene.start
+        np.testing.assert_allclose(planner_app.view.robot.position[:2], start)
         with pytest.raises(JobFailure, match="--follow vg: this scenario's obstacles"):
             export_page(planner_app, follow="vg")
     finally:
@@ -178,6 +182,7 @@ def test_a_moving_scenarios_page_plays_its_live_run(monkeypatch) -> None:
         expected, _ = prism_mesh(scene_at(scene, t).obstacles, HEIGHTS["obstacle"])
         np.testing.assert_allclose(vertices, expected, atol=1e-6)
     assert "moving obstacle" in page and "DSB to goal" in page
+    assert "VG graph" not in page  # the live run's legend, not the app's
 
 
 def test_a_moving_scenarios_page_opened_offline_moves_the_person(
@@ -209,6 +214,8 @@ def test_bad_arguments_are_one_line_and_exit_2(tmp_path, capsys) -> None:
         ({"out": tmp_path / "x.txt"}, "must end in .html"),
         ({"out": tmp_path / "x.html", "fps": 500.0}, "fps must be from 1 to 60"),
         ({"out": tmp_path / "x.html", "follow": "rrt"}, "unknown planner 'rrt'"),
+        ({"out": tmp_path / "x.html", "until": -1.0}, "end time must be a finite"),
+        ({"out": tmp_path / "x.html", "until": float("nan")}, "end time must be"),
     ]:
         assert export_html(NAME, **kwargs) == 2
         err = capsys.readouterr().err

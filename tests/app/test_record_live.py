@@ -330,6 +330,22 @@ def test_a_still_at_a_time_is_the_recordings_frame_then(
     np.testing.assert_allclose(shown_mesh(view.obstacles)[0], back, atol=1e-6)
 
 
+def test_a_still_past_the_runs_end_is_its_last_frame(browser, planner_app) -> None:
+    """A time after the robot reached the goal draws the run's end (the trace's last
+    pose), as the run is never driven past it (nor past MAX_RUN_S)."""
+    scene = planner_app.controller.scene
+    whole = live_trace(scene)
+    assert whole.duration < 100.0  # the person's run reaches the goal
+    with live_drawings(planner_app.view) as drawn:
+        shoot(planner_app, browser, width=W, height=H, robot_time=1e6, options=BARE)
+    [(vertices, xy)] = drawn
+    assert xy == tuple(whole.poses[-1][:2])
+    expected, _ = prism_mesh(
+        scene_at(scene, whole.duration).obstacles, HEIGHTS["obstacle"]
+    )
+    np.testing.assert_allclose(vertices, expected, atol=1e-6)
+
+
 # --------------------------------------------------------------------------- errors
 
 

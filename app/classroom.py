@@ -305,7 +305,8 @@ class Seat:
     panels: Panels | None = None
     """Its control panel (built after the banner, so the banner is on top)."""
     own: PlannerView | None = None
-    """Its own 3-D view with live gizmos (while it edits), else None."""
+    """Its own 3-D view with live gizmos (while it edits the presenter's scene or its
+    own copy), else None."""
     hide: Any = None
     """Its client-scoped, hidden ``/shared`` (while it has an own view)."""
     private: Controller | None = None
@@ -525,13 +526,13 @@ class Classroom:
             seat = self._seats.pop(client.client_id, None)
             if seat is None:
                 return
+            if seat.private is not None:  # before its view goes: it draws no more
+                seat.private.close()
+                seat.private = None
             self._leave_audience(seat)
             tools, seat.tools = seat.tools, None
             if tools is not None:
                 self.audience.remove(*tools.views)
-            if seat.private is not None:
-                seat.private.close()
-                seat.private = None
             explain, seat.explain = seat.explain, None
         # Outside the lock: closing waits for the tools' threads, and every edit asks
         # the classroom (may_edit) meanwhile.
@@ -560,7 +561,7 @@ class Classroom:
             self._leave_audience(seat)
             snapshot = self.controller.frame
             scenario = snapshot.scenario if snapshot is not None else ""
-            own = self._own_view(seat, self._private_drag(seat))
+            own = seat.own = self._own_view(seat, self._private_drag(seat))
             seat.shadows = tuple(
                 seat.client.scene.add_frame(root, show_axes=False, visible=False)
                 for root in self._roots

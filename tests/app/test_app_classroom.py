@@ -353,6 +353,13 @@ def test_the_lab_switch_hands_editing_to_everyone_and_takes_it_back(planner):
         assert planner.controller.scene == scene
 
 
+def _own_drawing(c: ViserClient) -> list[str]:
+    """The nodes drawn for this browser alone under ``/own`` (a copy's or editor's view)."""
+    with c._lock:  # the client's reader thread adds nodes meanwhile
+        names = [name for owner, name in c.nodes if owner == str(c.client_id)]
+    return [name for name in names if name == "/own" or name.startswith("/own/")]
+
+
 def test_a_private_copy_is_a_session_of_its_own_freed_when_the_browser_leaves(planner):
     room = planner.classroom
     with client(planner, presenter=True) as pres:
@@ -403,6 +410,8 @@ def test_a_private_copy_is_a_session_of_its_own_freed_when_the_browser_leaves(pl
             assert student.wait_for(
                 lambda: student.element("Radius [m]")["props"]["disabled"]
             )
+            # The copy's drawing is gone from its browser; the presenter's is shown.
+            assert student.wait_for(lambda: not _own_drawing(student), 20)
             # A second copy is seeded from the presenter's scene as it is now.
             student.set_gui(student.uuid("Make my own copy"), True)
             assert wait_until(lambda: room.mode(sid) == "private", 20)

@@ -73,6 +73,7 @@ from app.record import RECORD_FPS, Recording, _pixels, _writer, frame_times
 from app.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout, relabel
 from planners.expansion import ConfigurationSpace
 from planners.live import (
+    MAX_DURATION_S,
     LiveEvent,
     LiveOptions,
     LiveStep,
@@ -93,9 +94,6 @@ FIGURE_EVENTS = ("hit", "leave", "local_min")
 """The live events drawn with their figure labels (H, D/L, M of Fig. 9.19)."""
 PLANNER = "dsb"
 """The registry's planner whose layer draws the live walk: the live robot is DSB's."""
-MAX_RUN_S = 120.0
-"""The longest live run drawn [s] (:func:`planners.live.run_live`'s own limit): a later
-time is drawn as the run's end."""
 TICK = "/record/tick"
 """An invisible node moved last in every frame: when the browser has it, it has the
 frame's other changes too (viser's messages arrive in order)."""
@@ -143,11 +141,14 @@ def live_trace(
 ) -> LiveTrace:
     """Drive the live robot in ``scene`` (obstacles moving) until it ends or ``until``.
 
+    Never past :data:`planners.live.MAX_DURATION_S`: a later time is drawn as the run's
+    end.
+
     The run is :func:`planners.live.run_live`'s, so it is the same every time.
     """
     options = options if options is not None else LiveOptions()
-    if until is None or until >= MAX_RUN_S:
-        return run_live(scene, options, duration=MAX_RUN_S)
+    if until is None or until >= MAX_DURATION_S:
+        return run_live(scene, options, duration=MAX_DURATION_S)
     return run_live(scene, options, duration=until + options.dt)
 
 
@@ -351,8 +352,9 @@ def live_picture(
 
     The frame at ``t`` of a recording that ends there (``--record --until T``): the
     obstacles where they are then, the robot, its sensing and the path driven so far,
-    laid out as that recording is (legend and camera of the run until ``t``). Past the
-    run's end (the goal reached, or :data:`MAX_RUN_S`), its last frame. With the labels on, the
+    laid out as that recording is (:func:`_base_slide`: legend and camera of the run
+    until ``t``). Past the run's end (the goal reached, or
+    :data:`planners.live.MAX_DURATION_S`), its last frame. With the labels on, the
     picture says its time (``t = 4.5 s``). The app's own drawing is put back afterwards.
     """
     app = studio.app
@@ -364,17 +366,8 @@ def live_picture(
     frame = film.frame(t)
     if options.labels:
         options = dataclasses.replace(options, time_stamp=True)
-    slide = layout(
-        frame.scene,
-        legend_plans(film, frame),
-        live_layers(app.controller.frame.layers),
-        studio.width,
-        studio.height,
-        view=view,
-        options=options,
-        registry=app.controller.registry,
-        bounds=film.bounds(times),
-    )
+    size = (studio.width, studio.height)
+    slide = _base_slide(app, film, times, size, options, view=view, last=frame)
     with _live_drawing(app) as tick:
         studio.compose(options=options, slide=slide)
         return _shoot(studio, frame, slide, options, (0, tick))
@@ -419,15 +412,23 @@ def _base_slide(
     times: tuple[float, ...],
     size: tuple[int, int],
     options: SlideOptions,
+    *,
+    view: str = "top",
+    last: LiveFrame | None = None,
 ) -> Slide:
-    """Lay out what every frame shares: camera, title, legend (of the whole run), stamp."""
+    """Lay out what every frame shares: camera, title, legend (of the whole run), stamp.
+
+    ``last``: the frame at ``times[-1]``, when the caller has it already.
+    """
     controller = planner_app.controller
-    last = film.frame(times[-1] if times else 0.0)
+    if last is None:
+        last = film.frame(times[-1] if times else 0.0)
     return layout(
         last.scene,
         legend_plans(film, last),
         live_layers(controller.frame.layers),
         *size,
+        view=view,
         options=options,
         registry=controller.registry,
         bounds=film.bounds(times),

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 __all__ = [
     "LIVE_STATUSES",
+    "MAX_DURATION_S",
     "LiveEvent",
     "LiveOptions",
     "LiveState",
@@ -97,6 +98,8 @@ FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
 
 LIVE_STATUSES = ("driving", "blocked", "waiting", "reached", "unreachable")
+MAX_DURATION_S = 120.0
+"""How long :func:`run_live` drives at most [s] unless told otherwise."""
 """``"driving"`` (moving or turning), ``"blocked"`` (an obstacle reached the robot),
 ``"waiting"`` (no way to the goal in the scene as it is now), and the final two."""
 
@@ -1071,7 +1074,7 @@ def run_live(
     scene: Scene,
     options: LiveOptions | None = None,
     *,
-    duration: float = 120.0,
+    duration: float = MAX_DURATION_S,
     memo: Memo | None = None,
     phi: float | None = None,
 ) -> LiveTrace:

@@ -332,7 +332,7 @@ def test_a_still_at_a_time_is_the_recordings_frame_then(
 
 def test_a_still_past_the_runs_end_is_its_last_frame(browser, planner_app) -> None:
     """A time after the robot reached the goal draws the run's end (the trace's last
-    pose), as the run is never driven past it (nor past MAX_RUN_S)."""
+    pose), as the run is never driven past it (nor past MAX_DURATION_S)."""
     scene = planner_app.controller.scene
     whole = live_trace(scene)
     assert whole.duration < 100.0  # the person's run reaches the goal

@@ -71,6 +71,8 @@ __all__ = [
     "presenter_url",
 ]
 
+import asyncio
+import contextlib
 import dataclasses
 import functools
 import itertools
@@ -87,6 +89,7 @@ import viser
 from app import robot as robot_model
 from app.big import SharedWorkers
 from app.controller import Controller, Frame, RobotPose
+from app.door import Bucket
 from app.explain_panel import ExplainPanel
 from app.files import ScenesFolder
 from app.frames import View
@@ -102,6 +105,10 @@ logger = logging.getLogger(__name__)
 
 PRESENTER_PATH = "/presenter/"
 """Websocket path prefix of the presenter's browser; the token follows it."""
+
+SWITCHES = (4, 0.5)
+"""How often a seat may make a copy or follow again (each builds or closes a whole
+session): 4 switches at once, then one every 2 s (a :class:`app.door.Bucket`)."""
 
 STUDENT_NEVER = frozenset({"save_to_folder"})
 """What a student's panel may never do, even on its own copy: write the lecturer's disk."""
@@ -163,6 +170,16 @@ def connection_path(server: viser.ViserServer, client_id: int) -> str:
     request = getattr(connection, "request", None)
     path = getattr(request, "path", "")
     return path if isinstance(path, str) else ""
+
+
+def close_connection(server: viser.ViserServer, client_id: int, reason: str) -> None:
+    """Close browser ``client_id``'s websocket from any thread (it may reconnect)."""
+    websock = server._websock_server
+    connection = websock._live_connections.get(client_id)
+    loop = getattr(websock, "_background_event_loop", None)
+    if connection is None or loop is None:
+        return
+    asyncio.run_coroutine_threadsafe(connection.close(4000, reason), loop)
 
 
 def is_presenter_path(path: str, token: str) -> bool:
@@ -317,6 +334,10 @@ class Seat:
     """Client-scoped hidden nodes over the presenter's broadcast drawings (a copy)."""
     explain: PrivateExplain | None = None
     """The Explain mode of its own copy (drawn in its scope only), else None."""
+    switches: Bucket = dataclasses.field(
+        default_factory=lambda: Bucket(SWITCHES[1], SWITCHES[0], time.monotonic())
+    )
+    """Its copies and follows (:data:`SWITCHES`)."""
 
     @property
     def client_id(self) -> int:
@@ -401,6 +422,12 @@ class Classroom:
         The scenes folder (``--scenes-dir``) or None.
     copy_workers
         Most worker processes the private copies' slow lanes share.
+    tools
+        Builds a presenter browser's own folders (Explain, Live DSB).
+    broadcast_roots
+        Scene roots a private copy's browser hides (what the tools draw for everyone).
+    on_token
+        Called with the new token after :meth:`rotate_token` (the app prints the URL).
     """
 
     def __init__(
@@ -415,6 +442,7 @@ class Classroom:
         copy_workers: int = 1,
         tools: Callable[[viser.ClientHandle], PresenterTools] | None = None,
         broadcast_roots: tuple[str, ...] = (),
+        on_token: Callable[[str], None] | None = None,
     ) -> None:
         self.server = server
         self.controller = controller
@@ -427,6 +455,8 @@ class Classroom:
         self._tools = tools
         self._roots = broadcast_roots
         self._lock = threading.RLock()
+        self._banner_lock = threading.Lock()
+        self._on_token = on_token
         self._seats: dict[int, Seat] = {}
         self._open = False
         self.refusals = Refusals()
@@ -454,9 +484,12 @@ class Classroom:
         return self._open
 
     def seat(self, client_id: int) -> Seat | None:
-        """Return the seat of browser ``client_id`` (None if it is not connected)."""
-        with self._lock:
-            return self._seats.get(client_id)
+        """Return the seat of browser ``client_id`` (None if it is not connected).
+
+        Read without the classroom's lock (one dictionary look-up): every edit of the
+        presenter asks :meth:`may_edit`, and must never wait for a seat being built.
+        """
+        return self._seats.get(client_id)
 
     def mode(self, client_id: int) -> str:
         """``presenter``, ``watching``, ``together``, ``private`` (or '' if unknown)."""
@@ -468,6 +501,10 @@ class Classroom:
         if seat.private is not None:
             return "private"
         return "together" if self._open else "watching"
+
+    def is_presenter_connection(self, client_id: int) -> bool:
+        """Whether browser ``client_id``'s websocket carries the presenter's secret now."""
+        return is_presenter_path(connection_path(self.server, client_id), self.token)
 
     def may_edit(self, client_id: int) -> bool:
         """Whether browser ``client_id`` may edit the presenter's scene now."""
@@ -526,16 +563,17 @@ class Classroom:
             seat = self._seats.pop(client.client_id, None)
             if seat is None:
                 return
-            if seat.private is not None:  # before its view goes: it draws no more
-                seat.private.close()
-                seat.private = None
+            private, seat.private = seat.private, None
+            if private is not None:  # before its view goes: it draws no more
+                private.remove_views()
             self._leave_audience(seat)
             tools, seat.tools = seat.tools, None
             if tools is not None:
                 self.audience.remove(*tools.views)
             explain, seat.explain = seat.explain, None
-        # Outside the lock: closing waits for the tools' threads, and every edit asks
-        # the classroom (may_edit) meanwhile.
+        # Outside the lock: closing waits for the tools' and the copy's threads.
+        if private is not None:
+            private.close()
         if tools is not None:
             tools.close()
         if explain is not None:
@@ -553,69 +591,128 @@ class Classroom:
         self._refresh_banners()
 
     def make_copy(self, client_id: int) -> bool:
-        """Give browser ``client_id`` a session of its own, seeded from the presenter's scene."""
+        """Give browser ``client_id`` a session of its own, seeded from the presenter's scene.
+
+        The copy's session and its Explain are built before the classroom's lock is
+        taken: the lock is held only to swap the seat's views. A seat switches between
+        copy and presenter at most as often as :data:`SWITCHES` says.
+        """
+        seat = self.seat(client_id)
+        if seat is None or seat.presenter or seat.private is not None:
+            return False
+        if not self._switch_allowed(seat):
+            return False
+        snapshot = self.controller.frame
+        private = Controller(
+            [],
+            self.controller.scene,
+            registry=self.controller.registry,
+            trajectory=robot_model.trajectory,
+            sample=robot_model.sample,
+            scenarios=self._scenarios,
+            scenario=snapshot.scenario if snapshot is not None else "",
+            folder=self._folder,
+            slow_process=self.pool,
+            big_workers=SharedWorkers(self.big_pool),
+        )
+        explain = PrivateExplain.open(
+            seat.client,
+            private,
+            f"/own_explain/{next(self._copies)}",
+            self.explain_turns,
+        )
         with self._lock:
-            seat = self._seats.get(client_id)
-            if seat is None or seat.presenter or seat.private is not None:
-                return False
-            self._leave_audience(seat)
-            snapshot = self.controller.frame
-            scenario = snapshot.scenario if snapshot is not None else ""
-            own = seat.own = self._own_view(seat, self._private_drag(seat))
-            seat.shadows = tuple(
-                seat.client.scene.add_frame(root, show_axes=False, visible=False)
-                for root in self._roots
-            )
-            panels = _panels(seat)
-            seat.private = Controller(
-                [own, panels],
-                self.controller.scene,
-                registry=self.controller.registry,
-                trajectory=robot_model.trajectory,
-                sample=robot_model.sample,
-                scenarios=self._scenarios,
-                scenario=scenario,
-                folder=self._folder,
-                slow_process=self.pool,
-                big_workers=SharedWorkers(self.big_pool),
-            )
-            private = seat.private
-            gated = GatedController(
-                private,
-                lambda: seat.private is private,
-                self.refusals,
-                never=STUDENT_NEVER,
-            )
-            panels.attach(cast(Controller, gated))
-            _lock(panels, editable=True, presenter=False)
-            seat.explain = PrivateExplain.open(
-                seat.client,
-                private,
-                f"/own_explain/{next(self._copies)}",
-                self.explain_turns,
-            )
+            kept = self._seats.get(client_id) is seat and seat.private is None
+            if kept:
+                self._commit_copy(seat, private, explain)
+        if not kept:  # it left, or made a copy from another click, meanwhile
+            explain.close()
+            private.close()
+            return False
         self._refresh_banners()
         return True
 
+    def _commit_copy(
+        self, seat: Seat, private: Controller, explain: PrivateExplain
+    ) -> None:
+        """Move a seat from the presenter's session to its copy (under the lock)."""
+        self._leave_audience(seat)
+        own = seat.own = self._own_view(seat, self._private_drag(seat))
+        seat.shadows = tuple(
+            seat.client.scene.add_frame(root, show_axes=False, visible=False)
+            for root in self._roots
+        )
+        panels = _panels(seat)
+        seat.private, seat.explain = private, explain
+        gated = GatedController(
+            private, lambda: seat.private is private, self.refusals, never=STUDENT_NEVER
+        )
+        panels.attach(cast(Controller, gated))
+        _lock(panels, editable=True, presenter=False)
+        private.add_view(own)
+        private.add_view(panels)
+
     def follow(self, client_id: int) -> bool:
         """Close browser ``client_id``'s own copy; it follows the presenter again."""
+        seat = self.seat(client_id)
+        if seat is None or seat.private is None or not self._switch_allowed(seat):
+            return False
         with self._lock:
-            seat = self._seats.get(client_id)
-            if seat is None or seat.private is None:
+            if self._seats.get(client_id) is not seat or seat.private is None:
                 return False
             private, seat.private = seat.private, None
             explain, seat.explain = seat.explain, None
-            private.close()
+            private.remove_views()  # before its view goes: it draws no more
             self._drop_own_view(seat)
             for shadow in seat.shadows:
                 shadow.remove()
             seat.shadows = ()
             self._follow(seat)
-        # Outside the lock: closing waits for the explanation's thread.
+        # Outside the lock: closing waits for the copy's and the explanation's threads.
+        private.close()
         if explain is not None:
             explain.close()
         self._refresh_banners()
         return True
+
+    def rotate_token(self, client_id: int) -> str | None:
+        """Give the presenter's URL a new secret; every other presenter browser leaves.
+
+        Asked from presenter ``client_id``'s panel: that browser stays the presenter;
+        the others are disconnected and come back as watchers (their URL holds the old
+        secret). Returns the new token (None: ``client_id`` is no presenter).
+        """
+        seat = self.seat(client_id)
+        if seat is None or not seat.presenter:
+            self.refusals.add()
+            return None
+        with self._lock:
+            self.token = new_token()
+            others = [
+                s.client_id
+                for s in self._seats.values()
+                if s.presenter and s is not seat
+            ]
+        for other in others:
+            close_connection(self.server, other, "the presenter's link was replaced")
+        if self._on_token is not None:
+            self._on_token(self.token)
+        return self.token
+
+    def _switch_allowed(self, seat: Seat) -> bool:
+        """Whether a seat may switch between copy and presenter now (then it has)."""
+        with self._lock:
+            allowed = seat.switches.take(time.monotonic())
+        if not allowed:
+            self.refusals.add()
+            with contextlib.suppress(Exception):  # it may have just left
+                seat.client.add_notification(
+                    "Not so fast",
+                    "Wait a second before switching between your copy and the "
+                    "presenter again.",
+                    auto_close_seconds=5.0,
+                )
+        return allowed
 
     def close(self) -> None:
         """Close every private session and the workers they share."""
@@ -728,6 +825,17 @@ class Classroom:
             hint="A lab session: every student's edits reach the shared scene",
             order=-2.0,
         )
+        renew = client.gui.add_button(
+            "New presenter link",
+            hint="Signs out every other presenter browser; the new link is printed "
+            "in the terminal that started the planner",
+            order=-1.5,
+        )
+
+        @renew.on_click
+        def _(event: Any) -> None:
+            if event.client_id == cid:
+                self.rotate_token(cid)
 
         @switch.on_update
         def _(event: Any) -> None:
@@ -739,9 +847,15 @@ class Classroom:
         return switch
 
     def _refresh_banners(self) -> None:
-        with self._lock:
-            seats = list(self._seats.values())
-            counts = self.counts()
+        # One refresh at a time, counted and written in one go: two seats leaving
+        # together must not leave the older counts on the banners.
+        with self._banner_lock:
+            with self._lock:
+                seats = list(self._seats.values())
+                counts = self.counts()
+            self._write_banners(seats, counts)
+
+    def _write_banners(self, seats: list[Seat], counts: dict[str, int]) -> None:
         for seat in seats:
             mode = self.mode(seat.client_id)
             if not mode or seat.banner is None or seat.buttons is None:

@@ -251,6 +251,10 @@ class Controller:
         self._views.add(view)
         self._scheduler.redraw()
 
+    def remove_views(self) -> None:
+        """Draw on no view from now on: a browser leaves before the session is closed."""
+        self._views.clear()
+
     def wait_idle(self, timeout: float = 10.0) -> bool:
         """Block until every edit is planned and drawn; False if ``timeout`` [s] passed."""
         return self._scheduler.wait_idle(timeout)

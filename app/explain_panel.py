@@ -32,7 +32,6 @@ __all__ = [
 ]
 
 import contextlib
-import html
 import logging
 import pickle
 import threading
@@ -44,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 from app.big import BIG_SCENE_VERTICES, scene_vertices
 from app.explain_view import ExplainView
 from app.scheduler import Pending
+from app.text import html_text, markdown_text
 from planners import Memo, PlanOptions, plan_all
 from planners.explain import Abandoned, Explanation, Step
 from planners.explain_dsb import FLOWCHART, explain_dsb
@@ -110,7 +110,7 @@ def table_html(step: Step) -> str:
     if not step.detail:
         return ""
     rows = "".join(
-        f"<tr><td>{html.escape(k)}</td><td>{html.escape(v)}</td></tr>"
+        f"<tr><td>{html_text(k)}</td><td>{html_text(v)}</td></tr>"
         for k, v in step.detail
     )
     return f'<table style="font-size:0.85em">{rows}</table>'
@@ -130,7 +130,7 @@ def flowchart_html(box: str | None) -> str:
         style = "border:1px solid #333;border-radius:3px;padding:1px 4px;margin:0;" + (
             "background:#E69F00;font-weight:bold;" if on else "background:#f4f4f4;"
         )
-        parts.append(f'<div style="{style}">{html.escape(label)}</div>')
+        parts.append(f'<div style="{style}">{html_text(label)}</div>')
     arrows = '<div style="text-align:center;color:#666;line-height:1">&darr;</div>'
     return (
         '<div style="font-size:0.75em"><b>Fig. 9.15</b> (DSB flowchart)'
@@ -546,7 +546,10 @@ class ExplainFolder:
             return
         self.slider.max = max(2, len(explanation.steps))
         self.slider.value = n + 1
-        self.text.content = f"**{explanation.title}**, step {n + 1} of {len(explanation.steps)}\n\n{step.text}"
+        self.text.content = (
+            f"**{markdown_text(explanation.title)}**, step {n + 1} of "
+            f"{len(explanation.steps)}\n\n{markdown_text(step.text, lines=True)}"
+        )
         self.table.content = table_html(step)
         dsb = explanation.method == "dsb"
         box = step.kind.split(":", 1)[1] if dsb and ":" in step.kind else None
@@ -697,7 +700,7 @@ class ExplainPanel:
         error = self.explainer.error
         if self.explainer.method == "off":
             return "*Choose a method to step through it.*"
-        return f"*{error}*" if error else "*Explaining the scene...*"
+        return f"*{markdown_text(error)}*" if error else "*Explaining the scene...*"
 
 
 def _safely(show: Callable[..., None], *args: Any) -> None:

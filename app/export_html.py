@@ -26,7 +26,6 @@ from __future__ import annotations
 
 __all__ = ["export_html", "export_page", "legend_html"]
 
-import html
 import math
 import os
 from collections.abc import Mapping
@@ -38,6 +37,7 @@ from app import headless
 from app.jobs import JobFailure, start_quietly
 from app.record import LIVE_FOLLOW, MAX_FPS, RECORD_FPS, check_until, frame_times
 from app.slides import legend_rows
+from app.text import html_text
 
 
 def legend_html(
@@ -69,10 +69,10 @@ def legend_html(
             for color, kind in row.swatches
         )
         items.append(
-            f'<div style="white-space:nowrap">{swatches} {html.escape(row.text)}</div>'
+            f'<div style="white-space:nowrap">{swatches} {html_text(row.text)}</div>'
         )
     heading = (
-        f'<div style="font-weight:bold;font-size:1.15em;margin-bottom:0.3em">{html.escape(title)}</div>'
+        f'<div style="font-weight:bold;font-size:1.15em;margin-bottom:0.3em">{html_text(title)}</div>'
         if title
         else ""
     )

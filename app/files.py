@@ -18,12 +18,14 @@ import re
 from pathlib import Path
 
 import planners
-from planners.scene import Scene
+from planners.scene import ScenarioError, Scene
 
 MAX_UPLOAD_BYTES = 1_000_000
 """Largest scenario file a browser may upload (a lecture scene is a few kilobytes)."""
 
 _PLAIN = re.compile(r"[A-Za-z0-9][A-Za-z0-9 _.\-]{0,63}")
+_DEVICES = re.compile(r"(con|prn|aux|nul|com[0-9]|lpt[0-9])(\..*)?", re.IGNORECASE)
+"""Windows' device names: ``NUL.json`` opens the device there, not a file."""
 
 
 class FolderError(ValueError):
@@ -34,19 +36,25 @@ def plain_name(text: str) -> str:
     """Return ``text`` as a scenario file name in the scenes folder, or raise FolderError.
 
     The name is one path component of at most 64 plain characters, starting with a
-    letter or digit, without ``..``; ``.json`` is added when missing.
+    letter or digit, without ``..``, not ending in a dot or a space, and no device
+    name of Windows (``CON``, ``NUL``, ``COM1``...); ``.json`` is added when missing.
 
     Examples
     --------
     >>> plain_name("my scene")
     'my scene.json'
+    >>> plain_name("NUL.json")
+    Traceback (most recent call last):
+    ...
+    app.files.FolderError: a file name here is letters, digits, spaces, _ - . (at most 64, no folders): 'NUL.json'
     >>> plain_name("../etc/passwd")
     Traceback (most recent call last):
     ...
     app.files.FolderError: a file name here is letters, digits, spaces, _ - . (at most 64, no folders): '../etc/passwd'
     """
     name = text.strip()
-    if not _PLAIN.fullmatch(name) or ".." in name:
+    plain = _PLAIN.fullmatch(name) and ".." not in name and not name.endswith(".")
+    if not plain or _DEVICES.fullmatch(name):
         shown = name if len(name) <= 40 else name[:40] + "..."
         raise FolderError(
             "a file name here is letters, digits, spaces, _ - . "
@@ -91,12 +99,30 @@ class ScenesFolder:
         return path
 
     def read(self, name: str) -> Scene:
-        """Load the scenario ``name`` (ScenarioError or FolderError on a problem)."""
-        return planners.load_scene(self.path(name))
+        """Load the scenario ``name`` (ScenarioError or FolderError on a problem).
+
+        An error names the file by its plain name: a browser never learns where the
+        folder is on the server's disk.
+        """
+        path = self.path(name)
+        if not path.is_file():
+            raise FolderError(f"{path.name} is not in the scenes folder")
+        try:
+            return planners.load_scene(path)
+        except ScenarioError as error:
+            raise self._plain(path, error) from None
 
     def write(self, name: str, scene: Scene) -> Path:
         """Save ``scene`` as ``name`` (atomically); never over a shipped scenario."""
         path = self.path(name)
         if path.resolve() in self._shipped:
             raise FolderError(f"{path.name} is a shipped scenario; choose another name")
-        return planners.save_scene(scene, path)
+        try:
+            return planners.save_scene(scene, path)
+        except ScenarioError as error:
+            raise self._plain(path, error) from None
+
+    def _plain(self, path: Path, error: ScenarioError) -> ScenarioError:
+        """Return ``error`` naming the file by its plain name and no folder of the disk."""
+        problem = error.problem.replace(str(self.root), "the scenes folder")
+        return ScenarioError(path.name, error.field, problem)

@@ -134,6 +134,11 @@ class Views:
         with self._drawing:
             self._views = (*self._views, view)
 
+    def clear(self) -> None:
+        """Draw on no view from now on (waits for a drawing under way to end)."""
+        with self._drawing:
+            self._views = ()
+
     def render(self, frame: Frame) -> None:
         """Show ``frame`` on every view."""
         with self._drawing:

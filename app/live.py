@@ -49,6 +49,7 @@ import numpy as np
 import numpy.typing as npt
 
 from app.frames import RobotPose
+from app.text import markdown_text
 from planners.live import (
     LiveEvent,
     LiveOptions,
@@ -198,7 +199,7 @@ def live_status_markdown(state: LiveState | None, running: bool) -> str:
     run = "running" if running else "stopped"
     return (
         f"**Live ({run})** t = {state.t:.2f} s  \n"
-        f"{words}  \nmode: {mode}; travelled {state.travelled:.2f} m"
+        f"{markdown_text(words)}  \nmode: {mode}; travelled {state.travelled:.2f} m"
     )
 
 

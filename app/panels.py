@@ -28,6 +28,7 @@ import planners
 from app.controller import TOOLS, Controller, Frame, RobotPose
 from app.files import ScenesFolder
 from app.style import COLORS, hex_color, planner_look
+from app.text import markdown_text
 from app.thinning import frame_note
 from app.tools import layer_names
 from planners.registry import PlannerSpec
@@ -457,8 +458,8 @@ class Panels:
         """Show ``frame``'s results, messages and settings."""
         scene = frame.scene
         title = scene.name or "Untitled scene"
-        _set(self.title, "content", f"### {title}")
-        _set(self.description, "content", scene.description or "")
+        _set(self.title, "content", f"### {markdown_text(title)}")
+        _set(self.description, "content", markdown_text(scene.description, lines=True))
         _set(self.status, "content", status_markdown(frame))
         self._render_folder(frame)
         _set(
@@ -495,7 +496,7 @@ class Panels:
         _set(
             self.selection,
             "content",
-            f"Selected: **{frame.selection.describe()}**"
+            f"Selected: **{markdown_text(frame.selection.describe())}**"
             if frame.selection is not None
             else "*Nothing selected.*",
         )
@@ -605,22 +606,29 @@ def _set(handle: Any, name: str, value: Any) -> None:
 def status_markdown(frame: Frame) -> str:
     """Return what the user needs to know now: the answer to the last action, then problems.
 
+    Every text is escaped (:mod:`app.text`): a message can quote a file's name, a field
+    of an uploaded file or a value a browser sent.
+
     Examples
     --------
     >>> from types import SimpleNamespace
     >>> print(status_markdown(SimpleNamespace(message=None, problems=("VG, SVG: the goal is inside obstacle 2",))))
     **No path:**
     - VG, SVG: the goal is inside obstacle 2
+    >>> print(status_markdown(SimpleNamespace(message="Loaded <b>x</b>", problems=())))
+    **Loaded &lt;b&gt;x&lt;/b&gt;**
     """
     parts = []
     progress = getattr(frame, "progress", None)
     if progress:  # a big scene's worker computes (app.big)
-        parts.append(f"**{progress}**  \n*The last plans are shown grey until then.*")
+        parts.append(
+            f"**{markdown_text(progress)}**  \n*The last plans are shown grey until then.*"
+        )
     if frame.message:
-        parts.append(f"**{frame.message}**")
+        parts.append(f"**{markdown_text(frame.message)}**")
     if frame.problems:
         parts.append("**No path:**")
-        parts.extend(f"- {problem}" for problem in frame.problems)
+        parts.extend(f"- {markdown_text(problem)}" for problem in frame.problems)
     return "\n".join(parts)
 
 

@@ -30,13 +30,22 @@ import viser
 
 import planners
 from app import robot as robot_model
-from app.classroom import Classroom, PresenterTools, new_token, presenter_url
+from app.classroom import (
+    Classroom,
+    PresenterTools,
+    close_connection,
+    new_token,
+    presenter_url,
+)
 from app.controller import Controller
+from app.door import Door, message_limit
 from app.explain_panel import ExplainPanel
+from app.fair import FairExecutor
 from app.files import ScenesFolder
 from app.live import LivePanels, LiveRun, MotionPaths, add_live_panel
 from app.panels import Panels
 from app.scoped import ScopedTarget
+from app.text import one_line
 from app.view import PlannerView, scene_bounds
 from planners.allocator import freeze_long_lived, keep_freed_memory
 from planners.kernels import warm_up
@@ -126,8 +135,10 @@ class PlannerApp:
     live: LiveRun | None = None
     """The *Live* DSB robot (:mod:`app.live`)."""
     explain: ExplainPanel | None = None
-    """The Explain panel (issue 13): ``explain.choose("svg")``, ``explain.explainer.go(3)``;
+    """The Explain panel: ``explain.choose("svg")``, ``explain.explainer.go(3)``;
     in a classroom, the one every presenter's browser shows."""
+    door: Door | None = None
+    """What browsers may send (:mod:`app.door`)."""
 
     @property
     def presenter_url(self) -> str | None:
@@ -240,21 +251,24 @@ def start_app(
         key, path = resolve_scenario(DEFAULT_SCENARIO if scenario is None else scenario)
         scene = planners.load_scene(path)
 
+    if presenter is None:
+        presenter = not _is_loopback(host)
     # viser prints its own banner with rich; ours (below) is one line with the real URL.
-    with contextlib.redirect_stdout(io.StringIO()):
+    with contextlib.redirect_stdout(io.StringIO()), message_limit():
         server = viser.ViserServer(host=host, port=port, verbose=False)
     app: PlannerApp | None = None
     try:
+        # In a classroom nobody has priority until the classroom says who presents.
+        door = _guard(server, everyone=not presenter)
         _configure(server, scene)
-
-        if presenter is None:
-            presenter = not _is_loopback(host)
         if presenter:
             app = _wire_classroom(
                 server, scene, key, scenarios, host, folder=folder, workers=copy_workers
             )
+            door.set_priority(app.classroom.is_presenter_connection)
         else:
             app = _wire(server, scene, key, scenarios, host, folder=folder)
+        app.door = door
         if not app.wait_idle(60.0):
             raise RuntimeError("the first frame was not drawn within 60 s")
     except BaseException:
@@ -355,6 +369,7 @@ def _wire_classroom(
         copy_workers=workers,
         tools=functools.partial(_presenter_tools, explain, LivePanels(live)),
         broadcast_roots=("/explain", "/live"),
+        on_token=functools.partial(_say_new_token, server, host),
     )
     return PlannerApp(
         server=server,
@@ -380,6 +395,37 @@ def _presenter_tools(
         explain.remove_folder(folder)
 
     return PresenterTools(views=(), close=close)
+
+
+def _guard(server: viser.ViserServer, *, everyone: bool) -> Door:
+    """Put the door (:mod:`app.door`) and the fair pool (:mod:`app.fair`) on ``server``.
+
+    Browsers that connected before (the server listens from its constructor on) are
+    closed: they come back through the door.
+    """
+    door = Door(
+        server,
+        priority=(lambda client_id: True) if everyone else (lambda client_id: False),
+        tell=functools.partial(_tell, server),
+    )
+    fair = FairExecutor(priority=door.is_priority)
+    old = server._thread_executor
+    server._thread_executor = server.gui._thread_executor = fair
+    server.scene._thread_executor = fair
+    old.shutdown(wait=False)
+    for client_id in list(server._websock_server._live_connections):
+        if not door.knows(client_id):
+            close_connection(server, client_id, "reconnect")
+    return door
+
+
+def _tell(server: viser.ViserServer, client_id: int, words: str) -> None:
+    """Show ``words`` to one browser, as a notification (its text is never markup)."""
+    client = server.get_clients().get(client_id)
+    if client is not None:
+        client.add_notification(
+            "Refused", one_line(words), auto_close_seconds=10.0, color="red"
+        )
 
 
 def _is_loopback(host: str) -> bool:
@@ -408,6 +454,20 @@ def _say_where(app: PlannerApp, host: str) -> None:
             "(or this machine's IP address)",
             flush=True,
         )
+
+
+def _say_new_token(server: viser.ViserServer, host: str, token: str) -> None:
+    """Print the presenter's new URL after the presenter asked for a new link."""
+    shared = host in ("0.0.0.0", "::", "")
+    page = f"http://127.0.0.1:{server.get_port()}/" if shared else None
+    if page is None:
+        bracketed = f"[{host}]" if ":" in host and not host.startswith("[") else host
+        page = f"http://{bracketed}:{server.get_port()}/"
+    print(
+        "New presenter link (the old one no longer presents; keep it secret): "
+        f"{presenter_url(page, token)}",
+        flush=True,
+    )
 
 
 def _say_classroom(app: PlannerApp, host: str) -> None:

@@ -179,7 +179,8 @@ def _entry_points() -> list[tuple[str, str]]:
     points = [
         ("", n)
         for n, m in inspect.getmembers(Controller, inspect.isfunction)
-        if not n.startswith("_") and n not in ("add_view", "wait_idle", "close")
+        if not n.startswith("_")
+        and n not in ("add_view", "remove_views", "wait_idle", "close")
     ]
     for group, cls in (
         ("edits", SceneEdits),

@@ -1,0 +1,71 @@
+r"""Text from outside shown as text: never as markup.
+
+viser renders a markdown element's raw HTML (scripts included) and an HTML element as
+is. A scene's name and description, a file's name, an error that quotes a field of an
+uploaded file, a value a browser sent: all of it can be written by a hostile student,
+and all of it reaches the panels of other browsers, the presenter's among them. Every
+such text goes through :func:`markdown_text` (inside markdown) or :func:`html_text`
+(inside HTML) before it is put in a panel; the markup around it is the app's own.
+
+Examples
+--------
+>>> markdown_text('<iframe srcdoc="<script>alert(1)</script>">')
+'&lt;iframe srcdoc=&quot;&lt;script&gt;alert\\(1\\)&lt;/script&gt;&quot;&gt;'
+>>> markdown_text("[click](javascript:alert(1)) **bold**")
+'\\[click\\]\\(javascript:alert\\(1\\)\\) \\*\\*bold\\*\\*'
+>>> html_text("<b>O_1</b> & 'x'")
+'&lt;b&gt;O_1&lt;/b&gt; &amp; &#x27;x&#x27;'
+"""
+
+from __future__ import annotations
+
+__all__ = ["html_text", "markdown_text", "one_line"]
+
+import html
+import re
+
+_ENTITIES = {"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#x27;"}
+# Every ASCII punctuation mark markdown (CommonMark and GitHub's tables, strike-through
+# and autolinks) gives a meaning, escaped with a backslash; '&' '<' '>' '"' "'" become
+# entities instead (a backslash before '&' would break the entity that follows).
+_MARKDOWN = frozenset("\\`*_{}[]()#+-.!|~")
+_BREAKS = re.compile(r"[\r\n\u2028\u2029\x0b\x0c\x85]+")
+
+
+def one_line(text: object) -> str:
+    r"""Return ``text`` as one line: line breaks become spaces, other controls go.
+
+    Examples
+    --------
+    >>> one_line("a\r\nb\x00c")
+    'a bc'
+    """
+    joined = _BREAKS.sub(" ", str(text))
+    return "".join(c for c in joined if c.isprintable() or c == "\t")
+
+
+def markdown_text(text: object, *, lines: bool = False) -> str:
+    """Return ``text`` escaped to show literally inside markdown (and its raw HTML).
+
+    Parameters
+    ----------
+    text
+        Any text from outside (it is made a ``str`` first).
+    lines
+        Keep line breaks (as markdown hard breaks); otherwise the text is one line.
+    """
+    parts = str(text).splitlines() if lines else [one_line(text)]
+    escaped = ("".join(_escape_char(c) for c in one_line(part)) for part in parts)
+    return "  \n".join(escaped)
+
+
+def html_text(text: object) -> str:
+    """Return ``text`` escaped to show literally inside HTML (quotes included)."""
+    return html.escape(str(text), quote=True)
+
+
+def _escape_char(c: str) -> str:
+    entity = _ENTITIES.get(c)
+    if entity is not None:
+        return entity
+    return "\\" + c if c in _MARKDOWN else c

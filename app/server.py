@@ -139,6 +139,8 @@ class PlannerApp:
     in a classroom, the one every presenter's browser shows."""
     door: Door | None = None
     """What browsers may send (:mod:`app.door`)."""
+    fair: FairExecutor | None = None
+    """The pool the browsers' callbacks run in, fairly (:mod:`app.fair`)."""
 
     @property
     def presenter_url(self) -> str | None:
@@ -259,7 +261,7 @@ def start_app(
     app: PlannerApp | None = None
     try:
         # In a classroom nobody has priority until the classroom says who presents.
-        door = _guard(server, everyone=not presenter)
+        door, fair = _guard(server, everyone=not presenter)
         _configure(server, scene)
         if presenter:
             app = _wire_classroom(
@@ -268,7 +270,7 @@ def start_app(
             door.set_priority(app.classroom.is_presenter_connection)
         else:
             app = _wire(server, scene, key, scenarios, host, folder=folder)
-        app.door = door
+        app.door, app.fair = door, fair
         if not app.wait_idle(60.0):
             raise RuntimeError("the first frame was not drawn within 60 s")
     except BaseException:
@@ -397,7 +399,7 @@ def _presenter_tools(
     return PresenterTools(views=(), close=close)
 
 
-def _guard(server: viser.ViserServer, *, everyone: bool) -> Door:
+def _guard(server: viser.ViserServer, *, everyone: bool) -> tuple[Door, FairExecutor]:
     """Put the door (:mod:`app.door`) and the fair pool (:mod:`app.fair`) on ``server``.
 
     Browsers that connected before (the server listens from its constructor on) are
@@ -416,7 +418,7 @@ def _guard(server: viser.ViserServer, *, everyone: bool) -> Door:
     for client_id in list(server._websock_server._live_connections):
         if not door.knows(client_id):
             close_connection(server, client_id, "reconnect")
-    return door
+    return door, fair
 
 
 def _tell(server: viser.ViserServer, client_id: int, words: str) -> None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 __all__ = ["ViserClient"]
 
+import collections
 import contextlib
 import threading
 import time
@@ -90,6 +91,10 @@ class ViserClient:
         """(owner, name) -> the node's type, position, visible."""
         self.received = 0
         """Messages received so far."""
+        self.kinds: collections.Counter[str] = collections.Counter()
+        """Messages received so far, by type."""
+        self.notes: list[dict[str, Any]] = []
+        """The notifications shown (their props: title, body...)."""
         self.closed = False
         """True once the connection is closed."""
         self.client_id = -1
@@ -177,7 +182,7 @@ class ViserClient:
         """Return the content of every HTML/markdown element, in creation order."""
         with self._lock:
             return [
-                str(e["props"].get("content", ""))
+                str(e["props"].get("content", e["props"].get("_markdown", "")))
                 for e in self.gui.values()
                 if e["type"] in ("GuiHtmlMessage", "GuiMarkdownMessage")
             ]
@@ -228,7 +233,10 @@ class ViserClient:
 
     def _apply(self, message: dict[str, Any]) -> None:
         kind = str(message.get("type", ""))
-        if kind.startswith("Gui") and "uuid" in message:
+        self.kinds[kind] += 1
+        if kind == "NotificationShowMessage":
+            self.notes.append(dict(message.get("props", {})))
+        elif kind.startswith("Gui") and "uuid" in message:
             self._apply_gui(kind, message)
         elif "name" in message:
             self._apply_scene(kind, message)

@@ -17,6 +17,7 @@ from app.controller import Controller, Frame, RobotPose
 from app.scoped import ScopedTarget
 from app.view import PlannerView
 from planners import Scene
+from tests.viser_client import ViserClient
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO_DIR = ROOT / "static_scenarios"
@@ -161,3 +162,39 @@ class TopCamera:
 
     def metres_per_pixel(self, z: float = 0.0) -> float:
         return (self.height - z) / self.f
+
+
+# --------------------------------------------------------------------------- classrooms
+
+
+@contextlib.contextmanager
+def classroom_client(app: Any, presenter: bool = False) -> Iterator[ViserClient]:
+    """A connected client whose seat and panel are built."""
+    from app.classroom import PRESENTER_PATH
+
+    path = f"{PRESENTER_PATH}{app.classroom.token}" if presenter else ""
+    before = set(app.server.get_clients())
+    c = ViserClient(app.port, path)
+    try:
+        assert wait_until(lambda: len(set(app.server.get_clients()) - before) == 1, 30)
+        (cid,) = set(app.server.get_clients()) - before
+        c.client_id = cid
+        assert wait_until(lambda: app.classroom.seat(cid) is not None, 30)
+        assert c.wait_for(
+            lambda: (
+                has_label(c, "Radius [m]")
+                and (
+                    has_label(c, "Make my own copy")
+                    or has_label(c, "Let everyone edit")
+                )
+            ),
+            30,
+        ), "panel not received"
+        yield c
+    finally:
+        c.close()
+
+
+def has_label(c: ViserClient, label: str) -> bool:
+    """Whether ``c`` has received a GUI element labelled ``label``."""
+    return any(e["label"] == label for e in c.gui.values())

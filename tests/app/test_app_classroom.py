@@ -33,6 +33,8 @@ from app.classroom import (
 from app.explain_panel import METHOD_TITLES
 from app.gate import GatedController, Refusals
 from app.server import _is_loopback
+from tests.app.app_helpers import classroom_client as client
+from tests.app.app_helpers import has_label as _has
 from tests.app.app_helpers import wait_until
 from tests.benchmarks.bench_big import circle_scene
 from tests.viser_client import ViserClient
@@ -55,33 +57,6 @@ def planner(classroom_app: Any) -> Iterator[Any]:
     app.classroom.set_open(False)
     app.controller.files.load_scenario("01_two_convex")
     assert app.wait_idle(30)
-
-
-@contextlib.contextmanager
-def client(app: Any, presenter: bool = False) -> Iterator[ViserClient]:
-    """A connected client whose seat and panel are built."""
-    path = f"{PRESENTER_PATH}{app.classroom.token}" if presenter else ""
-    before = set(app.server.get_clients())
-    c = ViserClient(app.port, path)
-    try:
-        assert wait_until(lambda: len(set(app.server.get_clients()) - before) == 1, 30)
-        (cid,) = set(app.server.get_clients()) - before
-        c.client_id = cid
-        assert wait_until(lambda: app.classroom.seat(cid) is not None, 30)
-        assert c.wait_for(
-            lambda: (
-                _has(c, "Radius [m]")
-                and (_has(c, "Make my own copy") or _has(c, "Let everyone edit"))
-            ),
-            30,
-        ), "panel not received"
-        yield c
-    finally:
-        c.close()
-
-
-def _has(c: ViserClient, label: str) -> bool:
-    return any(e["label"] == label for e in c.gui.values())
 
 
 def _state(app: Any) -> tuple[Any, int]:

@@ -23,8 +23,8 @@ import pytest
 
 from app import start_app
 from app.explain_panel import METHOD_TITLES
+from tests.app.app_helpers import classroom_client as client
 from tests.app.app_helpers import wait_until
-from tests.app.test_app_classroom import client
 from tests.viser_client import ViserClient
 
 GOAL = "/handles/goal"

@@ -10,9 +10,11 @@ such text goes through :func:`markdown_text` (inside markdown) or :func:`html_te
 Examples
 --------
 >>> markdown_text('<iframe srcdoc="<script>alert(1)</script>">')
-'&lt;iframe srcdoc=&quot;&lt;script&gt;alert\\(1\\)&lt;/script&gt;&quot;&gt;'
+'&lt;iframe srcdoc=&quot;&lt;script&gt;alert(1)&lt;/script&gt;&quot;&gt;'
 >>> markdown_text("[click](javascript:alert(1)) **bold**")
-'\\[click\\]\\(javascript:alert\\(1\\)\\) \\*\\*bold\\*\\*'
+'\\[click\\](javascript:alert(1)) \\*\\*bold\\*\\*'
+>>> markdown_text("# title\n1. first\n- item | cell", lines=True)
+'\\# title  \n1\\. first  \n\\- item \\| cell'
 >>> html_text("<b>O_1</b> & 'x'")
 '&lt;b&gt;O_1&lt;/b&gt; &amp; &#x27;x&#x27;'
 """
@@ -25,10 +27,12 @@ import html
 import re
 
 _ENTITIES = {"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#x27;"}
-# Every ASCII punctuation mark markdown (CommonMark and GitHub's tables, strike-through
-# and autolinks) gives a meaning, escaped with a backslash; '&' '<' '>' '"' "'" become
-# entities instead (a backslash before '&' would break the entity that follows).
-_MARKDOWN = frozenset("\\`*_{}[]()#+-.!|~")
+# The marks that make inline markdown (code, emphasis, links and images, tables,
+# strike-through) are escaped with a backslash wherever they stand; '&' '<' '>' '"' "'"
+# become entities (no HTML, no autolink); without '[' and ']' no link or image can form.
+_MARKDOWN = frozenset("\\`*_[]|~")
+# What makes a block only at the start of a line: a heading, a list, a rule.
+_LINE_START = re.compile(r"^(\s*)([#+=-]|\d+(?=[.)]))")
 _BREAKS = re.compile(r"[\r\n\u2028\u2029\x0b\x0c\x85]+")
 
 
@@ -55,13 +59,25 @@ def markdown_text(text: object, *, lines: bool = False) -> str:
         Keep line breaks (as markdown hard breaks); otherwise the text is one line.
     """
     parts = str(text).splitlines() if lines else [one_line(text)]
-    escaped = ("".join(_escape_char(c) for c in one_line(part)) for part in parts)
+    escaped = (_escape_line(one_line(part)) for part in parts)
     return "  \n".join(escaped)
 
 
 def html_text(text: object) -> str:
     """Return ``text`` escaped to show literally inside HTML (quotes included)."""
     return html.escape(str(text), quote=True)
+
+
+def _escape_line(line: str) -> str:
+    escaped = "".join(_escape_char(c) for c in line)
+    block = _LINE_START.match(escaped)
+    if block is None:
+        return escaped
+    indent, mark = block.groups()
+    if mark[0].isdigit():  # "1." or "1)": escape what follows the number
+        end = block.end()
+        return escaped[:end] + "\\" + escaped[end:]
+    return indent + "\\" + escaped[len(indent) :]
 
 
 def _escape_char(c: str) -> str:

@@ -12,10 +12,8 @@ is measured by ``tests/benchmarks/bench_hostile.py``, never asserted here.
 from __future__ import annotations
 
 import json
-import math
 import re
 import time
-import uuid as uuidlib
 from collections.abc import Iterator
 from typing import Any
 
@@ -41,7 +39,7 @@ PAYLOADS = (
 )
 """What a student puts where the app shows text."""
 
-MARKUP = ("<iframe", "<img", "<script", "](javascript", "![")
+MARKUP = re.compile(r"<iframe|<img|<script|(?<!\\)\]\(|!\[", re.IGNORECASE)
 """What none of those may become in a panel (case-insensitive)."""
 
 
@@ -66,34 +64,10 @@ def planner(classroom_app: Any) -> Iterator[Any]:
 
 
 def upload(c: ViserClient, name: str, data: bytes, declared: int | None = None) -> str:
-    """Send a file through the panel's upload button, as viser's page cuts it."""
-    size = len(data) if declared is None else declared
-    transfer = uuidlib.uuid4().hex
-    parts = math.ceil(size / UPLOAD_PART_BYTES)
-    source = c.uuid("Upload a scenario (.json)")
-    c.send(
-        {
-            "type": "FileTransferStartUpload",
-            "source_component_uuid": source,
-            "transfer_uuid": transfer,
-            "filename": name,
-            "mime_type": "application/json",
-            "part_count": parts,
-            "size_bytes": size,
-        }
+    """Upload through the panel's scenario button."""
+    return c.upload(
+        "Upload a scenario (.json)", name, data, declared, UPLOAD_PART_BYTES
     )
-    for k in range(parts):
-        chunk = data[k * UPLOAD_PART_BYTES : (k + 1) * UPLOAD_PART_BYTES]
-        c.send(
-            {
-                "type": "FileTransferPart",
-                "source_component_uuid": source,
-                "transfer_uuid": transfer,
-                "part_index": k,
-                "content": chunk,
-            }
-        )
-    return transfer
 
 
 def hostile_scene(name: str, description: str = "") -> bytes:
@@ -112,7 +86,7 @@ def viser_root() -> Any:
 
 def markup_in(texts: list[str]) -> list[str]:
     """The panel texts that hold live markup a student wrote."""
-    return [t for t in texts if any(m in t.lower() for m in MARKUP)]
+    return [t for t in texts if MARKUP.search(t)]
 
 
 # --------------------------------------------------------------------------- 1. markup

@@ -880,6 +880,14 @@ def _panels(seat: Seat) -> Panels:
     return seat.panels
 
 
+_MASK_SECRET = (
+    '<style>input[value*="/presenter/"]{-webkit-text-security:disc;'
+    "text-security:disc}</style>"
+)
+"""Draws viser's own *Server URL* field (its settings) as dots in a presenter's browser:
+the field holds the presenter's secret, and the projector shows that browser."""
+
+
 def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
     """Return the coloured box that says which mode a browser is in.
 
@@ -903,8 +911,9 @@ def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
                 f"<br>{browsers} presenter browsers: one scene, one Explain, "
                 "one live robot."
             )
+    mask = _MASK_SECRET if mode == "presenter" else ""
     return (
-        f'<div style="background:{colour};color:white;padding:8px 10px;'
+        mask + f'<div style="background:{colour};color:white;padding:8px 10px;'
         f'border-radius:6px;margin:2px 0">'
         f'<div style="font-size:1.25em;font-weight:bold">{title}</div>'
         f'<div style="font-size:0.85em">{text}</div></div>'

@@ -35,6 +35,12 @@ BAD_NAMES = [
     "a" * 65,
     "a" * 5000,
     "é.json",
+    "CON",
+    "nul.json",
+    "Com1.txt",
+    "lpt9",
+    "aux.backup.json",
+    "trailing.",
 ]
 
 
@@ -120,6 +126,31 @@ def test_the_controller_says_why_and_keeps_the_scene(make_controller, sandbox):
         assert view.last.message.startswith("Not loaded, the scene is kept:")
         assert view.last.scene == scene
     assert _tree(root) == before
+
+
+def test_the_folders_messages_name_no_path_of_the_server(make_controller, sandbox):
+    """A browser learns plain names only: not where the folder is on the disk."""
+    root, folder = sandbox
+    (folder.root / "broken.json").write_text("{ not json")
+    (folder.root / "locked.json").mkdir()  # a save there cannot replace it
+    scene = planners.load_scene(SCENARIOS[0])
+    controller, view = make_controller(scene, folder=folder)
+    said = []
+    for action in (
+        lambda: controller.files.load_from_folder("missing"),
+        lambda: controller.files.load_from_folder("broken"),
+        lambda: controller.files.save_to_folder("locked"),
+    ):
+        action()
+        assert controller.wait_idle(10)
+        said.append(view.last.message)
+    assert all(str(tmp) not in m for m in said for tmp in (root, root.resolve()))
+    assert (
+        said[0]
+        == "Not loaded, the scene is kept: missing.json is not in the scenes folder"
+    )
+    assert said[1].startswith("Not loaded, the scene is kept: broken.json:")
+    assert said[2].startswith("Not saved: locked.json:")
 
 
 def test_without_a_folder_nothing_is_read_or_written(make_controller, tmp_path):

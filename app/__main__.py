@@ -90,7 +90,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _media_arguments(parser: argparse.ArgumentParser) -> None:
-    """Slides and course pages (README "Slides and course pages")."""
+    """Slides and course pages (docs/slides.md)."""
     group = parser.add_argument_group("slides and course pages")
     group.add_argument(
         "--no-legend", action="store_true", help="pictures and videos: no legend"
@@ -202,7 +202,7 @@ def _media(args: argparse.Namespace) -> int | None:
 
 
 def _explain_arguments(parser: argparse.ArgumentParser) -> None:
-    # Explain mode's pictures (issue 13): app.explain_headless.
+    # Explain mode's pictures: app.explain_headless.
     parser.add_argument(
         "--explain",
         choices=("expansion", "vg", "svg", "dsb"),

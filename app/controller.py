@@ -1,6 +1,6 @@
 """One session of the planner: a small facade over the parts that do the work.
 
-A :class:`Controller` is one scene for one audience (DESIGN.md "Sessions"); nothing in it
+A :class:`Controller` is one scene for one audience; nothing in it
 is global, so a server may hold several. It never imports viser: it talks to *views*,
 objects with ``render(frame)`` and ``render_robot(pose)``, so tests pass a fake view and
 the app passes the 3-D view and the panel.
@@ -18,7 +18,7 @@ The parts, each a module with one job:
 :mod:`app.frames`           what the views draw (Frame, RobotPose)
 ==========================  ==========================================================
 
-Data flow on an edit (DESIGN.md)::
+Data flow on an edit (docs/architecture.md)::
 
     viser callback (event loop or worker thread)
       -> controller.edits.drag_handle(...)    # one critical section: pure decision,

@@ -1,4 +1,4 @@
-"""Pictures of Explain mode for slides: one step, or every step into a folder (issue 13).
+"""Pictures of Explain mode for slides: one step, or every step into a folder.
 
 ``python -m app --scenario 06 --snapshot OUT.png --explain svg --step 3`` draws step 3
 (numbered from 1, as the panel shows "step 3 of N"); ``--step all`` writes one picture

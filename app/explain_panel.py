@@ -1,4 +1,4 @@
-"""The Explain panel: step through a method as the chapter does (issue 13).
+"""The Explain panel: step through a method as the chapter does.
 
 A folder *Explain* in the GUI: choose a method (obstacle expansion, VG, SVG, DSB), then
 step forward and back, jump to the start or the end, or drag a slider over the steps.

@@ -7,7 +7,7 @@ decides nothing about the method: the app draws what the planners decided.
 
 Nodes are created once under ``/explain`` (one line-segment layer per role, a pool of
 labels, a caption); :meth:`ExplainView.show` assigns points and visibility, as the main
-view does (STYLE.md section 4).
+view does (docs/architecture.md, "Data flow on an edit").
 """
 
 from __future__ import annotations

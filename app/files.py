@@ -1,6 +1,6 @@
 """Scenario files on the server's disk, only where the person who started it said so.
 
-No text from a browser is ever used as a server path (DESIGN.md, "Files and the browser").
+No text from a browser is ever used as a server path (docs/architecture.md, "Files and the browser").
 A browser saves by *downloading* the scene and loads by *uploading* a file or choosing a
 shipped scenario. The one exception is a folder named on the command line
 (``python -m app --scenes-dir DIR``): a browser may then read and write scenario files in

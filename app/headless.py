@@ -8,7 +8,7 @@ labels laid out for the picture's size by :mod:`app.slides`), writes the PNG and
 everything it started. :func:`capture` is the plain picture of the app as it is (no
 title, legend or placed labels), which tests use.
 
-What makes the picture repeatable (see ``shared/notes/viser-headless.md``):
+What makes the picture repeatable:
 
 - ``?fixedDpr=1`` in the URL and ``device_scale_factor=1`` in the page, so the client's
   adaptive resolution never changes the image;

@@ -1,6 +1,6 @@
 """The planning scheduler: two lanes, coalescing (latest version wins), frames.
 
-Data flow on an edit (DESIGN.md)::
+Data flow on an edit (docs/architecture.md)::
 
     session: scene version v, lock.notify_all()
       fast lane (a thread of this process): the "graph" planners (VG, SVG) + expansion

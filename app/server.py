@@ -315,7 +315,7 @@ def _wire(
     )
     controller_box.append(controller)
     panels.attach(controller)
-    # Live mode (issue 17): its own thread, folder and nodes; it reads the newest scene.
+    # Live mode: its own thread, folder and nodes; it reads the newest scene.
     live = LiveRun(lambda: controller.scene, server, [controller.views])
     add_live_panel(server, live)
     controller.add_view(MotionPaths(server))
@@ -492,7 +492,7 @@ def _configure(server: viser.ViserServer, scene: Scene) -> None:
     )
     server.scene.set_up_direction("+z")
     # No HDRI: it costs ~10 s of CPU on first render and changes the light mid-way;
-    # plain lights give the same picture every time (notes/viser-headless.md).
+    # plain lights give the same picture every time.
     server.scene.configure_environment_map(hdri=None)
     server.scene.configure_default_lights(enabled=True, cast_shadow=False)
     server.scene.add_light_hemisphere("/lights/sky", intensity=1.2)

@@ -1,6 +1,6 @@
 """One session's state behind its one lock: the scene, its version, the history, the UI.
 
-A session is one scene for one audience (DESIGN.md "Sessions"): a controller owns exactly
+A session is one scene for one audience: a controller owns exactly
 one :class:`SessionState`, and nothing here is global, so a server can hold several.
 
 Data flow::

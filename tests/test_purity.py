@@ -1,4 +1,4 @@
-"""planners/ and kinematics/ keep no state between calls (STYLE.md, DESIGN.md).
+"""planners/ and kinematics/ keep no state between calls (docs/architecture.md, "Layers").
 
 Every module-level name must be immutable: no dict, list or set a call could fill, no
 functools cache, no ``global`` statement. Reuse between calls is the caller's business

@@ -1,4 +1,4 @@
-"""Big scenes in the real app (issue 15, item 4): a worker computes, edits cancel it.
+"""Big scenes in the real app : a worker computes, edits cancel it.
 
 The circle of 10,000 vertices of ``tests/benchmarks/bench_big.py`` is uploaded into a
 running app (real viser server, 3-D view, panel, controller; a second "browser" is a

@@ -1,7 +1,7 @@
 """A student's 32-obstacle room in headless Chromium while an obstacle is dragged.
 
 Both of ``bench_student``'s kinds of room: obstacles that merge once expanded (443
-configuration-space vertices) and obstacles kept apart (612, the issue's largest).
+configuration-space vertices) and obstacles kept apart (612, the largest).
 
 The browser watches (top view) while an obstacle is dragged through the middle of the
 room through the controller -- the gizmo's call -- and the graph layers follow. The

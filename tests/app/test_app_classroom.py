@@ -1,4 +1,4 @@
-"""Presenter mode and private copies (issue 14, items 2 and 3), through viser's protocol.
+"""Presenter mode and private copies, through viser's protocol.
 
 Each test runs the real app (server, shared view, per-browser panels) in presenter mode
 on 127.0.0.1 (``presenter=True``, the flag a classroom on ``--host 0.0.0.0`` turns on by

@@ -629,7 +629,7 @@ def test_a_newer_edit_comes_before_the_robot_of_the_one_it_overtakes(
     make_controller, scene
 ):
     """While a drag goes on, the planners' layers of each edit are drawn, and the robot's
-    trajectory is planned only for an edit no newer one has overtaken (issue 15: the
+    trajectory is planned only for an edit no newer one has overtaken (the
     next edit's layers do not wait for a trajectory nobody will see)."""
     # The robot was just drawn: it may wait (robot_lag_s long).
     controller, view, planned = _goal_b_while_goal_a_is_drawn(

@@ -537,7 +537,7 @@ class LongExplanation:
 
 def test_an_edit_abandons_a_long_explanation_at_once(explainer, monkeypatch):
     """A big scene's explanation takes a second or more; an edit meanwhile stops it
-    (issue 15: a long computation is cancelled by the next edit), and the new scene is
+    (a long computation is cancelled by the next edit), and the new scene is
     explained next."""
     ex, drawn = explainer
     long = LongExplanation(ex, monkeypatch)

@@ -1,4 +1,4 @@
-"""Explain mode end to end in headless Chromium (issue 13): choose, step, edit the scene.
+"""Explain mode end to end in headless Chromium: choose, step, edit the scene.
 
 These tests FAIL (never skip) when Chromium cannot start.
 """

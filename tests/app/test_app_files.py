@@ -1,4 +1,4 @@
-"""No text from a browser reaches the server's file system (issue 14, DESIGN.md).
+"""No text from a browser reaches the server's file system.
 
 Everything a browser can send that names a file: a name for the scenes folder (the only
 place it may read or write), an upload's file name, an upload's content. For each way in,

@@ -1,4 +1,4 @@
-"""The app's Live DSB mode (issue 17) in headless Chromium and without a browser."""
+"""The app's Live DSB mode in headless Chromium and without a browser."""
 
 from __future__ import annotations
 

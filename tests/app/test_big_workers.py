@@ -1,7 +1,7 @@
 """Big scenes' jobs lease their worker (app.big): a job given up stops only its own call.
 
-A classroom's private copies share a pool of workers for big scenes (issue 15, item 4:
-never one process per seat). A job interrupts the worker only while it holds it, so a
+A classroom's private copies share a pool of workers for big scenes
+(never one process per seat). A job interrupts the worker only while it holds it, so a
 copy's edit never stops another copy's computation; a job given up before it holds a
 worker never starts.
 """

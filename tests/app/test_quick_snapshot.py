@@ -1,4 +1,4 @@
-"""The quick ``--snapshot`` path (issue 16): the browser first, the page before the app.
+"""The quick ``--snapshot`` path: the browser first, the page before the app.
 
 ``python -m app --snapshot`` launches Chromium before it imports the app, opens the page
 on the app's port while the app still plans (:func:`app.headless.open_early`), and puts

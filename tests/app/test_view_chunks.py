@@ -1,4 +1,4 @@
-"""Chunked layers: an edit sends only the chunks whose polygons changed (issue 15, item 2).
+"""Chunked layers: an edit sends only the chunks whose polygons changed.
 
 First ``_Chunked`` alone, held to the drawing of every polygon at once over random
 sequences of edits; then the real view on a viser server, where the messages queued for

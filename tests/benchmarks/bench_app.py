@@ -18,7 +18,7 @@ drawn after the 3-D view and the panel, timestamps each frame. Two measurements:
     version or a newer one is drawn (during a drag the app shows the newest DSB result it
     has, marked "updating", while the next computes). This is what a user feels.
 
-Budgets (DESIGN.md): p95 at most 16 ms for expansion + VG + SVG, at most 50 ms with DSB.
+Budgets (docs/benchmarks.md): p95 at most 16 ms for expansion + VG + SVG, at most 50 ms with DSB.
 This is a report, not a test: it always exits 0 unless ``--strict``. The last column,
 "steal", is the share of the machine's CPU time its hypervisor gave to other guests
 during the scenario: on a shared host every latency above grows with it.
@@ -197,7 +197,7 @@ def bench(
         probe = Probe(slow)
         controller.add_view(probe)
         assert app.wait_idle(60)
-        if explain != "off":  # Explain mode on while dragging (issue 13)
+        if explain != "off":  # Explain mode on while dragging
             assert app.explain is not None
             app.explain.choose(explain)
             assert app.explain.explainer.wait_ready(120) and app.wait_idle(60)

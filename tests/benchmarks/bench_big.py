@@ -1,4 +1,4 @@
-"""Big scenes: time and peak memory of VG + SVG + DSB on thousands of vertices (issue 15, item 4).
+"""Big scenes: time and peak memory of VG + SVG + DSB on thousands of vertices.
 
 Run: ``.venv/bin/python tests/benchmarks/bench_big.py [--scene circle|triangles|all]
 [--planners vg,svg,dsb] [--timeout S]``.

@@ -32,7 +32,7 @@ What is reported (all times from ``time.perf_counter``, one clock for both proce
     run (each configuration runs in a fresh process), and of its worker processes.
 ``CPU``
     CPU time [s] of the server process and of its workers during the drags, and of the
-    client process in all: on a busy machine, a steadier measure of cost than latency.
+    client process in all: under load, a steadier measure of cost than latency.
 ``end state``
     Whether every watcher's last goal is the presenter's final goal, and every copy's
     scene ends where its student left it.

@@ -12,12 +12,12 @@ the planners cleared before each repeat:
   included): what the app recomputes after an edit.
 
 It prints p50 and p95 (wall clock) with the run's status, steps and events, and checks
-DESIGN.md's budget: a whole run with DSB included at most 50 ms (p95) on every lecture
+The budget (docs/benchmarks.md): a whole run with DSB included at most 50 ms (p95) on every lecture
 scenario. Exit status 0 unless ``--strict`` and a budget is missed. The timings are of
 this machine under its current load (the script prints the load average); on a shared
 machine run it twice.
 
-``--big`` times DSB alone on borders of thousands of vertices instead (issue 15, item 4),
+``--big`` times DSB alone on borders of thousands of vertices instead,
 each in a fresh process (``spawn``): the circle of 10,000 vertices of ``bench_big.py``
 (the robot rounds it in goal-seeking mode, one decision per corner) and a hollow C of
 10,000 vertices (:func:`hollow_c_scene`: the robot starts inside, follows the inner
@@ -279,7 +279,7 @@ def main(argv: list[str] | None = None) -> int:
                 )
     print()
     print(
-        f"budget (DESIGN.md): expansion + VG + SVG + DSB p95 <= {BUDGET_DSB_MS:g} ms on every lecture scenario"
+        f"budget: expansion + VG + SVG + DSB p95 <= {BUDGET_DSB_MS:g} ms on every lecture scenario"
     )
     print("  met" if not missed else "  MISSED: " + "; ".join(missed))
     print(f"planners: {', '.join(planners.PLANNERS)}; times in ms, wall clock")

@@ -1,4 +1,4 @@
-"""How long the live DSB robot (issue 17) takes per control period, on every scenario.
+"""How long the live DSB robot takes per control period, on every scenario.
 
 Run: ``python tests/benchmarks/bench_live.py [--runs 3] [--scenario NAME ...]``
 

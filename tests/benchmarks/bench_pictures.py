@@ -1,4 +1,4 @@
-"""Wall-clock cost of pictures and videos for slides (issue 16), end to end.
+"""Wall-clock cost of pictures and videos for slides, end to end.
 
     PYTHONPATH=. .venv/bin/python tests/benchmarks/bench_pictures.py [--repeats 3]
 

@@ -1,4 +1,4 @@
-"""Student layouts in the app: edit-to-redraw while dragging, incremental against full (issue 15).
+"""Student layouts in the app: edit-to-redraw while dragging, incremental against full.
 
 Seeded random layouts of a 20 m room with 8, 16, 24 and 32 obstacles of 4 to 8 vertices
 (convex, jittered on a circle), a disk robot of radius 0.3 m, start and goal in opposite
@@ -10,7 +10,7 @@ corners: the scenes students build in a "what if" session. Two kinds of layout
     configuration-space vertices at 32 obstacles);
 ``apart``
     obstacles that stay apart once expanded, so none merge: 160, 318, 462 and 612
-    configuration-space vertices, the sizes of the issue's table (156 to 609) and its
+    configuration-space vertices, up to about 600 (156 to 609) and its
     title's "up to 600".
 
 Each layout is opened in the real app (viser server, 3-D view, panel, controller; no
@@ -25,7 +25,7 @@ in ``bench_app.py``:
 One event at a time, each waited for until drawn (``step`` in ``bench_app.py``). Each
 layout and drag runs twice:
 
-- with DSB switched off, until the frame with expansion + VG + SVG: the issue's 16 ms
+- with DSB switched off, until the frame with expansion + VG + SVG: the 16 ms
   budget, for the planners its measurement named;
 - with DSB on, until the same frame (shown, not judged: DSB's worker process computes
   on the second core meanwhile) and until the frame that also carries DSB: the 50 ms
@@ -334,8 +334,8 @@ def _row(
 ) -> _Row:
     """Measure one layout and drag: DSB off (the 16 ms budget), then on (the 50 ms one).
 
-    The budget of 16 ms is for expansion + VG + SVG, the planners of the issue's
-    measurement: judged with DSB switched off. With DSB on, its worker process computes
+    The budget of 16 ms is for expansion + VG + SVG, the planners
+    measured: judged with DSB switched off. With DSB on, its worker process computes
     on the second core meanwhile; that run's VG+SVG frame is shown too, and its +DSB
     frame is judged against 50 ms.
     """

@@ -1,4 +1,4 @@
-"""What goes over the websocket per drag event on a student layout (issue 15, item 2).
+"""What goes over the websocket per drag event on a student layout.
 
 A 32-obstacle student layout (``bench_student.student_layout``) is opened in the real app
 (viser server, 3-D view, panel, controller) with one websocket client

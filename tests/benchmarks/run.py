@@ -2,7 +2,7 @@
 
 Run with ``make bench`` (which calls
 ``.venv/bin/python tests/benchmarks/run.py --peers-python .venv-peers/bin/python``).
-See ``tests/benchmarks/README.md`` for what is measured and how to read the output.
+See ``docs/benchmarks.md`` for what is measured and how to read the output.
 
 Part 1, random scenes (``scenes.py``): the same scenes and queries go to every tool. Each
 repeat times, interleaved so that noise from other jobs hits every tool alike:
@@ -20,7 +20,7 @@ the allocator thresholds the app and the CLI set (:mod:`planners.allocator`: fre
 is reused instead of faulted in again); ``--default-allocator`` times it without them.
 
 Part 2, lecture budget: ``plan_all`` on every ``static_scenarios/*.json`` with disk
-expansion, caches cleared before each run, p50/p95 against DESIGN.md's budgets.
+expansion, caches cleared before each run, p50/p95 against the budgets of docs/benchmarks.md.
 
 Exit status is 0 even when a target is missed (this is a report); ``--strict`` makes a
 missed target exit 1.

@@ -105,8 +105,6 @@ class ScenesFolder:
         folder is on the server's disk.
         """
         path = self.path(name)
-        if not path.is_file():
-            raise FolderError(f"{path.name} is not in the scenes folder")
         try:
             return planners.load_scene(path)
         except ScenarioError as error:

@@ -15,6 +15,8 @@ Examples
 '\\[click\\](javascript:alert(1)) \\*\\*bold\\*\\*'
 >>> markdown_text("# title\n1. first\n- item | cell", lines=True)
 '\\# title  \n1\\. first  \n\\- item \\| cell'
+>>> markdown_text("see http://example.org or www.example.org, mail a@b.org")
+'see http:<!-- -->//example.org or www<!-- -->.example.org, mail a<!-- -->@b.org'
 >>> html_text("<b>O_1</b> & 'x'")
 '&lt;b&gt;O_1&lt;/b&gt; &amp; &#x27;x&#x27;'
 """
@@ -31,6 +33,11 @@ _ENTITIES = {"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#x27;
 # strike-through) are escaped with a backslash wherever they stand; '&' '<' '>' '"' "'"
 # become entities (no HTML, no autolink); without '[' and ']' no link or image can form.
 _MARKDOWN = frozenset("\\`*_[]|~")
+# GitHub's autolinks turn "http://...", "www...." and "a@b.c" into links, found in the
+# text after escapes and entities are read (neither stops them), and show the entities
+# inside them as written: an empty comment splits the text where one would begin.
+_AUTOLINK = re.compile(r"(?i)(?=//)|(?<=\bwww)(?=&#46;|\.)|(?=@)")
+_SPLIT = "<!-- -->"
 # What makes a block only at the start of a line: a heading, a list, a rule.
 _LINE_START = re.compile(r"^(\s*)([#+=-]|\d+(?=[.)]))")
 _BREAKS = re.compile(r"[\r\n\u2028\u2029\x0b\x0c\x85]+")
@@ -70,6 +77,7 @@ def html_text(text: object) -> str:
 
 def _escape_line(line: str) -> str:
     escaped = "".join(_escape_char(c) for c in line)
+    escaped = _AUTOLINK.sub(_SPLIT, escaped)
     block = _LINE_START.match(escaped)
     if block is None:
         return escaped

@@ -146,8 +146,8 @@ def test_the_folders_messages_name_no_path_of_the_server(make_controller, sandbo
         said.append(view.last.message)
     assert all(str(tmp) not in m for m in said for tmp in (root, root.resolve()))
     assert (
-        said[0]
-        == "Not loaded, the scene is kept: missing.json is not in the scenes folder"
+        said[0] == "Not loaded, the scene is kept: missing.json: (file): cannot read: "
+        "No such file or directory"
     )
     assert said[1].startswith("Not loaded, the scene is kept: broken.json:")
     assert said[2].startswith("Not saved: locked.json:")

@@ -4,7 +4,8 @@ A student (a protocol client, everyone editing) uploads scenes whose name and
 description try to send the presenter's URL, secret included, to a listener on
 loopback: an ``<iframe srcdoc>`` with a script, an ``<img onerror>``, a markdown image.
 The presenter's page (its secret in the websocket path) shows each name as text; no
-element of the payload is made; the listener hears nothing. The same payloads are
+element of the payload is made (not even a link: markdown's autolinks are split); the
+listener hears nothing. The same payloads are
 also chosen as a dropdown value (refused unread) and typed as a file's name.
 
 These tests FAIL (never skip) when Chromium cannot start.
@@ -100,16 +101,20 @@ def test_the_presenters_page_shows_a_students_markup_as_text(browser, listener):
                 student.set_gui(student.uuid("Scenario", "Dropdown"), payload)
             time.sleep(2.0)  # what a payload would fetch has had time to
             made = page.evaluate(
-                """() => ({
+                """spy => ({
                     iframes: document.querySelectorAll('iframe').length,
                     spies: [...document.querySelectorAll('img')]
-                        .filter(i => (i.getAttribute('src') || '').includes('127.0.0.1')
+                        .filter(i => (i.getAttribute('src') || '').includes(spy)
                                      || i.getAttribute('src') === 'x').length,
                     scripts: [...document.querySelectorAll('script')]
-                        .filter(s => s.textContent.includes('fetch(')).length,
-                })"""
+                        .filter(s => s.textContent.includes(spy)).length,
+                    links: [...document.querySelectorAll('a')]
+                        .filter(a => (a.getAttribute('href') || '').includes(spy))
+                        .length,
+                })""",
+                f"127.0.0.1:{port}",
             )
-        assert made == {"iframes": 0, "spies": 0, "scripts": 0}
+        assert made == {"iframes": 0, "spies": 0, "scripts": 0, "links": 0}
         assert heard == []
         assert app.door is not None and app.door.refused["value"] >= 3
     finally:

@@ -18,7 +18,7 @@ import json
 import threading
 import time
 from collections.abc import Iterator
-from typing import Any
+from typing import Any, ClassVar
 
 import pytest
 
@@ -36,7 +36,7 @@ def browser() -> Iterator[Any]:
 
 
 class _Listener(http.server.BaseHTTPRequestHandler):
-    heard: list[str] = []
+    heard: ClassVar[list[str]] = []
 
     def do_GET(self) -> None:
         type(self).heard.append(self.path)
@@ -50,7 +50,7 @@ class _Listener(http.server.BaseHTTPRequestHandler):
 @pytest.fixture
 def listener() -> Iterator[tuple[int, list[str]]]:
     """An HTTP server on loopback that records every request it gets."""
-    heard: list[str] = []
+    heard: ClassVar[list[str]] = []
     handler = type("Listener", (_Listener,), {"heard": heard})
     server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
     thread = threading.Thread(target=server.serve_forever, daemon=True)

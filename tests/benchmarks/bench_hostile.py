@@ -16,7 +16,8 @@ presenter and one watcher (websocket clients speaking viser's protocol,
 ``refused-updates``
     one watcher sends 20,000 values to a widget it may not use.
 ``form-dirty``
-    one watcher sends 100 ``GuiFormDirtyMessage`` of 1 MB each.
+    one watcher sends 100 ``GuiFormDirtyMessage`` of 1 MB each, each with a uuid of its
+    own.
 ``big-frames``
     two watchers send three 50 MB frames each.
 ``huge-upload``
@@ -171,8 +172,8 @@ def attack(name: str, server: Server, stop: threading.Event) -> Callable[[], Non
 
     def form_dirty() -> None:
         c = seated(port)
-        for _ in range(100):
-            c.send({"type": "GuiFormDirtyMessage", "uuid": "x" * 1_000_000})
+        for k in range(100):  # each its own uuid: viser keeps one per uuid
+            c.send({"type": "GuiFormDirtyMessage", "uuid": f"{k:03d}" + "x" * 999_997})
         c.close()
 
     def big_frames() -> None:

@@ -32,7 +32,7 @@ from planners.expansion import (
     expand_polygon,
     expand_square,
 )
-from planners.explain import Explanation, Mark, Step, explain, explain_methods
+from planners.explain import Explanation, Mark, Step, explain
 from planners.explain_dsb import explain_dsb
 from planners.explain_expansion import explain_expansion
 from planners.explain_svg import explain_svg
@@ -96,7 +96,6 @@ __all__ = [
     "explain",
     "explain_dsb",
     "explain_expansion",
-    "explain_methods",
     "explain_svg",
     "explain_vg",
     "live",

@@ -28,7 +28,7 @@ import numpy.typing as npt
 
 from planners.edge_index import EdgeIndex, edge_index
 from planners.expansion import ConfigurationSpace
-from planners.geometry import cross
+from planners.geometry import clean_ring, cross
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -312,33 +312,6 @@ class RingGeometry:
         return ((sigma1 - sigma0) * direction) % perimeter
 
 
-def _clean_ring(ring: FloatArray, tol: float) -> FloatArray:
-    """Drop repeated vertices and vertices that lie on the segment joining their neighbours."""
-    pts = np.asarray(ring, dtype=np.float64)
-    changed = True
-    while changed and len(pts) > 3:
-        changed = False
-        step = np.roll(pts, -1, axis=0) - pts
-        short = np.hypot(step[:, 0], step[:, 1]) <= tol
-        if short.any():
-            pts = pts[~short]
-            changed = True
-            continue
-        prev, nxt = np.roll(pts, 1, axis=0), np.roll(pts, -1, axis=0)
-        chord = nxt - prev
-        length = np.hypot(chord[:, 0], chord[:, 1])
-        cross = chord[:, 0] * (pts[:, 1] - prev[:, 1]) - chord[:, 1] * (
-            pts[:, 0] - prev[:, 0]
-        )
-        between = np.einsum("ij,ij->i", pts - prev, chord) > 0
-        flat = (np.abs(cross) <= tol * np.maximum(length, tol)) & between
-        flat &= ~np.roll(flat, 1)  # never two neighbours at once
-        if flat.any():
-            pts = pts[~flat]
-            changed = True
-    return pts
-
-
 def ring_geometry(cspace: ConfigurationSpace, *, cleaned: bool = True) -> RingGeometry:
     """Return (built once per configuration space) the border arrays the planners read.
 
@@ -366,7 +339,7 @@ def _build_ring_geometry(cspace: ConfigurationSpace, cleaned: bool) -> RingGeome
     """Build the border arrays of :func:`ring_geometry` (pure)."""
     rings = []
     for r in cspace.rings:
-        ring = _clean_ring(r, cspace.eps) if cleaned else np.asarray(r)
+        ring = clean_ring(r, cspace.eps) if cleaned else np.asarray(r)
         if len(ring) >= 3:
             rings.append(ring)
     if not rings:

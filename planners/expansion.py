@@ -38,6 +38,7 @@ import shapely
 from shapely import MultiPolygon, Polygon
 from shapely.geometry.base import BaseGeometry
 
+from planners.geometry import clean_ring
 from planners.memo import Memo
 
 DEFAULT_ARC_STEP = math.pi / 8
@@ -316,8 +317,8 @@ def _drop_collinear(geometry: BaseGeometry) -> BaseGeometry:
             if Polygon(r).area > 1e-12 * scale * scale
         ]
         original = Polygon(polygon.exterior, holes)
-        rings = [_clean_ring(np.asarray(polygon.exterior.coords))] + [
-            _clean_ring(h) for h in holes
+        rings = [_cleaned(np.asarray(polygon.exterior.coords))] + [
+            _cleaned(h) for h in holes
         ]
         if len(rings[0]) < 3:
             continue
@@ -328,27 +329,9 @@ def _drop_collinear(geometry: BaseGeometry) -> BaseGeometry:
     return MultiPolygon(cleaned)
 
 
-def _clean_ring(coords: FloatArray) -> FloatArray:
+def _cleaned(coords: FloatArray) -> FloatArray:
     ring = _open_ring(coords)
-    tol = 1e-12 * _scale(ring)
-    changed = True
-    while changed and len(ring) > 3:
-        changed = False
-        prev, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
-        chord = nxt - prev
-        length = np.hypot(chord[:, 0], chord[:, 1])
-        cross = chord[:, 0] * (ring[:, 1] - prev[:, 1]) - chord[:, 1] * (
-            ring[:, 0] - prev[:, 0]
-        )
-        # Only drop a vertex that lies between its neighbours, and never two neighbours at
-        # once (dropping one changes the other's test).
-        between = np.einsum("ij,ij->i", ring - prev, chord) > 0
-        flat = (np.abs(cross) <= tol * np.maximum(length, tol)) & between & (length > 0)
-        flat &= ~np.roll(flat, 1)
-        if flat.any():
-            ring = ring[~flat]
-            changed = True
-    return ring
+    return clean_ring(ring, 1e-12 * _scale(ring), repeats=False)
 
 
 def _largest_polygon(geometry: BaseGeometry) -> Polygon:

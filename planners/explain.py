@@ -307,7 +307,7 @@ def explain(
     --------
     >>> import planners
     >>> scene = planners.load_scene("static_scenarios/02_three_obstacles.json")
-    >>> [len(planners.explain(scene, m).steps) > 1 for m in planners.explain_methods()]
+    >>> [len(planners.explain(scene, m).steps) > 1 for m in METHODS]
     [True, True, True, True]
     """
     table = _functions()
@@ -316,11 +316,6 @@ def explain(
             f"unknown method {method!r}; choose one of {', '.join(METHODS)}"
         )
     return table[method](scene, options, **kwargs)
-
-
-def explain_methods() -> tuple[str, ...]:
-    """Return the methods that can be explained, in the chapter's order."""
-    return METHODS
 
 
 def _functions() -> dict[str, Callable[..., Explanation]]:

@@ -93,6 +93,7 @@ from planners.motion import motion_offset, scene_at
 from planners.scene import Scene
 from planners.tangent_bug import initial_state
 from planners.tangent_bug import step as bug_step
+from planners.trace import arclength
 
 FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
@@ -631,10 +632,6 @@ def _shrunk_blocked(space: ConfigurationSpace) -> Any:
     return space.merged.buffer(-space.eps)
 
 
-def _arclength(plan: FloatArray) -> FloatArray:
-    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(plan, axis=0).T))])
-
-
 def _point_at(plan: FloatArray, cum: FloatArray, s: float) -> FloatArray:
     if s >= cum[-1]:
         return plan[-1].copy()
@@ -668,7 +665,7 @@ def _turns(plan: FloatArray) -> FloatArray:
 def _drive_holonomic(state: LiveState, budget: _Budget) -> LiveState:
     """Move along the piece by the largest distance the limits allow (heading held)."""
     plan, dt = state.plan, budget.dt
-    cum = _arclength(plan)
+    cum = arclength(plan)
     turns = _turns(plan)
     # Where the piece turns by theta, the velocity vector turns too: slow to dv / theta.
     caps = [(float(cum[-1]), 0.0)] + [
@@ -757,7 +754,7 @@ def _advance(
     state: LiveState, budget: _Budget, plan: FloatArray, d: float, phi: float
 ) -> tuple[FloatArray, FloatArray]:
     """Return the point ``d`` along ``plan`` and the rest of the piece after it."""
-    cum = _arclength(plan)
+    cum = arclength(plan)
     rest = _rest_of(plan, cum, d)
     if len(rest) < 2 or d >= cum[-1] - _SAME:
         return plan[-1].copy(), np.zeros((0, 2))
@@ -828,7 +825,7 @@ def _translate(
         v = np.array([*(p - leg[0]) / dt, 0.0])
         rates = budget.rates(v, phi)
         if budget.ok(rates, r_prev):
-            cum = _arclength(state.plan)
+            cum = arclength(state.plan)
             rest = _rest_of(state.plan, cum, d) if d < length else state.plan[1:]
             if len(rest) < 2:
                 rest = np.zeros((0, 2))
@@ -890,7 +887,7 @@ def _brake_along(
     if speed > 0.0:
         if len(old) < 2:
             return None
-        cum = _arclength(old)
+        cum = arclength(old)
         # Only the way to where it can stop needs to be free (with one more step).
         stop = speed * dt + _brake_distance(speed, 0.0, budget.dv, dt) + speed * dt
         if not _plan_free(space, _cut(old, cum, min(stop, float(cum[-1])))):

@@ -94,7 +94,6 @@ __all__ = [
     "Decision",
     "Follow",
     "Move",
-    "heuristic_distances",
     "initial_state",
     "plan_tangent_bug",
     "run",
@@ -221,26 +220,6 @@ class BugTrace(WalkedPath):
         if self.cspace is None:
             raise ValueError("this trace carries no configuration space")
         return sense(self.cspace, self.position_at(s), self.sensor_range)
-
-
-def heuristic_distances(sensing: Sensing, goal: npt.ArrayLike) -> FloatArray:
-    """Heuristic distance d(r, O_i) + d(O_i, g) of each discontinuity point, shape (M,).
-
-    Examples
-    --------
-    >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
-    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
-    >>> seen = sense(space, (-1.0, 0.5), 5.0)
-    >>> heuristic_distances(seen, (2.0, 0.5)).round(4).tolist()  # both corners alike
-    [3.1796, 3.1796]
-    """
-    g = np.asarray(goal, dtype=np.float64)
-    if len(sensing.points) == 0:
-        return np.zeros(0)
-    return np.hypot(*(sensing.points - sensing.position).T) + np.hypot(
-        *(sensing.points - g).T
-    )
 
 
 # --------------------------------------------------------------------------- the step

@@ -2,7 +2,7 @@
 
 :class:`LiveRun` owns one thread. While running, every ``dt`` (0.05 s) of simulated time
 it reads the controller's current scene (the newest edit), puts the moving obstacles
-where they are at that time (:func:`planners.motion.scene_at`), takes one
+where they are at that time (:func:`planners.scene.scene_at`), takes one
 :func:`planners.live.live_step` and draws the result: the robot (through the 3-D view's
 own :meth:`render_robot`, with the sensing disk, the visible border, the lines r-O_i and
 r_next, Fig. 9.16), its trail, and the moving obstacles where they are now. Everything
@@ -61,8 +61,7 @@ from planners.live import (
     record_step,
 )
 from planners.memo import Memo
-from planners.motion import scene_at
-from planners.scene import Scene
+from planners.scene import Scene, scene_at
 from planners.sensor import sense
 
 logger = logging.getLogger(__name__)

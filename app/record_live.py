@@ -6,7 +6,7 @@ static"; section 9.7.1: velocities "computed online"): :func:`planners.live.run_
 drives the robot once, deterministically, with every obstacle moving as its motion says,
 and frame ``k`` draws that run at time ``t_k = k / fps`` (never a clock):
 
-- every obstacle where it is at ``t_k`` (:func:`planners.motion.scene_at`), with its
+- every obstacle where it is at ``t_k`` (:func:`planners.scene.scene_at`), with its
   expanded shape (:func:`planners.live.live_space` of that scene: the configuration space
   the live robot builds) and its number;
 - the robot's pose, wheel rates and wheel angles at ``t_k`` from the trace
@@ -82,8 +82,7 @@ from planners.live import (
     run_live,
 )
 from planners.memo import Memo
-from planners.motion import scene_at
-from planners.scene import Scene
+from planners.scene import Scene, scene_at
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser

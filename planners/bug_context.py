@@ -24,13 +24,15 @@ __all__ = [
     "Candidate",
     "Decision",
     "Follow",
+    "LeaveCheck",
+    "LeaveRule",
     "Move",
     "make_context",
 ]
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
+from typing import Any, NamedTuple, Protocol, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -41,9 +43,6 @@ from planners.expansion import ConfigurationSpace
 from planners.geometry import as_point as _pt
 from planners.geometry import segment_closest as _segment_closest
 from planners.trace import FOLLOW, SEEK
-
-if TYPE_CHECKING:
-    from planners.bug_leave import LeaveRule
 
 FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
@@ -282,6 +281,49 @@ def _evolve(record: _Record, **changes: Any) -> _Record:
 
 
 # --------------------------------------------------------------------------- context
+
+
+class LeaveCheck(NamedTuple):
+    """What the leave rule found on a walked piece of path."""
+
+    follow: Follow
+    """The boundary-following memory, updated with what the rule saw on the way."""
+    stop: float | None
+    """Arclength along the piece where the rule first holds [m], None if nowhere."""
+    d_reach: float | None = None
+    """TangentBug rule: d_reach where the rule holds (None: not that rule)."""
+
+
+class LeaveRule(Protocol):
+    """The leave rule of boundary following: the one thing the two variants differ in.
+
+    Implementations are stateless (their memory lives in :class:`Follow`: d_followed,
+    ``risen``), so one instance serves every run.
+    """
+
+    name: str
+    """The name in ``BugParams.leave_rule``."""
+
+    def walk_length(self, ctx: _Context, f: Follow, remaining: float) -> float:
+        """Return how far to walk along the ring before asking again [m].
+
+        ``remaining`` is what is left of the round (or up to Bug1's exit) [m].
+        """
+        ...
+
+    def check(
+        self, ctx: _Context, f: Follow, path: FloatArray, cum: FloatArray
+    ) -> LeaveCheck:
+        """Find where on ``path`` (k, 2), arclengths ``cum`` (k,), the rule first holds."""
+        ...
+
+    def after_leave(self, ctx: _Context, f: Follow, p: FloatArray) -> Move | None:
+        """Return the move the robot makes right after leaving at ``p``, if any."""
+        ...
+
+    def measures(self, f: Follow) -> tuple[float | None, float | None]:
+        """Return the rule's quantities in ``f`` for the decision records: d_reach, d_followed."""
+        ...
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

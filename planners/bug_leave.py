@@ -1,7 +1,7 @@
 """When boundary following ends: the leave rule as one interchangeable object.
 
 Boundary following (:mod:`planners.bug_follow`) asks the rule on the context three
-things (:class:`LeaveRule`): how far to walk before asking again, where on a walked
+things (:class:`~planners.bug_context.LeaveRule`): how far to walk before asking again, where on a walked
 piece of path the rule first holds (updating the rule's memory on the way), and what the
 robot does right after leaving. ``BugParams.leave_rule`` names the rule:
 
@@ -15,11 +15,10 @@ robot does right after leaving. ``BugParams.leave_rule`` names the rule:
 
 from __future__ import annotations
 
-__all__ = ["ChapterLeave", "LeaveCheck", "LeaveRule", "TangentBugLeave", "leave_rule"]
+__all__ = ["ChapterLeave", "TangentBugLeave", "leave_rule"]
 
 import bisect
 import math
-from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -28,6 +27,8 @@ from planners.bug_context import (
     SEEK,
     FloatArray,
     Follow,
+    LeaveCheck,
+    LeaveRule,
     Move,
     _Context,
     _enter_disk,
@@ -193,49 +194,6 @@ def _refine_leave(
 
 
 # --------------------------------------------------------------------------- the rules
-
-
-class LeaveCheck(NamedTuple):
-    """What the leave rule found on a walked piece of path."""
-
-    follow: Follow
-    """The boundary-following memory, updated with what the rule saw on the way."""
-    stop: float | None
-    """Arclength along the piece where the rule first holds [m], None if nowhere."""
-    d_reach: float | None = None
-    """TangentBug rule: d_reach where the rule holds (None: not that rule)."""
-
-
-class LeaveRule(Protocol):
-    """The leave rule of boundary following: the one thing the two variants differ in.
-
-    Implementations are stateless (their memory lives in :class:`Follow`: d_followed,
-    ``risen``), so one instance serves every run.
-    """
-
-    name: str
-    """The name in ``BugParams.leave_rule``."""
-
-    def walk_length(self, ctx: _Context, f: Follow, remaining: float) -> float:
-        """Return how far to walk along the ring before asking again [m].
-
-        ``remaining`` is what is left of the round (or up to Bug1's exit) [m].
-        """
-        ...
-
-    def check(
-        self, ctx: _Context, f: Follow, path: FloatArray, cum: FloatArray
-    ) -> LeaveCheck:
-        """Find where on ``path`` (k, 2), arclengths ``cum`` (k,), the rule first holds."""
-        ...
-
-    def after_leave(self, ctx: _Context, f: Follow, p: FloatArray) -> Move | None:
-        """Return the move the robot makes right after leaving at ``p``, if any."""
-        ...
-
-    def measures(self, f: Follow) -> tuple[float | None, float | None]:
-        """Return the rule's quantities in ``f`` for the decision records: d_reach, d_followed."""
-        ...
 
 
 class TangentBugLeave:

@@ -41,7 +41,7 @@ Safety (section 9.6: "the obstacles do not have to be static")
     scene that is the end.
 
 :func:`run_live` runs the loop over a scene whose obstacles may move
-(:func:`planners.motion.scene_at`) and returns a :class:`LiveTrace`, a record of every
+(:func:`planners.scene.scene_at`) and returns a :class:`LiveTrace`, a record of every
 step (pose, wheel rates, mode, status, the moving obstacles' offsets) with the events and
 decisions, savable as JSON (:meth:`LiveTrace.to_json`).
 """
@@ -89,8 +89,8 @@ from planners.bug_context import (
 )
 from planners.expansion import DEFAULT_ARC_STEP, ConfigurationSpace, configuration_space
 from planners.memo import Memo
-from planners.motion import motion_offset, scene_at
-from planners.scene import Scene
+from planners.motion import motion_offset
+from planners.scene import Scene, scene_at
 from planners.tangent_bug import initial_state
 from planners.tangent_bug import step as bug_step
 from planners.trace import arclength
@@ -247,7 +247,7 @@ def live_step(
     state
         The robot after the previous step (:func:`live_start` for the first).
     scene
-        The scene at this moment (static: :func:`planners.motion.scene_at`); its goal,
+        The scene at this moment (static: :func:`planners.scene.scene_at`); its goal,
         obstacles and walls are what the robot senses now. The robot's start is ignored.
     options
         Control period, limits, leave rule; None means ``LiveOptions()``.
@@ -1122,7 +1122,7 @@ def record_step(state: LiveState, scene: Scene, sensed: Scene, t0: float) -> Liv
     """Return the record of the step that led to ``state`` (what :class:`LiveTrace` keeps).
 
     ``scene`` is the scene with its motions, ``sensed`` the scene the step was given
-    (:func:`planners.motion.scene_at` at ``t0``, the step's start time).
+    (:func:`planners.scene.scene_at` at ``t0``, the step's start time).
     """
     return LiveStep(
         t=state.t,

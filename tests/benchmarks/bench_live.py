@@ -24,7 +24,7 @@ if str(ROOT) not in sys.path:  # run as a script from anywhere
 
 from planners import Memo, load_scene  # noqa: E402
 from planners.live import LiveOptions, live_start, live_step  # noqa: E402
-from planners.motion import scene_at  # noqa: E402
+from planners.scene import scene_at  # noqa: E402
 
 
 def time_run(path: Path) -> tuple[int, float, float, float, str]:

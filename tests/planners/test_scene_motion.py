@@ -11,11 +11,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
 
-from planners.motion import Motion, motion_offset, scene_at
+from planners.motion import Motion, motion_offset
 from planners.scene import (
     ScenarioError,
     delete_obstacle,
     load_scene,
+    scene_at,
     scene_from_dict,
     scene_to_dict,
 )

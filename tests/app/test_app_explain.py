@@ -27,14 +27,14 @@ from app.frames import Frame
 from app.scheduler import Failed, Pending
 from planners import Scene, load_scene, plan_all
 from planners.explain import ROLES, Abandoned
-from planners.visibility import _build_border
+from planners.visibility._graphs import _build_border
 from tests.app.app_helpers import wait_until
 from tests.browser import use_browser
 from tests.conftest import ROOT, scene_dict
 
 SCENARIO = ROOT / "static_scenarios" / "05_pocket_start.json"
 EXPLAIN_DSB = importlib.import_module(
-    "planners.explain_dsb"
+    "planners.explain.dsb"
 )  # the name is a function too
 
 

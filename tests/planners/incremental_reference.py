@@ -1,9 +1,9 @@
 """The incremental VG's pair listings as numpy ran them before they were compiled.
 
-:func:`planners.incremental._crossing_box` lists the stable pairs whose segment meets
+:func:`planners.visibility.incremental._crossing_box` lists the stable pairs whose segment meets
 the changed box with a compiled loop (:func:`planners.kernels.box_pairs`),
-:func:`planners.incremental._pairs_to_test` the changed vertices' rows
-(:func:`planners.kernels.row_pairs`) and :func:`planners.incremental._kept_pairs` the
+:func:`planners.visibility.incremental._pairs_to_test` the changed vertices' rows
+(:func:`planners.kernels.row_pairs`) and :func:`planners.visibility.incremental._kept_pairs` the
 pairs carried over (:func:`planners.kernels.kept_pairs`); which segments meet the box
 and which vertices face it are compiled too (:func:`planners.kernels.segments_meet_box`,
 :func:`planners.kernels.facing`). These are the numpy versions they replaced, kept
@@ -17,9 +17,9 @@ from collections.abc import Iterator
 import numpy as np
 import numpy.typing as npt
 
-from planners.geometry import take_rows
-from planners.incremental import _ANGLE_TOL, _Change, _outcodes
-from planners.visibility import _Border, _into_wedge, _leaves_blocked, _Sight
+from planners.space.geometry import take_rows
+from planners.visibility._graphs import _Border, _into_wedge, _leaves_blocked, _Sight
+from planners.visibility.incremental import _ANGLE_TOL, _Change, _outcodes
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]

@@ -14,9 +14,9 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
 
-from planners import visibility
-from planners.expansion import ConfigurationSpace, configuration_space
 from planners.scene import Scene
+from planners.space.expansion import ConfigurationSpace, configuration_space
+from planners.visibility import _graphs as visibility
 from planners.visibility import visibility_graph
 from tests.conftest import random_scenes, reference_segment_free
 from tests.planners.test_visibility import candidate_search

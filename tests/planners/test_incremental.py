@@ -19,18 +19,6 @@ from shapely import Polygon
 
 import planners.api
 from planners import Memo, plan_all
-from planners.expansion import configuration_space
-from planners.incremental import (
-    _change,
-    _crossing_box,
-    _facing,
-    _kept_pairs,
-    _match,
-    _meets_box,
-    _outcodes,
-    _pairs_to_test,
-    carry_visibility,
-)
 from planners.kernels import box_pairs
 from planners.scene import (
     ScenarioError,
@@ -43,7 +31,8 @@ from planners.scene import (
     move_vertex,
     scene_problems,
 )
-from planners.visibility import (
+from planners.space.expansion import configuration_space
+from planners.visibility._graphs import (
     _build_border,
     _leaves_blocked,
     _point_rows,
@@ -52,6 +41,17 @@ from planners.visibility import (
     _vertex_visibility,
     plan_visibility,
     segments_free,
+)
+from planners.visibility.incremental import (
+    _change,
+    _crossing_box,
+    _facing,
+    _kept_pairs,
+    _match,
+    _meets_box,
+    _outcodes,
+    _pairs_to_test,
+    carry_visibility,
 )
 from tests.conftest import SCENARIOS, random_scenes, scene_dict
 from tests.planners.incremental_reference import (

@@ -11,7 +11,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
 
-from planners.motion import Motion, motion_offset
 from planners.scene import (
     ScenarioError,
     delete_obstacle,
@@ -20,6 +19,7 @@ from planners.scene import (
     scene_from_dict,
     scene_to_dict,
 )
+from planners.scene.motion import Motion, motion_offset
 from tests.conftest import SCENARIOS
 
 SQ = [[0, 0], [1, 0], [1, 1], [0, 1]]

@@ -1,4 +1,4 @@
-"""planners.sightlines against brute force: the grid march and the disk filter (issue 15)."""
+"""planners.visibility.sightlines against brute force: the grid march and the disk filter (issue 15)."""
 
 import dataclasses
 import functools
@@ -12,9 +12,10 @@ from hypothesis import strategies as st
 from shapely import Polygon
 
 from planners import plan_all
-from planners.expansion import configuration_space
 from planners.scene import load_scene
-from planners.sightlines import (
+from planners.space.expansion import configuration_space
+from planners.visibility._graphs import _build_border, _inner_disks, visibility_graph
+from planners.visibility.sightlines import (
     Disks,
     Edges,
     Segments,
@@ -27,7 +28,6 @@ from planners.sightlines import (
     occluded_pairs,
     sector_count,
 )
-from planners.visibility import _build_border, _inner_disks, visibility_graph
 from tests.conftest import random_scenes, reference_segment_free
 from tests.planners.march_reference import edge_grid_reference, march_reference
 

@@ -12,9 +12,9 @@ from numpy.testing import assert_allclose
 
 from planners import PlanOptions, load_scene, plan_all, result_to_json
 from planners.__main__ import main
-from planners.bug_context import _evolve
-from planners.sensor import ring_geometry
-from planners.tangent_bug import (
+from planners.bug._context import _evolve
+from planners.bug.sensor import ring_geometry
+from planners.bug.tangent_bug import (
     BugParams,
     BugState,
     BugTrace,

@@ -11,8 +11,9 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from shapely import Polygon
 
-from planners import load_scene, plan_all, visibility
-from planners.expansion import configuration_space
+from planners import load_scene, plan_all
+from planners.space.expansion import configuration_space
+from planners.visibility import _graphs as visibility
 from planners.visibility import (
     segments_free,
     shortest_path,

@@ -7,7 +7,7 @@ either starts again (``"loop"``: back to where the file puts it, then round agai
 retraces its way (``"back_and_forth"``). The polygon the file gives is the obstacle at
 time 0, so every planner that plans once (VG, SVG, DSB, Bug2) plans the scene at t = 0;
 :func:`planners.scene.scene_at` gives the scene at any time ``t``, which the live robot
-(:mod:`planners.live`) senses.
+(:mod:`planners.bug.live`) senses.
 
 File format (top-level key ``"motions"``, optional)::
 

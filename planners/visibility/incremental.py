@@ -39,9 +39,9 @@ import numpy.typing as npt
 import shapely
 from shapely.geometry.base import BaseGeometry as Geometry
 
-from planners.expansion import ConfigurationSpace
-from planners.geometry import take_rows
-from planners.visibility import (
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import take_rows
+from planners.visibility._graphs import (
     _ANGLE_TOL,
     _Border,
     _build_border,
@@ -72,7 +72,7 @@ def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> from planners.visibility import plan_visibility
     >>> a = configuration_space((Polygon([(0, 0), (1, 0), (1, 1)]),), 0.0)
     >>> b = configuration_space((Polygon([(0, 0), (1, 0), (0.5, 1)]),), 0.0)

@@ -36,7 +36,7 @@ import numpy.typing as npt
 import shapely
 from shapely import LineString, Point, Polygon
 
-from planners.explain import (
+from planners.explain._steps import (
     Explanation,
     Lazy,
     Step,
@@ -49,9 +49,9 @@ from planners.explain import (
 from planners.visibility import GraphArrays, svg_node_reasons
 
 if TYPE_CHECKING:
-    from planners.expansion import ConfigurationSpace
     from planners.registry import PlanOptions
     from planners.scene import Scene
+    from planners.space.expansion import ConfigurationSpace
 
 FloatArray = npt.NDArray[np.float64]
 

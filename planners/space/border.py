@@ -30,8 +30,8 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from planners.expansion import ConfigurationSpace
-from planners.geometry import clean_ring, cross
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import clean_ring, cross
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -327,7 +327,7 @@ def ring_geometry(cspace: ConfigurationSpace, *, cleaned: bool = True) -> RingGe
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> geo = ring_geometry(space)
     >>> len(geo.rings), float(geo.perimeter[0]), float(geo.area[0])
@@ -400,9 +400,9 @@ def _build_ring_geometry(cspace: ConfigurationSpace, cleaned: bool) -> RingGeome
 #
 # Which border edges can matter to a question asked near a point (section 9.6, issue 15).
 #
-# The range sensor of :mod:`planners.sensor` answers from one position: what lies within
-# the range R (:func:`planners.sensor.sense`), how far a ray goes
-# (:func:`planners.sensor.free_extent`), whether the robot touches the border. Its exact
+# The range sensor of :mod:`planners.bug.sensor` answers from one position: what lies within
+# the range R (:func:`planners.bug.sensor.sense`), how far a ray goes
+# (:func:`planners.bug.sensor.free_extent`), whether the robot touches the border. Its exact
 # tests are arithmetic per edge; run over every edge of the border they cost O(m) numpy
 # work per question, and TangentBug asks tens of thousands of questions on a big scene (a
 # circle of ten thousand vertices: seconds). :class:`EdgeIndex` names, per question, a
@@ -414,7 +414,7 @@ def _build_ring_geometry(cspace: ConfigurationSpace, cleaned: bool) -> RingGeome
 # - :meth:`EdgeIndex.near_segment`: every edge within the pad of a segment.
 #
 # Wide corners. The sensor treats the robot as touching a corner when it lies within eps of
-# both of the corner's edges' lines (:func:`planners.sensor.measure_border`). Those points
+# both of the corner's edges' lines (:func:`planners.bug.sensor.measure_border`). Those points
 # form a rhombus around the vertex reaching eps / sin(phi / 2) <= 2 eps / sin(phi) from it,
 # phi the angle between the lines: far when the border hardly turns. Corners whose rhombus
 # can reach farther than the pad are listed once and always included.
@@ -467,8 +467,8 @@ def edge_index(geo: RingGeometry) -> EdgeIndex:
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.border import ring_geometry
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.border import ring_geometry
+    >>> from planners.space.expansion import configuration_space
     >>> geo = ring_geometry(configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0))
     >>> ix = geo.index
     >>> ix.near_disk(np.array([0.5, -0.5]), 0.4).tolist()  # nothing within 0.4

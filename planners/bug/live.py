@@ -1,6 +1,6 @@
 r"""Live DSB: the robot senses the scene as it drives, every dt (sections 9.6 and 9.7).
 
-The planner (:mod:`planners.tangent_bug`) runs TangentBug on a frozen scene and the app
+The planner (:mod:`planners.bug.tangent_bug`) runs TangentBug on a frozen scene and the app
 replays its path. Here the robot drives instead: every ``dt`` seconds (0.05 s, section
 9.7.1) :func:`step` takes the scene *as it is at that moment* (moving obstacles where they
 are then, the goal where the user has put it), checks that the robot is still in free
@@ -8,9 +8,9 @@ space, takes a DSB decision, and commands velocities that the kinematics turn in
 wheel rates (eq. 9.5 for the holonomic robot, eq. 9.9 for the differential one).
 
 One decision code
-    The decision is :func:`planners.tangent_bug.step`, the planner's own step (goal
+    The decision is :func:`planners.bug.tangent_bug.step`, the planner's own step (goal
     seeking, boundary following and the leave rule of Fig. 9.15), on the robot's
-    :class:`~planners.tangent_bug.BugState`. That step is event-driven: it moves the robot
+    :class:`~planners.bug.tangent_bug.BugState`. That step is event-driven: it moves the robot
     to the next point where the decision can change, and the live robot drives that piece
     (its *plan*) in dt-steps. In a static scene nothing it senses on the way differs from
     what the step saw, so it takes the next decision where the piece ends, exactly where
@@ -75,8 +75,7 @@ from shapely import Polygon
 
 from kinematics.robot import RobotParams
 from kinematics.wheel_limits import WheelLimits
-from planners.border import ring_geometry
-from planners.bug_context import (
+from planners.bug._context import (
     FOLLOW,
     REACHED,
     SEEK,
@@ -87,13 +86,18 @@ from planners.bug_context import (
     _evolve,
     _sigma_on_ring,
 )
-from planners.expansion import DEFAULT_ARC_STEP, ConfigurationSpace, configuration_space
+from planners.bug.tangent_bug import initial_state
+from planners.bug.tangent_bug import step as bug_step
+from planners.bug.trace import arclength
 from planners.memo import Memo
-from planners.motion import motion_offset
 from planners.scene import Scene, scene_at
-from planners.tangent_bug import initial_state
-from planners.tangent_bug import step as bug_step
-from planners.trace import arclength
+from planners.scene.motion import motion_offset
+from planners.space.border import ring_geometry
+from planners.space.expansion import (
+    DEFAULT_ARC_STEP,
+    ConfigurationSpace,
+    configuration_space,
+)
 
 FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]

@@ -38,8 +38,8 @@ import shapely
 from shapely import MultiPolygon, Polygon
 from shapely.geometry.base import BaseGeometry
 
-from planners.geometry import clean_ring
 from planners.memo import Memo
+from planners.space.geometry import clean_ring
 
 DEFAULT_ARC_STEP = math.pi / 8
 """Largest angle [rad] one tangent edge of an expanded arc spans (22.5 degrees)."""
@@ -377,7 +377,7 @@ class ConfigurationSpace:
 
         Examples
         --------
-        >>> from planners.border import ring_geometry
+        >>> from planners.space.border import ring_geometry
         >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1)]),), 0.0)
         >>> ring_geometry(space) is ring_geometry(space)  # derived once, then kept
         True
@@ -398,7 +398,7 @@ class ConfigurationSpace:
         """Keep ``value`` as what :meth:`derive` would compute for ``fn(self, *args)``.
 
         For a value found another way that is proven equal (the vertex visibility
-        carried over from the space before an edit: :mod:`planners.incremental`). What
+        carried over from the space before an edit: :mod:`planners.visibility.incremental`). What
         was derived already stays.
         """
         self.__dict__.setdefault("_derived", {}).setdefault((fn, args), value)

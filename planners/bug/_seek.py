@@ -6,7 +6,7 @@ straight toward the goal while nothing blocks it within R, else toward the best 
 the local tangent graph (Fig. 9.16), re-deciding as the view changes; at a local minimum
 M (Fig. 9.17) it hands over to boundary following by returning a state in the
 ``"follow"`` mode (:func:`_start_following`). This module never imports
-:mod:`planners.bug_follow`.
+:mod:`planners.bug._follow`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from planners.bug_context import (
+from planners.bug._context import (
     FOLLOW,
     SEEK,
     BugEvent,
@@ -42,8 +42,7 @@ from planners.bug_context import (
     _sigma_on_ring,
     _tangents,
 )
-from planners.geometry import unit as _unit
-from planners.sensor import (
+from planners.bug.sensor import (
     OCCLUDING,
     RANGE,
     RingGeometry,
@@ -53,6 +52,7 @@ from planners.sensor import (
     nearby,
     sense,
 )
+from planners.space.geometry import unit as _unit
 
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.intp]
@@ -135,7 +135,7 @@ def _decide(
 ) -> _Seek:
     """Take the goal-seeking decision at ``x`` (pure; ``prefer``: the current decision).
 
-    ``among``: :func:`planners.sensor.nearby` for a disk that holds the sensing disk at
+    ``among``: :func:`planners.bug.sensor.nearby` for a disk that holds the sensing disk at
     ``x`` (the same decision, found sooner on a big border).
 
     "Obstacle in the way?" is the goal ray: free to the goal, free within R (move on
@@ -680,7 +680,7 @@ def _beyond_corner(
     line. Moving straight at the vertex the robot reaches that line only there; but
     along the border, where it turns only slightly (a finely drawn arc), the robot comes
     within eps of the line, touching the corner, well before the vertex, and sees along
-    the next edge from there (:func:`planners.sensor.measure_border`). Returns the
+    the next edge from there (:func:`planners.bug.sensor.measure_border`). Returns the
     distance along ``w`` at which the robot comes within eps of that line, or None.
     """
     seen = dec.sensing

@@ -46,7 +46,7 @@ import numpy as np
 import shapely
 from shapely import Polygon
 
-from planners.motion import MOTION_MODES, Motion, motion_offset
+from planners.scene.motion import MOTION_MODES, Motion, motion_offset
 
 ROBOT_KINDS = ("holonomic", "differential")
 EXPANSION_MODES = ("disk", "square")
@@ -63,6 +63,9 @@ class ScenarioError(ValueError):
         self.field = field
         self.problem = problem
         super().__init__(f"{source}: {field}: {problem}")
+
+
+ScenarioError.__module__ = "planners.scene"  # its public name, in tracebacks too
 
 
 @dataclasses.dataclass(frozen=True)
@@ -112,7 +115,7 @@ class Scene:
     description: str = ""
     """A sentence or two a lecturer can read aloud."""
     motions: tuple[Motion, ...] = ()
-    """Moving obstacles (:mod:`planners.motion`), at most one per obstacle, by obstacle
+    """Moving obstacles (:mod:`planners.scene.motion`), at most one per obstacle, by obstacle
     index; ``obstacles`` is the scene at time 0."""
 
     def __getstate__(self) -> dict[str, Any]:
@@ -372,7 +375,7 @@ def _robot(source: str, data: Any) -> Robot:
 
 
 def _motions(source: str, value: Any, n_obstacles: int) -> tuple[Motion, ...]:
-    """Check the optional ``motions`` list (:mod:`planners.motion`), one per obstacle."""
+    """Check the optional ``motions`` list (:mod:`planners.scene.motion`), one per obstacle."""
     if not isinstance(value, (list, tuple)):
         raise ScenarioError(
             source, "motions", f"expected a list of motions, got {_describe(value)}"

@@ -14,7 +14,7 @@ each role in its own style; it never decides anything itself.
 
 Explanations are computed on demand (they are not part of :func:`planners.plan_all`),
 so they never slow an edit down. They read the planners' own records (the SVG builder's
-kept pairs, the A* search's settled order, TangentBug's :class:`~planners.bug_context.Decision`
+kept pairs, the A* search's settled order, TangentBug's :class:`~planners.bug._context.Decision`
 records, the expansion's own polygons) rather than deciding anything again.
 
 Examples
@@ -197,7 +197,7 @@ class Explanation:
     tags: tuple[Any, ...] = ()
     """Per-element records of the method (the SVG's tagged segments, for instance)."""
     data: Any = None
-    """The method's own record (a DSB :class:`~planners.explain_dsb.DsbExplanation`, ...)."""
+    """The method's own record (a DSB :class:`~planners.explain.dsb.DsbExplanation`, ...)."""
 
     def step(self, n: int) -> Step:
         """Return step ``n``, clamped to the steps there are (0-based)."""
@@ -275,6 +275,9 @@ class Abandoned(Exception):
     """
 
 
+Abandoned.__module__ = "planners.explain"  # its public name, in tracebacks too
+
+
 def keep_going(abandoned: Callable[[], bool] | None) -> None:
     """Raise :class:`Abandoned` when ``abandoned`` (if any) says the work is not wanted.
 
@@ -320,10 +323,10 @@ def explain(
 
 def _functions() -> dict[str, Callable[..., Explanation]]:
     # Imported here: the method modules import this one for its records.
-    from planners.explain_dsb import explain_dsb  # noqa: PLC0415
-    from planners.explain_expansion import explain_expansion  # noqa: PLC0415
-    from planners.explain_svg import explain_svg  # noqa: PLC0415
-    from planners.explain_vg import explain_vg  # noqa: PLC0415
+    from planners.explain.dsb import explain_dsb  # noqa: PLC0415
+    from planners.explain.expansion import explain_expansion  # noqa: PLC0415
+    from planners.explain.svg import explain_svg  # noqa: PLC0415
+    from planners.explain.vg import explain_vg  # noqa: PLC0415
 
     return {
         "expansion": explain_expansion,

@@ -1,12 +1,12 @@
 """The pieces TangentBug's two modes share (section 9.6, Fig. 9.15).
 
-Goal seeking (:mod:`planners.bug_seek`) and boundary following (:mod:`planners.bug_follow`)
+Goal seeking (:mod:`planners.bug._seek`) and boundary following (:mod:`planners.bug._follow`)
 never import each other: what passes between them is a :class:`BugState` built from the
 records here, and the :class:`_Context` built once per (configuration space, parameters).
 The records of the run (:class:`BugParams`, :class:`BugEvent`, :class:`Move`,
 :class:`Follow`, :class:`BugState`) and of its decisions are public through
-:mod:`planners.tangent_bug`; the small geometry below (points, polylines, disks) is what
-both modes and the leave rules (:mod:`planners.bug_leave`) measure with.
+:mod:`planners.bug.tangent_bug`; the small geometry below (points, polylines, disks) is what
+both modes and the leave rules (:mod:`planners.bug._leave`) measure with.
 """
 
 from __future__ import annotations
@@ -38,11 +38,11 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from planners.border import RingGeometry, ring_geometry
-from planners.expansion import ConfigurationSpace
-from planners.geometry import as_point as _pt
-from planners.geometry import segment_closest as _segment_closest
-from planners.trace import FOLLOW, SEEK
+from planners.bug.trace import FOLLOW, SEEK
+from planners.space.border import RingGeometry, ring_geometry
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import as_point as _pt
+from planners.space.geometry import segment_closest as _segment_closest
 
 FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
@@ -217,7 +217,7 @@ class Candidate(NamedTuple):
     """O_i [m]."""
     kind: str
     """``"occluding"``, ``"occluded"`` (a corner) or ``"range"`` (where the border leaves
-    the sensing circle), as in :class:`planners.sensor.Sensing`."""
+    the sensing circle), as in :class:`planners.bug.sensor.Sensing`."""
     d_robot: float
     """d(r, O_i) [m]."""
     d_goal: float
@@ -354,7 +354,7 @@ def make_context(
 ) -> _Context:
     """Derive the step sizes, tolerances and border tables of a run (pure).
 
-    ``leave`` is the rule ``params.leave_rule`` names (:func:`planners.bug_leave.leave_rule`).
+    ``leave`` is the rule ``params.leave_rule`` names (:func:`planners.bug._leave.leave_rule`).
     """
     radius = float(params.sensor_range)
     if not radius > 0:

@@ -1,6 +1,6 @@
 """Visibility graphs (section 9.4) and simplified visibility graphs (section 9.5).
 
-Both graphs live in the configuration space of :mod:`planners.expansion`: the robot is a
+Both graphs live in the configuration space of :mod:`planners.space.expansion`: the robot is a
 point, obstacles are expanded, and free space is closed (a segment may run along an
 expanded edge or touch a vertex, never cross an interior).
 
@@ -24,7 +24,7 @@ Otherwise the border's vertices that lie on it (within a tolerance ``eps``) cut 
 pieces, each of which is entirely free, entirely blocked or runs along an edge; the
 middle of each piece decides. This is exact for collinear vertices, paths grazing a
 vertex, start or goal on an edge, and obstacles touching at a point. Which edges a
-segment may meet is found in bounded memory by :mod:`planners.sightlines` (an edge grid
+segment may meet is found in bounded memory by :mod:`planners.visibility.sightlines` (an edge grid
 the segments march through, disks inside obstacles that certainly block); node pairs
 are screened block by block, and the vertex visibility is kept as the list of pairs
 that see each other, so memory grows with the graph, not with n^2.
@@ -62,10 +62,10 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from planners.border import ring_geometry
-from planners.expansion import ConfigurationSpace
-from planners.geometry import cross, take_rows, unit_rows
-from planners.sightlines import (
+from planners.space.border import ring_geometry
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import cross, take_rows, unit_rows
+from planners.visibility.sightlines import (
     Disks,
     EdgeGrid,
     Edges,
@@ -385,7 +385,7 @@ def _into_wedge(  # noqa: PLR0917 - a numeric kernel on broadcast arrays
 
 def _build_border(cspace: ConfigurationSpace) -> _Border:
     # The border model every planner reads, with every vertex as expanded (module
-    # docstring of planners.border): its edges, and at each vertex the directions to
+    # docstring of planners.space.border): its edges, and at each vertex the directions to
     # the next and the previous vertex of its ring.
     geo = ring_geometry(cspace, cleaned=False)
     if not geo.rings:
@@ -428,7 +428,7 @@ def segments_free(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> segments_free(space, [[-1, 0], [-1, -1], [0, 0]], [[2, 0], [2, 2], [1, 1]])
     array([ True, False, False])
@@ -786,7 +786,7 @@ def visibility_graph(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> g = visibility_graph(space, (-1, 0.5), (2, 0.5))
     >>> g.number_of_nodes(), g.number_of_edges()
@@ -1120,7 +1120,7 @@ class _PointSights:
     and the configuration space alone (the exact segment test decides), so they are
     kept on the configuration space (:meth:`ConfigurationSpace.derive`) for the next
     query with the same point -- the SVG after the VG, the next obstacle drag, which
-    carries them over (:mod:`planners.incremental`). Only the last
+    carries them over (:mod:`planners.visibility.incremental`). Only the last
     :attr:`KEPT` points are kept, so dragging the start does not fill memory.
     """
 
@@ -1291,7 +1291,7 @@ def simplified_visibility_graph(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> g = simplified_visibility_graph(space, (-1, 0.5), (2, 0.5))
     >>> g.number_of_nodes(), g.number_of_edges()
@@ -1321,7 +1321,7 @@ def svg_reasons(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> arrays, why = svg_reasons(space, (-1, 0.5), (2, 0.5))
     >>> arrays.edges, why
@@ -1344,7 +1344,7 @@ def svg_node_reasons(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> _, why = svg_node_reasons(space, (-1, 0.5), (2, 0.5))
     >>> why == svg_reasons(space, (-1, 0.5), (2, 0.5))[1]
@@ -1479,7 +1479,7 @@ def plan_visibility(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
     >>> result = plan_visibility(space, (-1, 1), (3, 1))
     >>> result.status, round(result.length, 6)  # around a corner: 2 * sqrt(2) + 2

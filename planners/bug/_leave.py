@@ -1,7 +1,7 @@
 """When boundary following ends: the leave rule as one interchangeable object.
 
-Boundary following (:mod:`planners.bug_follow`) asks the rule on the context three
-things (:class:`~planners.bug_context.LeaveRule`): how far to walk before asking again, where on a walked
+Boundary following (:mod:`planners.bug._follow`) asks the rule on the context three
+things (:class:`~planners.bug._context.LeaveRule`): how far to walk before asking again, where on a walked
 piece of path the rule first holds (updating the rule's memory on the way), and what the
 robot does right after leaving. ``BugParams.leave_rule`` names the rule:
 
@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from planners.bug_context import (
+from planners.bug._context import (
     LEAVE_RULES,
     SEEK,
     FloatArray,
@@ -39,7 +39,7 @@ from planners.bug_context import (
     _pt,
     _segment_closest,
 )
-from planners.sensor import (
+from planners.bug.sensor import (
     IntArray,
     RingGeometry,
     disk_span,
@@ -142,7 +142,7 @@ def _any_in_view_closer(  # noqa: PLR0917 - the loop's quantities, as arrays
     """Tell whether some edge's part within sqrt(``r2``) of ``y`` comes closer than ``bound`` to ``g``.
 
     :func:`_may_come_closer`'s loop over ``edges`` as array arithmetic: the same
-    operations (:func:`planners.sensor.disk_span`, then the point of the part closest
+    operations (:func:`planners.bug.sensor.disk_span`, then the point of the part closest
     to the goal), numpy's hypot for the distance (it may differ from the math module's
     in the last bit, far inside the bound's slack).
     """
@@ -212,8 +212,8 @@ class TangentBugLeave:
     (2, 2) is closer to the goal than anything it saw at M:
 
     >>> from shapely import Polygon
-    >>> from planners.bug_context import BugParams, Follow, make_context
-    >>> from planners.expansion import configuration_space
+    >>> from planners.bug._context import BugParams, Follow, make_context
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
     >>> ctx = make_context(space, BugParams(goal=(3.0, 1.0)), TangentBugLeave())
     >>> f = Follow(ring=0, direction=1, local_min=(0.0, 1.0), d_local_min=3.0,
@@ -283,8 +283,8 @@ class ChapterLeave:
     side 2 the robot rises at once; along the top it comes back within 3 of the goal at
     x = 3 - sqrt(8), 1 + 0.171573 m along the walk:
 
-    >>> from planners.bug_context import BugParams, Follow, make_context
-    >>> from planners.expansion import configuration_space
+    >>> from planners.bug._context import BugParams, Follow, make_context
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((), 0.0)
     >>> ctx = make_context(space, BugParams(goal=(3.0, 1.0)), ChapterLeave())
     >>> f = Follow(ring=0, direction=1, local_min=(0.0, 1.0), d_local_min=3.0,

@@ -2,12 +2,12 @@
 
 From the local minimum M the robot follows the border that blocks the goal direction,
 continuing the direction of its last motion; after each piece of the walk it asks the
-leave rule (:mod:`planners.bug_leave`, one interchangeable object on the context)
+leave rule (:mod:`planners.bug._leave`, one interchangeable object on the context)
 whether it may go back to goal seeking, and hands over by returning a state in the
 ``"seek"`` mode. Going all the way round the border without meeting the rule ends the
 run when the border separates robot and goal, else the robot leaves from the border's
 point closest to the goal (Bug1's rule). This module never imports
-:mod:`planners.bug_seek`.
+:mod:`planners.bug._seek`.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import math
 import numpy as np
 import shapely
 
-from planners.bug_context import (
+from planners.bug._context import (
     FOLLOW,
     SEEK,
     UNREACHABLE,
@@ -39,7 +39,7 @@ from planners.bug_context import (
     _pt,
     _segment_closest,
 )
-from planners.geometry import unit as _unit
+from planners.space.geometry import unit as _unit
 
 
 def _follow_step(ctx: _Context, state: BugState) -> BugState:

@@ -6,7 +6,7 @@
   :mod:`planners.explain.svg`, :mod:`planners.explain.dsb`: one method each (obstacle
   expansion, section 9.3; the VG, 9.4; the SVG, 9.5; the distance-sensor-based robot,
   9.6).
-- :func:`explain`: any of them by name (:data:`METHODS`).
+- ``_methods``: :func:`explain`, any of them by name (:data:`METHODS`); above the four.
 
 Explanations read the planners' own records; nothing below imports this package.
 """
@@ -32,6 +32,7 @@ __all__ = [
     "segment_mark",
 ]
 
+from planners.explain._methods import explain
 from planners.explain._steps import (
     METHODS,
     ROLES,
@@ -43,7 +44,6 @@ from planners.explain._steps import (
     as_points,
     as_segments,
     circle_segments,
-    explain,
     keep_going,
     marks,
     point_mark,

@@ -38,7 +38,6 @@ __all__ = [
     "Lazy",
     "Mark",
     "Step",
-    "explain",
     "keep_going",
     "marks",
 ]
@@ -47,14 +46,10 @@ import dataclasses
 import functools
 import operator
 from collections.abc import Callable, Iterator, Sequence
-from typing import TYPE_CHECKING, Any, TypeVar, overload
+from typing import Any, TypeVar, overload
 
 import numpy as np
 import numpy.typing as npt
-
-if TYPE_CHECKING:
-    from planners.registry import PlanOptions
-    from planners.scene import Scene
 
 FloatArray = npt.NDArray[np.float64]
 T = TypeVar("T")
@@ -292,45 +287,3 @@ def keep_going(abandoned: Callable[[], bool] | None) -> None:
     """
     if abandoned is not None and abandoned():
         raise Abandoned
-
-
-def explain(
-    scene: Scene,
-    method: str,
-    options: PlanOptions | None = None,
-    **kwargs: Any,
-) -> Explanation:
-    """Explain ``method`` (one of :data:`METHODS`) on ``scene``.
-
-    ``kwargs`` go to the method's function (``obstacle=`` for the expansion;
-    ``abandoned=`` for the VG and the SVG, whose big scenes take long: see
-    :class:`Abandoned`).
-
-    Examples
-    --------
-    >>> import planners
-    >>> scene = planners.load_scene("static_scenarios/02_three_obstacles.json")
-    >>> [len(planners.explain(scene, m).steps) > 1 for m in METHODS]
-    [True, True, True, True]
-    """
-    table = _functions()
-    if method not in table:
-        raise ValueError(
-            f"unknown method {method!r}; choose one of {', '.join(METHODS)}"
-        )
-    return table[method](scene, options, **kwargs)
-
-
-def _functions() -> dict[str, Callable[..., Explanation]]:
-    # Imported here: the method modules import this one for its records.
-    from planners.explain.dsb import explain_dsb  # noqa: PLC0415
-    from planners.explain.expansion import explain_expansion  # noqa: PLC0415
-    from planners.explain.svg import explain_svg  # noqa: PLC0415
-    from planners.explain.vg import explain_vg  # noqa: PLC0415
-
-    return {
-        "expansion": explain_expansion,
-        "vg": explain_vg,
-        "svg": explain_svg,
-        "dsb": explain_dsb,
-    }

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from planners.api import plan_all
 from planners.explain._steps import (
     Explanation,
     Lazy,
@@ -34,8 +35,7 @@ from planners.explain._steps import (
 )
 
 if TYPE_CHECKING:
-    from planners.bug._context import Decision
-    from planners.bug.tangent_bug import BugTrace
+    from planners.bug.tangent_bug import BugTrace, Decision
     from planners.registry import PlanOptions
     from planners.scene import Scene
 
@@ -139,8 +139,6 @@ def explain_dsb(
     >>> print(first.why)  # doctest: +ELLIPSIS
     Fig. 9.16: an obstacle is in the way; O_1 has the least d(r, O_i) + d(O_i, g) = ...
     """
-    from planners.api import plan_all  # noqa: PLC0415 - api imports the planners
-
     plans = plans if plans is not None else plan_all(scene, ("dsb",), options)
     trace = plans["dsb"]
     title = "Distance-sensor-based planning (section 9.6, Fig. 9.15)"

@@ -36,6 +36,7 @@ import numpy.typing as npt
 import shapely
 from shapely import LineString, Point, Polygon
 
+from planners.api import plan_all
 from planners.explain._steps import (
     Explanation,
     Lazy,
@@ -224,8 +225,6 @@ def explain_svg(
     >>> print(svg.steps[-1].text)  # doctest: +ELLIPSIS
     Step 3: end of procedure. The shortest path through the SVG is ... m long.
     """
-    from planners.api import plan_all  # noqa: PLC0415 - api imports the planners
-
     plans = plans if plans is not None else plan_all(scene, ("svg",), options)
     result = plans["svg"]
     title = "Simplified visibility graph (section 9.5)"

@@ -29,6 +29,7 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
+from planners.api import plan_all
 from planners.explain._steps import (
     Explanation,
     Lazy,
@@ -115,8 +116,6 @@ def explain_vg(
     >>> vg.steps[-1].kind
     'vg:path'
     """
-    from planners.api import plan_all  # noqa: PLC0415 - api imports the planners
-
     plans = plans if plans is not None else plan_all(scene, ("vg",), options)
     result = plans["vg"]
     title = "Visibility graph (section 9.4)"

@@ -83,8 +83,8 @@ from planners.bug._context import (
     BugParams,
     BugState,
     Decision,
-    _evolve,
-    _sigma_on_ring,
+    evolve,
+    sigma_on_ring,
 )
 from planners.bug.tangent_bug import initial_state
 from planners.bug.tangent_bug import step as bug_step
@@ -410,7 +410,7 @@ def _changed(
     status, message = state.status, state.message
     if status == "waiting":
         status, message = "driving", ""
-        bug = _evolve(initial_state(x), travelled=state.travelled, steps=bug.steps)
+        bug = evolve(initial_state(x), travelled=state.travelled, steps=bug.steps)
     return _evolve_live(
         state,
         bug=bug,
@@ -433,7 +433,7 @@ def _resume(
     """
     geo = ring_geometry(space)
     blocking = _ring_of(space, bug.blocking_obstacle) if bug.blocking >= 0 else -1
-    bug = _evolve(
+    bug = evolve(
         bug,
         position=(float(x[0]), float(x[1])),
         travelled=s,
@@ -446,23 +446,23 @@ def _resume(
     )
     if bug.mode in (REACHED, UNREACHABLE):
         # The piece it drove was the last one, for the old scene: not there yet.
-        bug = _evolve(bug, mode=SEEK, follow=None, reason=None, terminated=None)
+        bug = evolve(bug, mode=SEEK, follow=None, reason=None, terminated=None)
     f = bug.follow
     if bug.mode != FOLLOW or f is None:
         return bug
     ring = _ring_of(space, f.obstacle)
     tol = 10.0 * space.eps
     if f.target is None:
-        sigma = _sigma_on_ring(geo, x, ring, tol)
+        sigma = sigma_on_ring(geo, x, ring, tol)
         if sigma is not None:
-            f = _evolve(f, ring=ring, sigma=sigma, exit_sigma=None)
-            return _evolve(bug, follow=f)
+            f = evolve(f, ring=ring, sigma=sigma, exit_sigma=None)
+            return evolve(bug, follow=f)
     else:
-        t_sigma = _sigma_on_ring(geo, np.asarray(f.target), ring, tol)
+        t_sigma = sigma_on_ring(geo, np.asarray(f.target), ring, tol)
         if t_sigma is not None:
-            f = _evolve(f, ring=ring, target_sigma=t_sigma, exit_sigma=None)
-            return _evolve(bug, follow=f)
-    return _evolve(bug, mode=SEEK, follow=None, blocking=-1)
+            f = evolve(f, ring=ring, target_sigma=t_sigma, exit_sigma=None)
+            return evolve(bug, follow=f)
+    return evolve(bug, mode=SEEK, follow=None, blocking=-1)
 
 
 def _ring_of(space: ConfigurationSpace, obstacle: int | None) -> int:

@@ -119,21 +119,21 @@ from planners.bug._context import (
     BugParams,
     BugState,
     Candidate,
+    Context,
     Decision,
     FloatArray,
     Follow,
     Move,
     Point,
-    _Context,
-    _pt,
     make_context,
 )
-from planners.bug._follow import _follow_step
+from planners.bug._follow import boundary_following_step
 from planners.bug._leave import leave_rule
-from planners.bug._seek import _seek_step
+from planners.bug._seek import goal_seeking_step
 from planners.bug.sensor import Sensing, sense
 from planners.bug.trace import WalkedPath, arclength, simplify_walk
 from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import as_point as _pt
 
 # --------------------------------------------------------------------------- the run
 
@@ -225,7 +225,7 @@ class BugTrace(WalkedPath):
 # --------------------------------------------------------------------------- the step
 
 
-def _context(cspace: ConfigurationSpace, params: BugParams) -> _Context:
+def _context(cspace: ConfigurationSpace, params: BugParams) -> Context:
     """Build the context of a run: ``params`` on ``cspace`` (about 55 us).
 
     Built per run, not kept on the configuration space: it depends on the goal, and a
@@ -235,11 +235,11 @@ def _context(cspace: ConfigurationSpace, params: BugParams) -> _Context:
     return make_context(cspace, params, leave_rule(params.leave_rule))
 
 
-def _step(ctx: _Context, state: BugState) -> BugState:
+def _step(ctx: Context, state: BugState) -> BugState:
     """One step of the mode the robot is in (the two boxes of Fig. 9.15)."""
     if state.mode == SEEK:
-        return _seek_step(ctx, state)
-    return _follow_step(ctx, state)
+        return goal_seeking_step(ctx, state)
+    return boundary_following_step(ctx, state)
 
 
 def initial_state(start: npt.ArrayLike) -> BugState:

@@ -46,10 +46,10 @@ from app.scheduler import Pending
 from app.text import html_text, markdown_text
 from planners import Memo, PlanOptions, plan_all
 from planners.explain import Abandoned, Explanation, Step
-from planners.explain_dsb import FLOWCHART, explain_dsb
-from planners.explain_expansion import explain_expansion
-from planners.explain_svg import explain_svg
-from planners.explain_vg import explain_vg
+from planners.explain.dsb import FLOWCHART, explain_dsb
+from planners.explain.expansion import explain_expansion
+from planners.explain.svg import explain_svg
+from planners.explain.vg import explain_vg
 
 if TYPE_CHECKING:
     import viser

@@ -2,11 +2,11 @@
 
 :class:`LiveRun` owns one thread. While running, every ``dt`` (0.05 s) of simulated time
 it reads the controller's current scene (the newest edit), puts the moving obstacles
-where they are at that time (:func:`planners.motion.scene_at`), takes one
-:func:`planners.live.live_step` and draws the result: the robot (through the 3-D view's
+where they are at that time (:func:`planners.scene.scene_at`), takes one
+:func:`planners.bug.live.live_step` and draws the result: the robot (through the 3-D view's
 own :meth:`render_robot`, with the sensing disk, the visible border, the lines r-O_i and
 r_next, Fig. 9.16), its trail, and the moving obstacles where they are now. Everything
-the robot decides is :mod:`planners.live`'s; this module only paces, reads and draws.
+the robot decides is :mod:`planners.bug.live`'s; this module only paces, reads and draws.
 
 Data flow::
 
@@ -19,7 +19,7 @@ Data flow::
 The loop never takes the controller's lock for longer than reading a field, so edits,
 other browsers and the planners go on as usual; an edit reaches the robot at its next
 step. :meth:`LiveRun.trace` returns the run so far as a
-:class:`planners.live.LiveTrace` (replay, JSON, headless recordings).
+:class:`planners.bug.live.LiveTrace` (replay, JSON, headless recordings).
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ import numpy.typing as npt
 
 from app.frames import RobotPose
 from app.text import markdown_text
-from planners.live import (
+from planners.bug.live import (
     LiveEvent,
     LiveOptions,
     LiveState,
@@ -61,10 +61,9 @@ from planners.live import (
     live_step,
     record_step,
 )
+from planners.bug.sensor import sense
 from planners.memo import Memo
-from planners.motion import scene_at
-from planners.scene import Scene
-from planners.sensor import sense
+from planners.scene import Scene, scene_at
 
 logger = logging.getLogger(__name__)
 
@@ -79,7 +78,7 @@ def live_pose(state: LiveState, scene: Scene, memo: Memo | None = None) -> Robot
     """Describe the live robot for the 3-D view: pose, wheel rates, what it senses now.
 
     The sensing picture is the sensor's reading at the robot in the scene it decided in
-    (:func:`planners.sensor.sense`), and r_next is the live robot's own aim.
+    (:func:`planners.bug.sensor.sense`), and r_next is the live robot's own aim.
     """
     return _robot_pose(
         LiveStep(
@@ -134,7 +133,7 @@ def step_pose(step: LiveStep, scene: Scene, memo: Memo | None = None) -> RobotPo
     """Describe the robot of one recorded step in ``scene``, the scene it senses there.
 
     Pose and wheel rates are the step's, r_next its aim; the sensing picture is the
-    sensor's reading at the step's pose in ``scene`` (:func:`planners.sensor.sense`).
+    sensor's reading at the step's pose in ``scene`` (:func:`planners.bug.sensor.sense`).
     A recording of moving obstacles (:mod:`app.record_live`) draws its frames so.
     """
     return _robot_pose(step, scene, memo, playing=False)
@@ -310,7 +309,7 @@ class LiveRun:
             return self._state
 
     def trace(self) -> LiveTrace | None:
-        """Return the run so far as a :class:`planners.live.LiveTrace` (None before a start)."""
+        """Return the run so far as a :class:`planners.bug.live.LiveTrace` (None before a start)."""
         with self._cond:
             if self._state is None or self._start_scene is None:
                 return None

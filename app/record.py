@@ -52,7 +52,7 @@ from app.slides import SlideOptions
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
 
-    from planners.live import LiveTrace
+    from planners.bug.live import LiveTrace
 
 FORMATS = (".mp4", ".gif")
 """File suffixes :func:`record` writes."""

@@ -1,13 +1,13 @@
 """Recordings of scenarios with moving obstacles: the live DSB run, frame by frame.
 
-A scenario whose obstacles move (``"motions"``, :mod:`planners.motion`) is recorded as
+A scenario whose obstacles move (``"motions"``, :mod:`planners.scene.motion`) is recorded as
 the app's *Live DSB* robot drives it (section 9.6: the obstacles "do not have to be
-static"; section 9.7.1: velocities "computed online"): :func:`planners.live.run_live`
+static"; section 9.7.1: velocities "computed online"): :func:`planners.bug.live.run_live`
 drives the robot once, deterministically, with every obstacle moving as its motion says,
 and frame ``k`` draws that run at time ``t_k = k / fps`` (never a clock):
 
-- every obstacle where it is at ``t_k`` (:func:`planners.motion.scene_at`), with its
-  expanded shape (:func:`planners.live.live_space` of that scene: the configuration space
+- every obstacle where it is at ``t_k`` (:func:`planners.scene.scene_at`), with its
+  expanded shape (:func:`planners.bug.live.live_space` of that scene: the configuration space
   the live robot builds) and its number;
 - the robot's pose, wheel rates and wheel angles at ``t_k`` from the trace
   (:class:`LiveFilm`): between two control periods the robot moves with the period's
@@ -71,8 +71,7 @@ from app.live import step_pose
 from app.pictures import FirstPicture, open_studio
 from app.record import RECORD_FPS, Recording, _pixels, _writer, frame_times
 from app.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout, relabel
-from planners.expansion import ConfigurationSpace
-from planners.live import (
+from planners.bug.live import (
     MAX_DURATION_S,
     LiveEvent,
     LiveOptions,
@@ -82,8 +81,8 @@ from planners.live import (
     run_live,
 )
 from planners.memo import Memo
-from planners.motion import scene_at
-from planners.scene import Scene
+from planners.scene import Scene, scene_at
+from planners.space.expansion import ConfigurationSpace
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
@@ -141,10 +140,10 @@ def live_trace(
 ) -> LiveTrace:
     """Drive the live robot in ``scene`` (obstacles moving) until it ends or ``until``.
 
-    Never past :data:`planners.live.MAX_DURATION_S`: a later time is drawn as the run's
+    Never past :data:`planners.bug.live.MAX_DURATION_S`: a later time is drawn as the run's
     end.
 
-    The run is :func:`planners.live.run_live`'s, so it is the same every time.
+    The run is :func:`planners.bug.live.run_live`'s, so it is the same every time.
     """
     options = options if options is not None else LiveOptions()
     if until is None or until >= MAX_DURATION_S:
@@ -159,7 +158,7 @@ class LiveFilm:
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.motion import Motion
+    >>> from planners.scene.motion import Motion
     >>> square = Polygon([(4, 0), (5, 0), (5, 1), (4, 1)])
     >>> scene = Scene(obstacles=(square,), start=(1, 3), goal=(8, 3),
     ...               motions=(Motion(0, ((0.0, 4.0),), speed=1.0),))
@@ -315,7 +314,7 @@ def record_live_video(
     """Record the live DSB run of the app's scene (moving obstacles) into ``out``.
 
     Frame ``k`` is the run at ``t_k = k / fps``, from 0 to the end of the run (the goal
-    reached, or :func:`planners.live.run_live`'s limit) or ``until``.
+    reached, or :func:`planners.bug.live.run_live`'s limit) or ``until``.
     """
     path = Path(out)
     scene = planner_app.controller.scene
@@ -354,7 +353,7 @@ def live_picture(
     obstacles where they are then, the robot, its sensing and the path driven so far,
     laid out as that recording is (:func:`_base_slide`: legend and camera of the run
     until ``t``). Past the run's end (the goal reached, or
-    :data:`planners.live.MAX_DURATION_S`), its last frame. With the labels on, the
+    :data:`planners.bug.live.MAX_DURATION_S`), its last frame. With the labels on, the
     picture says its time (``t = 4.5 s``). The app's own drawing is put back afterwards.
     """
     app = studio.app

@@ -127,7 +127,7 @@ def sensing_at(
     """Describe what a DSB robot senses at time ``t``: sensor disk, borders, tangent graph.
 
     Returns None for results that cannot tell (VG, SVG, Bug2). A DSB trace
-    (:class:`planners.tangent_bug.BugTrace`) is asked at the arclength the robot has
+    (:class:`planners.bug.tangent_bug.BugTrace`) is asked at the arclength the robot has
     travelled along it, so the picture is what the robot used for its decisions there
     (Fig. 9.16: the visible border within R, the points O_i and the lines r-O_i). The
     chosen r_next is the planner's own decision there (:meth:`BugTrace.aim_at`), never

@@ -54,7 +54,7 @@ from app.robot import RobotModel
 from app.scoped import ScopedTarget
 from app.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
 from app.thinning import edges_to_draw
-from planners.trace import FOLLOW
+from planners.bug.trace import FOLLOW
 
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.uint32]

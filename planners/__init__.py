@@ -2,6 +2,18 @@
 
 Pure functions on plain data: no viser, no drawing, no clocks inside the algorithms.
 
+The rooms, each importing only those below it (docs/architecture.md):
+
+- :mod:`planners.api` (:func:`plan_all`), :mod:`planners.registry` (the planners),
+  the command line (``python -m planners``);
+- :mod:`planners.explain`: each method as steps a lecturer can show;
+- :mod:`planners.visibility` (VG, SVG) and :mod:`planners.bug` (TangentBug, Bug2, the
+  sensor, the live robot);
+- :mod:`planners.space` (the configuration space and its border) and
+  :mod:`planners.scene` (the scene value and its files);
+- shared by all: :mod:`planners.memo` (the caller's caches), :mod:`planners.kernels`
+  (the compiled loops), :mod:`planners.allocator` (the process's memory).
+
 >>> import planners
 >>> scene = planners.load_scene({"format": 1, "obstacles": [], "start": [0, 0], "goal": [3, 4]})
 >>> planners.plan_all(scene)["vg"].length
@@ -10,33 +22,22 @@ Pure functions on plain data: no viser, no drawing, no clocks inside the algorit
 
 from __future__ import annotations
 
-from planners import (
-    api,
-    border,
-    bug2,
-    expansion,
-    live,
-    memo,
-    motion,
-    registry,
-    scene,
-    sensor,
-    tangent_bug,
-    visibility,
-)
+from planners import api, memo, registry, scene, visibility
 from planners.api import PLANNERS, InvalidResult, plan_all, result_to_json
-from planners.expansion import (
-    ConfigurationSpace,
-    configuration_space,
-    expand_disk,
-    expand_polygon,
-    expand_square,
+from planners.bug import bug2, live, sensor, tangent_bug
+from planners.bug.sensor import Sensing, sense
+from planners.bug.tangent_bug import (
+    BugEvent,
+    BugParams,
+    BugState,
+    BugTrace,
+    plan_tangent_bug,
 )
-from planners.explain import Explanation, Mark, Step, explain, explain_methods
-from planners.explain_dsb import explain_dsb
-from planners.explain_expansion import explain_expansion
-from planners.explain_svg import explain_svg
-from planners.explain_vg import explain_vg
+from planners.explain import Explanation, Mark, Step, explain
+from planners.explain.dsb import explain_dsb
+from planners.explain.expansion import explain_expansion
+from planners.explain.svg import explain_svg
+from planners.explain.vg import explain_vg
 from planners.memo import Memo
 from planners.registry import REGISTRY, PlannerSpec, PlanOptions, PlanResult
 from planners.scene import (
@@ -44,16 +45,17 @@ from planners.scene import (
     ScenarioError,
     Scene,
     load_scene,
+    motion,
     save_scene,
     scene_problems,
 )
-from planners.sensor import Sensing, sense
-from planners.tangent_bug import (
-    BugEvent,
-    BugParams,
-    BugState,
-    BugTrace,
-    plan_tangent_bug,
+from planners.space import border, expansion
+from planners.space.expansion import (
+    ConfigurationSpace,
+    configuration_space,
+    expand_disk,
+    expand_polygon,
+    expand_square,
 )
 from planners.visibility import (
     VisibilityResult,
@@ -96,7 +98,6 @@ __all__ = [
     "explain",
     "explain_dsb",
     "explain_expansion",
-    "explain_methods",
     "explain_svg",
     "explain_vg",
     "live",

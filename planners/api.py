@@ -18,8 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from planners.expansion import ConfigurationSpace, configuration_space
-from planners.incremental import carry_visibility
 from planners.memo import Memo
 from planners.registry import (
     REGISTRY,
@@ -29,6 +27,8 @@ from planners.registry import (
     finite_length,
 )
 from planners.scene import Scene, scene_problems
+from planners.space.expansion import ConfigurationSpace, configuration_space
+from planners.visibility.incremental import carry_visibility
 
 PLANNERS: tuple[str, ...] = tuple(REGISTRY)
 """Every registered planner's name, in the order they are drawn and reported."""

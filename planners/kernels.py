@@ -34,12 +34,12 @@ The rules that keep the compiled loops exactly the code they replace:
   memory, which only the processes that build graphs or run TangentBug pay, not one
   that only imports the planners, checks a scenario or runs Bug2.
 
-The functions here take and return plain arrays; :func:`planners.sightlines.march`,
-:func:`planners.sightlines.edge_grid`,
+The functions here take and return plain arrays; :func:`planners.visibility.sightlines.march`,
+:func:`planners.visibility.sightlines.edge_grid`,
 :meth:`planners.visibility.GraphArrays.shortest_path` (and ``_adjacency``),
-:func:`planners.incremental._crossing_box`, ``_pairs_to_test``, ``_kept_pairs``,
-``_meets_box`` and ``_facing``, :func:`planners.visibility._tangents_of_known` and
-:func:`planners.sensor._sweep` wrap them.
+:func:`planners.visibility.incremental._crossing_box`, ``_pairs_to_test``, ``_kept_pairs``,
+``_meets_box`` and ``_facing``, :func:`planners.visibility._graphs._tangents_of_known` and
+:func:`planners.bug.sensor._sweep` wrap them.
 """
 
 from __future__ import annotations
@@ -113,7 +113,7 @@ def _crosses(  # noqa: PLR0917
     """Tell whether the edge c -> c + v properly crosses the segment p -> p + u.
 
     ``oc`` is u x (c - p) and ``w`` is u x v; ``cpx, cpy`` is c - p; the tolerances are
-    eps |u| and eps |v|. The arithmetic of :func:`planners.sightlines.crossings`.
+    eps |u| and eps |v|. The arithmetic of :func:`planners.visibility.sightlines.crossings`.
     """
     od = oc + w
     if not (max(oc, od) > tol_pq and min(oc, od) < -tol_pq):
@@ -156,7 +156,7 @@ def march_cells(  # noqa: PLR0912, PLR0915, PLR0917
     Parameters
     ----------
     grid_lo, cell, shape, offsets, grid_edges
-        The edge grid (:class:`planners.sightlines.EdgeGrid`): lower-left corner (x, y),
+        The edge grid (:class:`planners.visibility.sightlines.EdgeGrid`): lower-left corner (x, y),
         side of a cell, (nx, ny), and cell c = ix ny + iy listing
         ``grid_edges[offsets[c]:offsets[c + 1]]``.
     edges
@@ -287,7 +287,7 @@ def bucket_edges(
     """List the edges a[k] -> b[k] cell by cell: the edge grid's compressed rows.
 
     ``grid`` is (lo_x, lo_y, cell, margin). Edge k is listed in every cell
-    ``ix * ny + iy`` that :func:`planners.sightlines._edge_cells` gives it (its columns
+    ``ix * ny + iy`` that :func:`planners.visibility.sightlines._edge_cells` gives it (its columns
     widened by the margin, in each its y range over the column widened by the margin),
     by the same float operations; within a cell, the edges ascend. Two passes: count
     per cell, then fill.
@@ -484,7 +484,7 @@ def _into_wedge(  # noqa: PLR0917
 ) -> bool:
     """Tell if (dx, dy) leaves a vertex by more than ``tol`` into its blocked wedge.
 
-    The arithmetic of :func:`planners.visibility._into_wedge`.
+    The arithmetic of :func:`planners.visibility._graphs._into_wedge`.
     """
     after_next = nxt[0] * dy - nxt[1] * dx > tol
     before_prev = dx * prv[1] - dy * prv[0] > tol
@@ -497,7 +497,7 @@ def _out_of_wedge(  # noqa: PLR0917
 ) -> bool:
     """Tell if (-dx, -dy) leaves a vertex by more than ``tol`` into its blocked wedge.
 
-    The backward test of :func:`planners.visibility._into_wedge`.
+    The backward test of :func:`planners.visibility._graphs._into_wedge`.
     """
     after_next = nxt[0] * dy - nxt[1] * dx < -tol
     before_prev = dx * prv[1] - dy * prv[0] < -tol
@@ -572,7 +572,7 @@ def facing(
 
     Not facing: a vertex strictly beyond a side of the box whose wedge is narrower than
     pi and holds the direction to each corner by more than twice ``angle_tol`` times
-    its length (:func:`planners.incremental._facing` says why).
+    its length (:func:`planners.visibility.incremental._facing` says why).
     """
     nxt, prv, narrow = wedges
     out = np.empty(len(points), dtype=np.bool_)
@@ -638,7 +638,7 @@ def box_pairs(  # noqa: PLR0917
     box, and the segment leaving neither end into its blocked wedge (``wedges``: the
     unit directions to the next and the previous ring vertex and whether the wedge is
     narrower than pi, per vertex; tolerance ``angle_tol`` times the segment's length).
-    What :func:`planners.incremental._crossing_box` lists, without the k^2 arrays.
+    What :func:`planners.visibility.incremental._crossing_box` lists, without the k^2 arrays.
     """
     nxt, prv, narrow = wedges
     scale = 1e-9 * (1.0 + np.abs(box).max())
@@ -673,7 +673,7 @@ def _enters(  # noqa: PLR0917
 ) -> bool:
     """Tell if the line along (dx, dy) enters a narrow wedge (sides n, q) by more than tol.
 
-    The arithmetic of one end of :func:`planners.visibility._not_tangent`.
+    The arithmetic of one end of :func:`planners.visibility._graphs._not_tangent`.
     """
     a = nx * dy - ny * dx  # cross(nxt, d)
     b = dx * qy - dy * qx  # cross(d, prv)
@@ -695,7 +695,7 @@ def tangent_pairs(  # noqa: PLR0917
     the line along ``points[j] - points[i]`` enters neither end's narrow wedge by more
     than ``angle_tol`` times its length (``wedges``: the unit directions to the next
     and the previous ring vertex; zero at start and goal). What
-    :func:`planners.visibility._tangents_of_known` keeps of the VG's visible pairs.
+    :func:`planners.visibility._graphs._tangents_of_known` keeps of the VG's visible pairs.
     """
     nxt, prv = wedges
     out_i = np.empty(len(i), dtype=np.intp)
@@ -731,7 +731,7 @@ def row_pairs(
     vertex before the row's (a pair of two moved vertices comes once, from its lower
     end), or the segment from the lower to the higher end leaves an end into its
     blocked wedge (``wedges`` as for :func:`box_pairs`). What
-    :func:`planners.incremental._pairs_to_test` tests again at the vertices an edit
+    :func:`planners.visibility.incremental._pairs_to_test` tests again at the vertices an edit
     changed.
     """
     nxt, prv, narrow = wedges
@@ -785,7 +785,7 @@ def _py_min(a: float, b: float) -> float:
 def _disk_span(  # noqa: PLR0917
     ax: float, ay: float, dx: float, dy: float, len2: float, r2: float
 ) -> tuple[float, float]:
-    """(t_in, t_out) of :func:`planners.sensor.disk_span`, the same arithmetic."""
+    """(t_in, t_out) of :func:`planners.bug.sensor.disk_span`, the same arithmetic."""
     qb = 2.0 * (ax * dx + ay * dy)
     qc = ax * ax + ay * ay - r2
     disc = qb * qb - 4.0 * len2 * qc
@@ -1076,7 +1076,7 @@ def sweep_intervals(  # noqa: PLR0917
 ) -> tuple[IntArray, IntArray, FloatArray]:
     """Cut the full turn at the critical angles and say what each interval sees.
 
-    The middle of :func:`planners.sensor._sweep` (section 9.6's range sensor): the
+    The middle of :func:`planners.bug.sensor._sweep` (section 9.6's range sensor): the
     facing edges clipped to the sensing disk, their end points' angles and the wedges'
     sides, merged where they are one up to eps, a ray through each interval, and the
     part of the edge it sees.

@@ -2,7 +2,7 @@
 
 Two kinds of reuse keep editing fluid without any module-level cache in ``planners/``:
 
-- **Derived data of one value** lives on the value: :meth:`planners.expansion.ConfigurationSpace.derive`
+- **Derived data of one value** lives on the value: :meth:`planners.space.expansion.ConfigurationSpace.derive`
   computes, once per configuration space, what the planners read from it (the border's
   arrays, which vertices see each other, the sensor's ring geometry). It goes away with
   the configuration space.

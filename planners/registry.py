@@ -42,10 +42,10 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
-from planners.bug2 import plan_bug2
-from planners.expansion import DEFAULT_ARC_STEP, ConfigurationSpace
+from planners.bug.bug2 import plan_bug2
+from planners.bug.tangent_bug import plan_tangent_bug
 from planners.scene import Scene
-from planners.tangent_bug import plan_tangent_bug
+from planners.space.expansion import DEFAULT_ARC_STEP, ConfigurationSpace
 from planners.visibility import plan_visibility
 
 STATUSES = ("ok", "reached", "unreachable", "invalid")

@@ -18,7 +18,7 @@ from shapely import LineString, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from planners import load_scene
-from planners.expansion import ConfigurationSpace
+from planners.space.expansion import ConfigurationSpace
 from planners.visibility import segments_free
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -20,10 +20,11 @@ import planners
 
 
 def _modules() -> list[types.ModuleType]:
+    # Every module of every subpackage too (planners.bug.sensor, planners.scene._scene, ...).
     return [
-        importlib.import_module(f"{package.__name__}.{info.name}")
+        importlib.import_module(info.name)
         for package in (planners, kinematics)
-        for info in pkgutil.iter_modules(package.__path__)
+        for info in pkgutil.walk_packages(package.__path__, f"{package.__name__}.")
     ]
 
 

@@ -1,7 +1,7 @@
 """The second lane (slow planners such as DSB) and the DSB drawing.
 
 The lane is tested with a fake slow planner whose speed the test controls; the drawing of a
-real TangentBug run is tested when :mod:`planners.tangent_bug` is present.
+real TangentBug run is tested when :mod:`planners.bug.tangent_bug` is present.
 """
 
 from __future__ import annotations
@@ -207,7 +207,7 @@ def test_a_failing_slow_planner_shows_an_error_not_a_path(scene):
 @pytest.fixture
 def with_dsb():
     """The real TangentBug, registered as "dsb" in :data:`planners.REGISTRY`."""
-    tangent_bug = pytest.importorskip("planners.tangent_bug")
+    tangent_bug = pytest.importorskip("planners.bug.tangent_bug")
     assert planners.REGISTRY["dsb"].kind == "trace"
     return tangent_bug
 

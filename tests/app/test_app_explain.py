@@ -27,14 +27,14 @@ from app.frames import Frame
 from app.scheduler import Failed, Pending
 from planners import Scene, load_scene, plan_all
 from planners.explain import ROLES, Abandoned
-from planners.visibility import _build_border
+from planners.visibility._graphs import build_border
 from tests.app.app_helpers import wait_until
 from tests.browser import use_browser
 from tests.conftest import ROOT, scene_dict
 
 SCENARIO = ROOT / "static_scenarios" / "05_pocket_start.json"
 EXPLAIN_DSB = importlib.import_module(
-    "planners.explain_dsb"
+    "planners.explain.dsb"
 )  # the name is a function too
 
 
@@ -308,8 +308,8 @@ def test_the_frames_geometry_is_left_to_the_threads_that_own_it(explainer, monke
     assert ex.explanation is not None and ex.error is None
     (copy,) = given
     assert copy["cspace"] is not plans["cspace"] and copy["vg"] is not plans["vg"]
-    assert copy["cspace"].known(_build_border) is None  # nothing derived comes along
-    assert plans["cspace"].known(_build_border) is not None
+    assert copy["cspace"].known(build_border) is None  # nothing derived comes along
+    assert plans["cspace"].known(build_border) is not None
     assert np.array_equal(copy["vg"].arrays.i, plans["vg"].arrays.i)
 
 

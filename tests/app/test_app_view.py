@@ -39,7 +39,7 @@ from app.view import (
     wall_mesh,
     yaw_quaternion,
 )
-from planners.tangent_bug import BugEvent
+from planners.bug.tangent_bug import BugEvent
 from tests.app.app_helpers import SCENARIO_DIR, shown_mesh, view_and_controller
 
 L_SHAPE = Polygon([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)])

@@ -26,8 +26,7 @@ from app.record_live import live_trace
 from app.server import resolve_scenario
 from app.style import HEIGHTS
 from app.view import prism_mesh
-from planners.motion import scene_at
-from planners.scene import load_scene
+from planners.scene import load_scene, scene_at
 from tests.app.app_helpers import live_drawings
 from tests.browser import use_browser
 

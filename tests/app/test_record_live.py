@@ -1,7 +1,7 @@
 """Recordings of scenarios with moving obstacles (app.record_live): the live run, frame by frame.
 
-The frame data (:class:`LiveFilm`) is checked against :func:`planners.motion.scene_at`,
-:func:`planners.live.live_space` and the trace itself (a slow reference interpolates the
+The frame data (:class:`LiveFilm`) is checked against :func:`planners.scene.scene_at`,
+:func:`planners.bug.live.live_space` and the trace itself (a slow reference interpolates the
 trace's poses with ``np.interp``). One real recording in headless Chromium (320 x 200,
 1 frame per second, 5 frames) checks the scene nodes drawn for each frame, the frames'
 pixels where the moving obstacle is, and that a second recording is the same.
@@ -31,9 +31,9 @@ from app.server import resolve_scenario
 from app.slides import SlideOptions, layout, project, relabel
 from app.style import COLORS, HEIGHTS
 from app.view import prism_mesh
-from planners.live import LiveOptions, live_space
-from planners.motion import Motion, scene_at
-from planners.scene import Scene, load_scene
+from planners.bug.live import LiveOptions, live_space
+from planners.scene import Scene, load_scene, scene_at
+from planners.scene.motion import Motion
 from tests.app.app_helpers import live_drawings, shown_mesh
 from tests.browser import use_browser
 

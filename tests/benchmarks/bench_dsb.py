@@ -23,8 +23,8 @@ each in a fresh process (``spawn``): the circle of 10,000 vertices of ``bench_bi
 10,000 vertices (:func:`hollow_c_scene`: the robot starts inside, follows the inner
 border round to the opening, seeing hundreds of edges at once). It prints the wall
 time, the decisions (:attr:`BugTrace.decisions`), the sensor readings (goal-seeking
-decisions computed, :func:`planners.bug_seek._decide`, and full views swept,
-:func:`planners.sensor._sweep`) and the child's peak resident memory.
+decisions computed, :func:`planners.bug._seek._decide`, and full views swept,
+:func:`planners.bug.sensor._sweep`) and the child's peak resident memory.
 """
 
 from __future__ import annotations
@@ -86,7 +86,8 @@ def _big_scenes() -> dict[str, Callable[[], dict[str, object]]]:
 
 def _big_child(name: str, rule: str, out: object) -> None:
     """Run DSB once on a big scene in this (fresh) process; send its figures to ``out``."""
-    from planners import bug_seek, sensor
+    from planners.bug import _seek as bug_seek
+    from planners.bug import sensor
 
     counts = {"decide": 0, "sweep": 0}
 

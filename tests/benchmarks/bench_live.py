@@ -3,7 +3,7 @@
 Run: ``python tests/benchmarks/bench_live.py [--runs 3] [--scenario NAME ...]``
 
 For every ``static_scenarios/*.json`` (as shipped, moving obstacles moving), the whole
-:func:`planners.live.run_live` loop is timed ``--runs`` times with a fresh memo each
+:func:`planners.bug.live.run_live` loop is timed ``--runs`` times with a fresh memo each
 time. It prints the steps, the simulated duration, the wall time of the run, the mean
 and the largest time of one step (the app's live thread must stay well under
 dt = 50 ms per step to keep up in real time), and the status. The figures are of this
@@ -23,8 +23,8 @@ if str(ROOT) not in sys.path:  # run as a script from anywhere
     sys.path.insert(0, str(ROOT))
 
 from planners import Memo, load_scene  # noqa: E402
-from planners.live import LiveOptions, live_start, live_step  # noqa: E402
-from planners.motion import scene_at  # noqa: E402
+from planners.bug.live import LiveOptions, live_start, live_step  # noqa: E402
+from planners.scene import scene_at  # noqa: E402
 
 
 def time_run(path: Path) -> tuple[int, float, float, float, str]:

@@ -32,7 +32,7 @@ layout and drag runs twice:
   budget.
 
 The app's fast lane carries the vertex visibility over from the previous edit
-(:mod:`planners.incremental`); ``--full`` measures the same without it (every edit
+(:mod:`planners.visibility.incremental`); ``--full`` measures the same without it (every edit
 builds the visibility graph from scratch), for the scaling against vertex count.
 
 Run: ``python tests/benchmarks/bench_student.py [--events 300] [--obstacles 8,16,24,32]
@@ -75,7 +75,7 @@ import planners.api  # noqa: E402
 import planners.scene  # noqa: E402
 from app import start_app  # noqa: E402
 from planners.allocator import keep_freed_memory  # noqa: E402
-from planners.expansion import DEFAULT_ARC_STEP  # noqa: E402
+from planners.space.expansion import DEFAULT_ARC_STEP  # noqa: E402
 
 FAST_BUDGET_MS = 16.0
 FULL_BUDGET_MS = 50.0
@@ -152,7 +152,7 @@ def _apart() -> float:
     """The gap [m] between two obstacles' circles in an ``apart`` room.
 
     A disk-expanded obstacle reaches at most ``radius / cos(arc_step / 2)`` beyond its
-    polygon (the arcs' tangent edges, :func:`planners.expansion.expand_disk`), so two
+    polygon (the arcs' tangent edges, :func:`planners.space.expansion.expand_disk`), so two
     stay apart when their circles are further apart than twice that; 1 cm more covers
     the corners' rounding to the millimetre.
     """

@@ -52,7 +52,7 @@ from clock import Clock  # tests/benchmarks/clock.py, shared with peers.py
 
 import planners
 from planners.allocator import keep_freed_memory
-from planners.expansion import configuration_space
+from planners.space.expansion import configuration_space
 from planners.visibility import plan_visibility
 
 HERE = Path(__file__).resolve().parent

@@ -1,9 +1,9 @@
 """The incremental VG's pair listings as numpy ran them before they were compiled.
 
-:func:`planners.incremental._crossing_box` lists the stable pairs whose segment meets
+:func:`planners.visibility.incremental._crossing_box` lists the stable pairs whose segment meets
 the changed box with a compiled loop (:func:`planners.kernels.box_pairs`),
-:func:`planners.incremental._pairs_to_test` the changed vertices' rows
-(:func:`planners.kernels.row_pairs`) and :func:`planners.incremental._kept_pairs` the
+:func:`planners.visibility.incremental._pairs_to_test` the changed vertices' rows
+(:func:`planners.kernels.row_pairs`) and :func:`planners.visibility.incremental._kept_pairs` the
 pairs carried over (:func:`planners.kernels.kept_pairs`); which segments meet the box
 and which vertices face it are compiled too (:func:`planners.kernels.segments_meet_box`,
 :func:`planners.kernels.facing`). These are the numpy versions they replaced, kept
@@ -17,9 +17,9 @@ from collections.abc import Iterator
 import numpy as np
 import numpy.typing as npt
 
-from planners.geometry import take_rows
-from planners.incremental import _ANGLE_TOL, _Change, _outcodes
-from planners.visibility import _Border, _into_wedge, _leaves_blocked, _Sight
+from planners.space.geometry import take_rows
+from planners.visibility._graphs import Border, Sight, _into_wedge, leaves_blocked
+from planners.visibility.incremental import ANGLE_TOL, _Change, _outcodes
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -30,7 +30,7 @@ _BLOCK = 1 << 20
 
 
 def crossing_box_reference(
-    new_b: _Border, stable: BoolArray, box: FloatArray
+    new_b: Border, stable: BoolArray, box: FloatArray
 ) -> Iterator[tuple[IntArray, IntArray, BoolArray]]:
     """Yield, block by block, the screened stable pairs whose segment meets the box.
 
@@ -81,7 +81,7 @@ def _line_meets_box(a: FloatArray, b: FloatArray, box: FloatArray) -> BoolArray:
 
 
 def kept_pairs_reference(
-    new_b: _Border, change: _Change, before: _Sight
+    new_b: Border, change: _Change, before: Sight
 ) -> tuple[IntArray, IntArray]:
     """The pairs an edit carries over, as numpy filtered them before the compiled pass
     (:func:`planners.kernels.kept_pairs`)."""
@@ -96,15 +96,15 @@ def kept_pairs_reference(
     return np.minimum(i, j)[keep], np.maximum(i, j)[keep]
 
 
-def _screened(new_b: _Border, i: IntArray, j: IntArray) -> tuple[IntArray, IntArray]:
+def _screened(new_b: Border, i: IntArray, j: IntArray) -> tuple[IntArray, IntArray]:
     """Leave out the pairs whose segment leaves an end into its blocked wedge."""
     d = take_rows(new_b.points, j) - take_rows(new_b.points, i)
-    keep = ~_leaves_blocked(new_b.wedges, i, j, d[:, 0], d[:, 1])
+    keep = ~leaves_blocked(new_b.wedges, i, j, d[:, 0], d[:, 1])
     return i[keep], j[keep]
 
 
 def row_pairs_reference(
-    new_b: _Border, stable: BoolArray
+    new_b: Border, stable: BoolArray
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield, block by block, the screened pairs of each vertex that is not stable."""
     n = len(new_b.points)
@@ -139,13 +139,13 @@ def meets_box_reference(
     return t0 <= t1
 
 
-def facing_reference(new_b: _Border, box: FloatArray) -> BoolArray:
+def facing_reference(new_b: Border, box: FloatArray) -> BoolArray:
     """Tell the vertices from which a segment may leave towards the box unscreened."""
     points = new_b.points
     wedges = new_b.wedges
     behind = wedges.narrow & (_outcodes(points, box) != 0)
     for cx, cy in ((0, 1), (2, 1), (0, 3), (2, 3)):
         dx, dy = box[cx] - points[:, 0], box[cy] - points[:, 1]
-        tol = 2.0 * _ANGLE_TOL * np.hypot(dx, dy)
+        tol = 2.0 * ANGLE_TOL * np.hypot(dx, dy)
         behind &= _into_wedge(wedges.nxt, wedges.prv, wedges.narrow, dx, dy, tol)
     return ~behind

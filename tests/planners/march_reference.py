@@ -1,9 +1,9 @@
 """The grid march as numpy walked it before it was compiled: the reference of the tests.
 
-:func:`planners.sightlines.march` runs the same traversal compiled
+:func:`planners.visibility.sightlines.march` runs the same traversal compiled
 (:func:`planners.kernels.march_cells`). This is the vectorised walk it replaced, kept
 verbatim but for its last step, ordering the touching vertices, which both share
-(:func:`planners.sightlines._unique_touches`): all segments of a block step through
+(:func:`planners.visibility.sightlines._unique_touches`): all segments of a block step through
 their cells at once, and the last few walkers list their remaining cells in one go (a
 superset, which the exact test makes harmless). The tests hold the two to equal
 answers, and both to the brute force of testing every pair.
@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 import numpy.typing as npt
 
-from planners.sightlines import (
+from planners.visibility.sightlines import (
     EdgeGrid,
     Edges,
     Marched,

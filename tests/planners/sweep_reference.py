@@ -1,6 +1,6 @@
 """The sensor's sweep as Python ran it before it was compiled: the reference of the tests.
 
-:func:`planners.sensor._sweep` runs the middle of the sweep compiled
+:func:`planners.bug.sensor._sweep` runs the middle of the sweep compiled
 (:func:`planners.kernels.sweep_intervals`): clipping the facing edges to the sensing
 disk, the critical angles, merging those that are one up to eps, casting a ray through
 each interval, and the visible piece's parameters. This is the Python it replaced, kept
@@ -17,7 +17,7 @@ loop's on any machine (each marked ``# libm`` or ``# stable`` below):
   numpy's order ties differently).
 
 The wedges at the robot's feet are added after the loop by the shared
-:func:`planners.sensor._add_edge_on_pieces`. The tests hold the two sweeps to equal
+:func:`planners.bug.sensor._add_edge_on_pieces`. The tests hold the two sweeps to equal
 items, field for field.
 """
 
@@ -30,9 +30,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from planners.border import RingGeometry
-from planners.kernels import ANGLE_TOL
-from planners.sensor import (
+from planners.bug.sensor import (
     TAU,
     Near,
     _add_edge_on_pieces,
@@ -41,6 +39,8 @@ from planners.sensor import (
     _measure,
     disk_span,
 )
+from planners.kernels import ANGLE_TOL
+from planners.space.border import RingGeometry
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]

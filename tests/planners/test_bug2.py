@@ -10,9 +10,9 @@ from numpy.testing import assert_allclose
 from shapely import Polygon
 
 from planners import PlanOptions, load_scene, plan_all
-from planners.bug2 import _pinches, _point, plan_bug2
-from planners.expansion import configuration_space
-from planners.sensor import ring_geometry
+from planners.bug.bug2 import _pinches, _point, plan_bug2
+from planners.bug.sensor import ring_geometry
+from planners.space.expansion import configuration_space
 from tests.conftest import (
     check_walk,
     random_scenes,

@@ -15,15 +15,15 @@ from numpy.testing import assert_allclose
 
 import planners
 from planners import PlanOptions, load_scene, plan_all
-from planners.bug_context import BOXES, FOLLOW, SEEK, BugParams, Follow, make_context
-from planners.bug_leave import ChapterLeave, TangentBugLeave, leave_rule
-from planners.expansion import configuration_space
-from planners.tangent_bug import Decision, run
+from planners.bug._context import BOXES, FOLLOW, SEEK, BugParams, Follow, make_context
+from planners.bug._leave import ChapterLeave, TangentBugLeave, leave_rule
+from planners.bug.tangent_bug import Decision, run
+from planners.space.expansion import configuration_space
 from tests.conftest import SCENARIOS, random_scenes, square
 
 RANGES = (0.6, 1.0, 1.5, 2.0, math.inf)
 RULES = ("tangent_bug", "chapter")
-PLANNERS_DIR = Path(planners.__file__).parent
+BUG_DIR = Path(planners.__file__).parent / "bug"
 
 
 @functools.cache
@@ -246,16 +246,16 @@ def _imported_modules(path: Path) -> set[str]:
 
 
 @pytest.mark.parametrize(
-    ("module", "other"), [("bug_seek", "bug_follow"), ("bug_follow", "bug_seek")]
+    ("module", "other"), [("_seek", "_follow"), ("_follow", "_seek")]
 )
 def test_the_two_modes_do_not_import_each_other(module, other):
-    imported = _imported_modules(PLANNERS_DIR / f"{module}.py")
+    imported = _imported_modules(BUG_DIR / f"{module}.py")
     assert not any(other in name for name in imported), imported
 
 
 def test_the_modes_do_not_branch_on_the_leave_rule():
-    for module in ("bug_seek", "bug_follow"):
-        assert ".rule" not in (PLANNERS_DIR / f"{module}.py").read_text()
+    for module in ("_seek", "_follow"):
+        assert ".rule" not in (BUG_DIR / f"{module}.py").read_text()
 
 
 # Modules other branches are rewriting (issue 12, item 4); remove once they land.

@@ -1,6 +1,6 @@
 """The leave rule's "may the view come closer?" bound as arrays against its loop.
 
-:func:`planners.bug_leave._may_come_closer` decides, without sensing, whether a reading
+:func:`planners.bug._leave._may_come_closer` decides, without sensing, whether a reading
 during boundary following could matter. With many edges to test (a finely drawn
 border) it tests them as arrays (:func:`_any_in_view_closer`); the reference is its
 loop, one edge at a time. They must agree everywhere, on the border and off it, for
@@ -16,9 +16,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planners import bug_leave, load_scene, plan_all
-from planners.bug_leave import _may_come_closer, _reach
-from planners.tangent_bug import BugParams, Follow, _context
+from planners import load_scene, plan_all
+from planners.bug import _leave as bug_leave
+from planners.bug._leave import _may_come_closer, _reach
+from planners.bug.tangent_bug import BugParams, Follow, _context
 from tests.conftest import random_scenes, scene_dict
 
 

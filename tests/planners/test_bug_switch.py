@@ -1,6 +1,6 @@
 """Where a goal-seeking move switches its decision: the geometric guess against the search.
 
-:func:`planners.bug_seek._switch_point` asks the sensor on either side of a guessed
+:func:`planners.bug._seek._switch_point` asks the sensor on either side of a guessed
 switch first (a range point turning into a corner, the border beyond the chosen corner
 coming into view) and searches the whole move only when the sensor disagrees. The guess
 is a shortcut, never a decision: with it switched off (the plain bisection on the
@@ -18,10 +18,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planners import bug_seek, load_scene
-from planners.bug_context import BugParams
-from planners.expansion import configuration_space
-from planners.tangent_bug import BugTrace, _context, run
+from planners import load_scene
+from planners.bug import _seek as bug_seek
+from planners.bug._context import BugParams
+from planners.bug.tangent_bug import BugTrace, _context, run
+from planners.space.expansion import configuration_space
 from tests.conftest import random_scenes, scene_dict
 
 

@@ -14,9 +14,9 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
 
-from planners import visibility
-from planners.expansion import ConfigurationSpace, configuration_space
 from planners.scene import Scene
+from planners.space.expansion import ConfigurationSpace, configuration_space
+from planners.visibility import _graphs as visibility
 from planners.visibility import visibility_graph
 from tests.conftest import random_scenes, reference_segment_free
 from tests.planners.test_visibility import candidate_search
@@ -35,9 +35,7 @@ def _fresh(scene: Scene, start, goal) -> ConfigurationSpace:
 
 def _ends(scene, space, picks):
     """Start and goal: where the scene has them, on a free lattice point or on a vertex."""
-    vertices = [
-        tuple(p) for p in space.derive(visibility._build_border).points.tolist()
-    ]
+    vertices = [tuple(p) for p in space.derive(visibility.build_border).points.tolist()]
     lattice = [(x / 2.0, y / 2.0) for x in range(-2, 22) for y in range(-2, 22)]
     blocked = space.contains_blocked(lattice)
     free = [p for p, b in zip(lattice, blocked, strict=True) if not b]
@@ -53,7 +51,7 @@ def _arrays(space, start, goal):
 def _in_steps(scene, start, goal):
     """The graph built as before the cold build: vertex visibility, then each row."""
     space = _fresh(scene, start, goal)
-    space.derive(visibility._vertex_visibility)  # known: _cold_sights does nothing
+    space.derive(visibility.vertex_visibility)  # known: _cold_sights does nothing
     return _arrays(space, start, goal)
 
 
@@ -96,12 +94,12 @@ def test_cold_build_equals_the_build_in_steps_edge_for_edge(kind, scene, picks):
     np.testing.assert_array_equal(cold.j, steps.j)
     # What the cold build kept is what the separate tests compute on a fresh space.
     apart = _fresh(scene, start, goal)
-    sight = space.known(visibility._vertex_visibility)
+    sight = space.known(visibility.vertex_visibility)
     assert sight is not None
-    want = visibility._vertex_visibility(apart)
+    want = visibility.vertex_visibility(apart)
     np.testing.assert_array_equal(sight.i, want.i)
     np.testing.assert_array_equal(sight.j, want.j)
-    kept = space.known(visibility._point_sights)
+    kept = space.known(visibility.point_sights)
     if kept is not None:
         # Each kept row against the row tested on its own (the fresh space keeps none).
         border, q = visibility._query(apart, start, goal)
@@ -119,12 +117,12 @@ def test_cold_build_keeps_rows_and_pair_for_the_next_query():
     square = Polygon([(1.0, 1.0), (2.0, 1.0), (2.0, 2.0), (1.0, 2.0)])
     space = configuration_space((square,), 0.0, extra_points=[(0.0, 0.0), (3.0, 0.0)])
     arrays = _arrays(space, (0.0, 0.0), (3.0, 0.0))
-    store = space.known(visibility._point_sights)
+    store = space.known(visibility.point_sights)
     assert store is not None
     rows = dict(store.items())
     # The start sees the square's two lower corners and the upper left one (the upper
     # right is behind it); the goal the two lower and the upper right.
-    points = space.derive(visibility._build_border).points.tolist()
+    points = space.derive(visibility.build_border).points.tolist()
     seen = {p: sorted(tuple(points[k]) for k in r.tolist()) for p, r in rows.items()}
     assert seen[(0.0, 0.0)] == [(1.0, 1.0), (1.0, 2.0), (2.0, 1.0)]
     assert seen[(3.0, 0.0)] == [(1.0, 1.0), (2.0, 1.0), (2.0, 2.0)]
@@ -142,10 +140,10 @@ def test_cold_build_without_obstacles_and_on_a_vertex():
     ends = [(1.0, 1.0), (3.0, 3.0)]
     space = configuration_space((square,), 0.0, extra_points=ends)
     on_vertex = _arrays(space, *ends)
-    store = space.known(visibility._point_sights)
+    store = space.known(visibility.point_sights)
     assert store is None or not store.items()  # no row kept, so none joined
     steps = configuration_space((square,), 0.0, extra_points=ends)
-    steps.derive(visibility._vertex_visibility)
+    steps.derive(visibility.vertex_visibility)
     want = _arrays(steps, *ends)
     np.testing.assert_array_equal(on_vertex.i, want.i)
     np.testing.assert_array_equal(on_vertex.j, want.j)
@@ -167,7 +165,7 @@ def test_last_marked_flags_the_last_block_and_stands_in_for_none():
 def test_exact_free_pairs_is_the_exact_test_and_the_reference(kind, scene, picks):
     """Pairs of points from their coordinate columns: the same answers as from rows."""
     space = _fresh(scene, scene.start, scene.goal)
-    border = space.derive(visibility._build_border)
+    border = space.derive(visibility.build_border)
     lattice = np.array(
         [(x / 2.0, y / 2.0) for x in range(-2, 22) for y in range(-2, 22)]
     )
@@ -178,7 +176,7 @@ def test_exact_free_pairs_is_the_exact_test_and_the_reference(kind, scene, picks
     j = np.array([picks.draw(index) for _ in range(count)], dtype=np.intp)
     with candidate_search(kind):
         got = visibility._exact_free_pairs(space, border, points, i, j)
-        rows = visibility._exact_free(space, border, points[i], points[j])
+        rows = visibility.exact_free(space, border, points[i], points[j])
     np.testing.assert_array_equal(got, rows)
     want = [
         reference_segment_free(space, points[a], points[b])

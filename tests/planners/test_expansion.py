@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from shapely import Polygon
 
-from planners.expansion import (
+from planners.memo import Memo
+from planners.space.expansion import (
     DEFAULT_ARC_STEP,
     _all_ccw_rings,
     _ccw_rings,
@@ -20,7 +21,6 @@ from planners.expansion import (
     expand_square,
     shrink_boundary,
 )
-from planners.memo import Memo
 from tests.conftest import square
 
 L_SHAPE = Polygon([(0, 0), (3, 0), (3, 1), (1, 1), (1, 3), (0, 3)])

@@ -18,10 +18,10 @@ from shapely import LineString, Point, Polygon
 
 import planners
 from planners import PlanOptions, load_scene, plan_all
-from planners.expansion import expand_polygon
 from planners.explain import METHODS, ROLES, Abandoned, Explanation, Lazy, explain
-from planners.explain_dsb import FLOWCHART
-from planners.explain_svg import RULES
+from planners.explain.dsb import FLOWCHART
+from planners.explain.svg import RULES
+from planners.space.expansion import expand_polygon
 from planners.visibility import segments_free, svg_node_reasons, svg_reasons
 from tests.conftest import SCENARIOS, random_scenes, scene_dict
 from tests.planners.vg_explain_reference import explain_vg_reference
@@ -146,9 +146,9 @@ def test_svg_tags_are_exactly_the_svg_edges_on_grid_scenes(scene):
 
 
 SVG_MODULE = importlib.import_module(
-    "planners.explain_svg"
+    "planners.explain.svg"
 )  # the name is a function too
-VG_MODULE = importlib.import_module("planners.explain_vg")
+VG_MODULE = importlib.import_module("planners.explain.vg")
 
 
 @settings(max_examples=40, deadline=None)

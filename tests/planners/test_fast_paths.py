@@ -1,6 +1,6 @@
 """The planners' faster numpy paths give exactly what the plain numpy calls give.
 
-Gathers by ``np.take`` (:func:`planners.geometry.take_rows`), point orders by complex
+Gathers by ``np.take`` (:func:`planners.space.geometry.take_rows`), point orders by complex
 numbers, pair orders by one integer key, shared vertices by ``np.unique`` on complex
 numbers: each is compared bit for bit with the call it replaces (fancy indexing,
 ``np.lexsort``, ``np.unique(axis=0)``), with many ties, repeated rows, signed zeros and
@@ -14,8 +14,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from planners.geometry import take_rows
-from planners.visibility import GraphArrays, _unique_points
+from planners.space.geometry import take_rows
+from planners.visibility._graphs import GraphArrays, _unique_points
 
 # Few distinct values, so rows repeat and tie; signed zeros and a subnormal among them.
 VALUES = st.sampled_from([0.0, -0.0, 1.0, -1.0, 2.5, 1e-310, -3.0, 1e300])

@@ -19,18 +19,6 @@ from shapely import Polygon
 
 import planners.api
 from planners import Memo, plan_all
-from planners.expansion import configuration_space
-from planners.incremental import (
-    _change,
-    _crossing_box,
-    _facing,
-    _kept_pairs,
-    _match,
-    _meets_box,
-    _outcodes,
-    _pairs_to_test,
-    carry_visibility,
-)
 from planners.kernels import box_pairs
 from planners.scene import (
     ScenarioError,
@@ -43,15 +31,27 @@ from planners.scene import (
     move_vertex,
     scene_problems,
 )
-from planners.visibility import (
-    _build_border,
-    _leaves_blocked,
+from planners.space.expansion import configuration_space
+from planners.visibility._graphs import (
     _point_rows,
-    _point_sights,
     _query,
-    _vertex_visibility,
+    build_border,
+    leaves_blocked,
     plan_visibility,
+    point_sights,
     segments_free,
+    vertex_visibility,
+)
+from planners.visibility.incremental import (
+    _change,
+    _crossing_box,
+    _facing,
+    _kept_pairs,
+    _match,
+    _meets_box,
+    _outcodes,
+    _pairs_to_test,
+    carry_visibility,
 )
 from tests.conftest import SCENARIOS, random_scenes, scene_dict
 from tests.planners.incremental_reference import (
@@ -113,9 +113,9 @@ def _same_as_cold(scene, memo):
             np.testing.assert_array_equal(a.i, b.i)
             np.testing.assert_array_equal(a.j, b.j)
             np.testing.assert_array_equal(warm[name].path, cold[name].path)
-    if "cspace" in warm and warm["cspace"].known(_vertex_visibility) is not None:
-        mine = warm["cspace"].known(_vertex_visibility)
-        fresh = cold["cspace"].derive(_vertex_visibility)
+    if "cspace" in warm and warm["cspace"].known(vertex_visibility) is not None:
+        mine = warm["cspace"].known(vertex_visibility)
+        fresh = cold["cspace"].derive(vertex_visibility)
         np.testing.assert_array_equal(mine.i, fresh.i)
         np.testing.assert_array_equal(mine.j, fresh.j)
         _same_point_rows(warm["cspace"], cold["cspace"])
@@ -124,7 +124,7 @@ def _same_as_cold(scene, memo):
 def _same_point_rows(warm_space, cold_space):
     """What the warm space keeps per point (start, goal; carried), and whether start
     and goal see each other, are a fresh build's answers."""
-    store = warm_space.known(_point_sights)
+    store = warm_space.known(point_sights)
     for point, rows in store.items() if store is not None else []:
         border, q = _query(cold_space, point, point)
         if len(q.points) == len(border.points):
@@ -188,7 +188,7 @@ def test_a_drag_that_merges_then_splits_is_carried_exactly():
         cold = configuration_space(
             (moved, b), 0.5, extra_points=[start, goal], memo=Memo()
         )
-        mine, fresh = after.known(_vertex_visibility), cold.derive(_vertex_visibility)
+        mine, fresh = after.known(vertex_visibility), cold.derive(vertex_visibility)
         assert mine is not None
         np.testing.assert_array_equal(mine.i, fresh.i)
         np.testing.assert_array_equal(mine.j, fresh.j)
@@ -359,7 +359,7 @@ def test_the_pairs_tested_again_hold_every_pair_a_slow_screen_names(
     if spaces is None or spaces[0].eps != spaces[1].eps:
         return
     _, new, change = spaces
-    border = new.derive(_build_border)
+    border = new.derive(build_border)
     tested = {
         (i, j)
         for ti, tj in _pairs_to_test(border, change.stable, change.box)
@@ -373,7 +373,7 @@ def test_the_pairs_tested_again_hold_every_pair_a_slow_screen_names(
             box is not None and shapely.LineString([a, b]).intersects(box)
         )
         d = b - a
-        screened = _leaves_blocked(
+        screened = leaves_blocked(
             border.wedges, np.array([i]), np.array([j]), d[:1], d[1:]
         )[0]
         if may_change and not screened:
@@ -390,7 +390,7 @@ def test_compiled_box_pairs_equal_the_numpy_listing(scene, edit, radius):
     _, new, change = spaces
     if change.box is None:
         return
-    border = new.derive(_build_border)
+    border = new.derive(build_border)
     got = list(_crossing_box(border, change.stable, change.box))
     want = list(crossing_box_reference(border, change.stable, change.box))
     for k in range(2):
@@ -408,7 +408,7 @@ def test_compiled_row_pairs_equal_the_numpy_listing(scene, edit, radius):
     if spaces is None:
         return
     _, new, change = spaces
-    border = new.derive(_build_border)
+    border = new.derive(build_border)
     got = next(_pairs_to_test(border, change.stable, None))
     want = list(row_pairs_reference(border, change.stable))
     for k in range(2):
@@ -427,7 +427,7 @@ def test_compiled_kept_pairs_equal_the_numpy_filter(scene, edit, radius):
     if spaces is None:
         return
     old, new, change = spaces
-    border, before = new.derive(_build_border), old.derive(_vertex_visibility)
+    border, before = new.derive(build_border), old.derive(vertex_visibility)
     got = _kept_pairs(border, change, before)
     want = kept_pairs_reference(border, change, before)
     for g, w in zip(got, want, strict=True):
@@ -475,7 +475,7 @@ def test_compiled_facing_is_the_numpy_one(scene, edit, radius):
     _, new, change = spaces
     if change.box is None:
         return
-    border = new.derive(_build_border)
+    border = new.derive(build_border)
     np.testing.assert_array_equal(
         _facing(border, change.box), facing_reference(border, change.box)
     )

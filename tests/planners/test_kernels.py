@@ -16,8 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from planners import kernels
-from planners.incremental import _crossing_box, _outcodes
-from planners.visibility import _Wedges
+from planners.visibility._graphs import _Wedges
+from planners.visibility.incremental import _crossing_box, _outcodes
 from tests.conftest import SCENARIOS
 from tests.planners.astar_reference import search
 from tests.planners.incremental_reference import crossing_box_reference

@@ -23,11 +23,11 @@ from shapely import LineString, Polygon
 from kinematics import RobotParams
 from kinematics.wheel_limits import WheelLimits, within
 from planners.api import plan_all
-from planners.expansion import DEFAULT_ARC_STEP
-from planners.live import LiveOptions, live_start, live_step, run_live
-from planners.motion import Motion, scene_at
+from planners.bug.live import LiveOptions, live_start, live_step, run_live
 from planners.registry import PlanOptions
-from planners.scene import Robot, Scene, load_scene
+from planners.scene import Robot, Scene, load_scene, scene_at
+from planners.scene.motion import Motion
+from planners.space.expansion import DEFAULT_ARC_STEP
 from tests.conftest import SCENARIOS
 
 STATIC = [p for p in SCENARIOS if not load_scene(p).motions]

@@ -253,7 +253,7 @@ def test_nesting_the_parser_takes_is_a_field_error(tmp_path):
 
 def _problems_one_by_one(scene):
     """The slow, obvious reference: each polygon's vertices counted, then its validity."""
-    from planners.scene import _polygon_problem
+    from planners.scene._scene import _polygon_problem
 
     named = [(f"obstacle {i + 1}", o) for i, o in enumerate(scene.obstacles)]
     if scene.boundary is not None:

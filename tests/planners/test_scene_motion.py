@@ -11,14 +11,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
 
-from planners.motion import Motion, motion_offset, scene_at
 from planners.scene import (
     ScenarioError,
     delete_obstacle,
     load_scene,
+    scene_at,
     scene_from_dict,
     scene_to_dict,
 )
+from planners.scene.motion import Motion, motion_offset
 from tests.conftest import SCENARIOS
 
 SQ = [[0, 0], [1, 0], [1, 1], [0, 1]]

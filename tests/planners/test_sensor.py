@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 from shapely import LineString, Polygon
 
-from planners.expansion import configuration_space
-from planners.sensor import free_extent, ring_geometry, sense, visible_pieces
+from planners.bug.sensor import free_extent, ring_geometry, sense, visible_pieces
+from planners.space.expansion import configuration_space
 from tests.conftest import _eroded_blocked, reference_segment_free, square
 
 UNIT = square(0, 0, 1, 1)

@@ -1,6 +1,6 @@
-"""The sensor's spatial index (planners.edge_index): the same answers as scanning every edge.
+"""The sensor's spatial index (planners.space.border): the same answers as scanning every edge.
 
-On a big border (:data:`planners.sensor._INDEX_MIN_EDGES` edges or more) the sensor
+On a big border (:data:`planners.bug.sensor._INDEX_MIN_EDGES` edges or more) the sensor
 measures only the edges its index names near the robot. The index must name every edge
 that matters (against a brute-force scan of the distances), and the sensor's answers
 through it must equal, bit for bit, those of the scan over every edge; TangentBug's
@@ -19,9 +19,15 @@ from numpy.testing import assert_array_equal
 from shapely import Polygon
 
 from planners import PlanOptions, plan_all
-from planners import sensor as sensor_module
-from planners.expansion import configuration_space
-from planners.sensor import _measure, free_extent, ring_geometry, sense, visible_pieces
+from planners.bug import sensor as sensor_module
+from planners.bug.sensor import (
+    _measure,
+    free_extent,
+    ring_geometry,
+    sense,
+    visible_pieces,
+)
+from planners.space.expansion import configuration_space
 from tests.conftest import random_scenes
 from tests.planners.test_sensor import scenes_and_points
 
@@ -186,7 +192,7 @@ def test_tangent_bug_through_the_index_takes_the_same_path(scene, sensor_range, 
     offset=st.tuples(st.floats(-1, 1), st.floats(-1, 1)),
 )
 def test_edges_found_once_for_a_move_measure_every_position_on_it(case, offset):
-    # TangentBug finds the edges near a short move once (planners.sensor.nearby) and
+    # TangentBug finds the edges near a short move once (planners.bug.sensor.nearby) and
     # measures every probe on the move among them: the same as measuring each alone.
     space, x, sensor_range = case
     assume(math.isfinite(sensor_range))

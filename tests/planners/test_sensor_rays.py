@@ -1,6 +1,6 @@
 """The sensor's compiled sweep against the Python it replaced (section 9.6).
 
-:func:`planners.sensor._sweep` runs its middle compiled
+:func:`planners.bug.sensor._sweep` runs its middle compiled
 (:func:`planners.kernels.sweep_intervals`); ``sweep_reference.py`` keeps the Python
 loop it replaced. Every interval must come out the same, field for field and bit for
 bit: on random and grid scenes seen from free space, from the border (vertices, edges,
@@ -22,9 +22,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
 
-from planners import kernels, load_scene, sensor
-from planners.expansion import configuration_space
-from planners.sensor import measure_border, nearby, ring_geometry
+from planners import kernels, load_scene
+from planners.bug import sensor
+from planners.bug.sensor import measure_border, nearby, ring_geometry
+from planners.space.expansion import configuration_space
 from tests.benchmarks.bench_student import student_layout
 from tests.conftest import random_scenes
 from tests.planners import sweep_reference as ref

@@ -1,4 +1,4 @@
-"""planners.sightlines against brute force: the grid march and the disk filter (issue 15)."""
+"""planners.visibility.sightlines against brute force: the grid march and the disk filter (issue 15)."""
 
 import dataclasses
 import functools
@@ -12,9 +12,10 @@ from hypothesis import strategies as st
 from shapely import Polygon
 
 from planners import plan_all
-from planners.expansion import configuration_space
 from planners.scene import load_scene
-from planners.sightlines import (
+from planners.space.expansion import configuration_space
+from planners.visibility._graphs import _inner_disks, build_border, visibility_graph
+from planners.visibility.sightlines import (
     Disks,
     Edges,
     Segments,
@@ -27,7 +28,6 @@ from planners.sightlines import (
     occluded_pairs,
     sector_count,
 )
-from planners.visibility import _build_border, _inner_disks, visibility_graph
 from tests.conftest import random_scenes, reference_segment_free
 from tests.planners.march_reference import edge_grid_reference, march_reference
 
@@ -109,7 +109,7 @@ def test_compiled_march_equals_the_numpy_walk_on_every_vertex_pair(scene):
     cspace = configuration_space(
         scene.obstacles, scene.robot.radius, scene.expansion, scene.boundary
     )
-    border = _build_border(cspace)
+    border = build_border(cspace)
     points = np.vstack([border.points, [scene.start, scene.goal]])
     i, j = np.triu_indices(len(points), 1)
     segs = Segments.of(points[i], points[j])
@@ -379,7 +379,7 @@ def test_compiled_grid_lists_the_cells_numpy_listed(case, margin):
 def test_compiled_grid_of_a_border_is_numpy_s(scene):
     """The grid of a configuration space's border, as the planners build it."""
     space = configuration_space(scene.obstacles, 0.25, boundary=scene.boundary)
-    border = _build_border(space)
+    border = build_border(space)
     _same_grid(border.edge_a, border.edge_b, 4.0 * space.eps)
 
 

@@ -12,9 +12,9 @@ from numpy.testing import assert_allclose
 
 from planners import PlanOptions, load_scene, plan_all, result_to_json
 from planners.__main__ import main
-from planners.bug_context import _evolve
-from planners.sensor import ring_geometry
-from planners.tangent_bug import (
+from planners.bug._context import evolve
+from planners.bug.sensor import ring_geometry
+from planners.bug.tangent_bug import (
     BugParams,
     BugState,
     BugTrace,
@@ -330,14 +330,14 @@ def test_step_is_pure_and_final_states_stay():
 
 def test_records_are_copied_with_their_changes_only():
     state = initial_state((1.0, 2.0))
-    moved = _evolve(state, position=(3.0, 4.0), steps=5)
+    moved = evolve(state, position=(3.0, 4.0), steps=5)
     assert moved is not state and type(moved) is BugState
     assert (moved.position, moved.steps, moved.mode) == ((3.0, 4.0), 5, state.mode)
     assert (state.position, state.steps) == ((1.0, 2.0), 0)  # the original stays
     with pytest.raises(dataclasses.FrozenInstanceError):
         moved.steps = 6  # type: ignore[misc]
     with pytest.raises(TypeError, match="stpes"):
-        _evolve(state, stpes=5)
+        evolve(state, stpes=5)
 
 
 def test_run_equals_stepping():

@@ -10,8 +10,8 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from planners import PlanOptions, load_scene, plan_all
-from planners.bug_leave import _may_come_closer, _reach
-from planners.tangent_bug import (
+from planners.bug._leave import _may_come_closer, _reach
+from planners.bug.tangent_bug import (
     BugParams,
     Follow,
     _context,

@@ -11,8 +11,9 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from shapely import Polygon
 
-from planners import load_scene, plan_all, visibility
-from planners.expansion import configuration_space
+from planners import load_scene, plan_all
+from planners.space.expansion import configuration_space
+from planners.visibility import _graphs as visibility
 from planners.visibility import (
     segments_free,
     shortest_path,
@@ -473,9 +474,7 @@ def test_later_queries_in_the_same_space_reuse_the_vertex_visibility_exactly(
     plans = plan_all(scene)  # fills the cache of vertex-to-vertex visibility
     assume(plans["vg"].status != "invalid")
     space = plans["cspace"]
-    vertices = [
-        tuple(p) for p in space.derive(visibility._build_border).points.tolist()
-    ]
+    vertices = [tuple(p) for p in space.derive(visibility.build_border).points.tolist()]
     grid = [(x, y) for x in range(-1, 11) for y in range(-1, 11)]
     grid = [p for p, b in zip(grid, space.contains_blocked(grid), strict=True) if not b]
     for _ in range(3):
@@ -490,7 +489,7 @@ def test_later_queries_in_the_same_space_reuse_the_vertex_visibility_exactly(
                 assert graph.has_edge(a, b) == reference_segment_free(space, a, b)
         # The same geometry, built afresh: nothing derived yet, every pair tested.
         fresh = plan_all(scene, ("svg",))["cspace"]
-        assert fresh is not space and fresh.known(visibility._vertex_visibility) is None
+        assert fresh is not space and fresh.known(visibility.vertex_visibility) is None
         assert _edge_set(svg) == _edge_set(
             simplified_visibility_graph(fresh, start, goal)
         )
@@ -598,7 +597,7 @@ def test_skipping_pairs_of_a_big_convex_ring_finds_the_same_graph(scene):
     rings = space.derive(visibility._convex_ring_of)
     # Every pair of one skipped ring that is not one of its edges is blocked.
     on = np.flatnonzero(rings.ring >= 0)
-    border = space.derive(visibility._build_border)
+    border = space.derive(visibility.build_border)
     points = border.points
     for a, b in itertools.combinations(on[:: max(1, len(on) // 12)].tolist(), 2):
         if rings.ring[a] == rings.ring[b] and not vg.has_edge(
@@ -616,7 +615,7 @@ def test_compiled_tangent_filter_keeps_what_numpy_kept(scene):
     plans = plan_all(scene)
     assume(plans["vg"].status != "invalid")
     space = plans["cspace"]
-    known = space.known(visibility._vertex_visibility)
+    known = space.known(visibility.vertex_visibility)
     border, q = visibility._query(space, scene.start, scene.goal)
     wedges = visibility._query_wedges(border, q)
     convex = np.append(border.convex_nodes, False)

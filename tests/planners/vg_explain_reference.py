@@ -1,7 +1,7 @@
 """The visibility graph's explanation as it was first written: every step at once, each
 blocked segment against every border edge (dense (segments, edges) arrays, shapely's
 distance on every pair). Slow and obviously correct: the reference that the lazy,
-grid-backed :func:`planners.explain_vg.explain_vg` is compared with, step for step.
+grid-backed :func:`planners.explain.vg.explain_vg` is compared with, step for step.
 """
 
 from __future__ import annotations
@@ -12,14 +12,14 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from planners.border import ring_geometry
 from planners.explain import Explanation, Step, as_segments, marks, point_mark
-from planners.explain_vg import VertexLook
+from planners.explain.vg import VertexLook
+from planners.space.border import ring_geometry
 
 if TYPE_CHECKING:
-    from planners.expansion import ConfigurationSpace
     from planners.registry import PlanOptions
     from planners.scene import Scene
+    from planners.space.expansion import ConfigurationSpace
     from planners.visibility import GraphArrays
 
 FloatArray = npt.NDArray[np.float64]

@@ -1,6 +1,6 @@
 r"""Live DSB: the robot senses the scene as it drives, every dt (sections 9.6 and 9.7).
 
-The planner (:mod:`planners.tangent_bug`) runs TangentBug on a frozen scene and the app
+The planner (:mod:`planners.bug.tangent_bug`) runs TangentBug on a frozen scene and the app
 replays its path. Here the robot drives instead: every ``dt`` seconds (0.05 s, section
 9.7.1) :func:`step` takes the scene *as it is at that moment* (moving obstacles where they
 are then, the goal where the user has put it), checks that the robot is still in free
@@ -8,9 +8,9 @@ space, takes a DSB decision, and commands velocities that the kinematics turn in
 wheel rates (eq. 9.5 for the holonomic robot, eq. 9.9 for the differential one).
 
 One decision code
-    The decision is :func:`planners.tangent_bug.step`, the planner's own step (goal
+    The decision is :func:`planners.bug.tangent_bug.step`, the planner's own step (goal
     seeking, boundary following and the leave rule of Fig. 9.15), on the robot's
-    :class:`~planners.tangent_bug.BugState`. That step is event-driven: it moves the robot
+    :class:`~planners.bug.tangent_bug.BugState`. That step is event-driven: it moves the robot
     to the next point where the decision can change, and the live robot drives that piece
     (its *plan*) in dt-steps. In a static scene nothing it senses on the way differs from
     what the step saw, so it takes the next decision where the piece ends, exactly where
@@ -41,7 +41,7 @@ Safety (section 9.6: "the obstacles do not have to be static")
     scene that is the end.
 
 :func:`run_live` runs the loop over a scene whose obstacles may move
-(:func:`planners.motion.scene_at`) and returns a :class:`LiveTrace`, a record of every
+(:func:`planners.scene.scene_at`) and returns a :class:`LiveTrace`, a record of every
 step (pose, wheel rates, mode, status, the moving obstacles' offsets) with the events and
 decisions, savable as JSON (:meth:`LiveTrace.to_json`).
 """
@@ -75,8 +75,7 @@ from shapely import Polygon
 
 from kinematics.robot import RobotParams
 from kinematics.wheel_limits import WheelLimits
-from planners.border import ring_geometry
-from planners.bug_context import (
+from planners.bug._context import (
     FOLLOW,
     REACHED,
     SEEK,
@@ -84,15 +83,21 @@ from planners.bug_context import (
     BugParams,
     BugState,
     Decision,
-    _evolve,
-    _sigma_on_ring,
+    evolve,
+    sigma_on_ring,
 )
-from planners.expansion import DEFAULT_ARC_STEP, ConfigurationSpace, configuration_space
+from planners.bug.tangent_bug import initial_state
+from planners.bug.tangent_bug import step as bug_step
+from planners.bug.trace import arclength
 from planners.memo import Memo
-from planners.motion import motion_offset, scene_at
-from planners.scene import Scene
-from planners.tangent_bug import initial_state
-from planners.tangent_bug import step as bug_step
+from planners.scene import Scene, scene_at
+from planners.scene.motion import motion_offset
+from planners.space.border import ring_geometry
+from planners.space.expansion import (
+    DEFAULT_ARC_STEP,
+    ConfigurationSpace,
+    configuration_space,
+)
 
 FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
@@ -246,7 +251,7 @@ def live_step(
     state
         The robot after the previous step (:func:`live_start` for the first).
     scene
-        The scene at this moment (static: :func:`planners.motion.scene_at`); its goal,
+        The scene at this moment (static: :func:`planners.scene.scene_at`); its goal,
         obstacles and walls are what the robot senses now. The robot's start is ignored.
     options
         Control period, limits, leave rule; None means ``LiveOptions()``.
@@ -405,7 +410,7 @@ def _changed(
     status, message = state.status, state.message
     if status == "waiting":
         status, message = "driving", ""
-        bug = _evolve(initial_state(x), travelled=state.travelled, steps=bug.steps)
+        bug = evolve(initial_state(x), travelled=state.travelled, steps=bug.steps)
     return _evolve_live(
         state,
         bug=bug,
@@ -428,7 +433,7 @@ def _resume(
     """
     geo = ring_geometry(space)
     blocking = _ring_of(space, bug.blocking_obstacle) if bug.blocking >= 0 else -1
-    bug = _evolve(
+    bug = evolve(
         bug,
         position=(float(x[0]), float(x[1])),
         travelled=s,
@@ -441,23 +446,23 @@ def _resume(
     )
     if bug.mode in (REACHED, UNREACHABLE):
         # The piece it drove was the last one, for the old scene: not there yet.
-        bug = _evolve(bug, mode=SEEK, follow=None, reason=None, terminated=None)
+        bug = evolve(bug, mode=SEEK, follow=None, reason=None, terminated=None)
     f = bug.follow
     if bug.mode != FOLLOW or f is None:
         return bug
     ring = _ring_of(space, f.obstacle)
     tol = 10.0 * space.eps
     if f.target is None:
-        sigma = _sigma_on_ring(geo, x, ring, tol)
+        sigma = sigma_on_ring(geo, x, ring, tol)
         if sigma is not None:
-            f = _evolve(f, ring=ring, sigma=sigma, exit_sigma=None)
-            return _evolve(bug, follow=f)
+            f = evolve(f, ring=ring, sigma=sigma, exit_sigma=None)
+            return evolve(bug, follow=f)
     else:
-        t_sigma = _sigma_on_ring(geo, np.asarray(f.target), ring, tol)
+        t_sigma = sigma_on_ring(geo, np.asarray(f.target), ring, tol)
         if t_sigma is not None:
-            f = _evolve(f, ring=ring, target_sigma=t_sigma, exit_sigma=None)
-            return _evolve(bug, follow=f)
-    return _evolve(bug, mode=SEEK, follow=None, blocking=-1)
+            f = evolve(f, ring=ring, target_sigma=t_sigma, exit_sigma=None)
+            return evolve(bug, follow=f)
+    return evolve(bug, mode=SEEK, follow=None, blocking=-1)
 
 
 def _ring_of(space: ConfigurationSpace, obstacle: int | None) -> int:
@@ -631,10 +636,6 @@ def _shrunk_blocked(space: ConfigurationSpace) -> Any:
     return space.merged.buffer(-space.eps)
 
 
-def _arclength(plan: FloatArray) -> FloatArray:
-    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(plan, axis=0).T))])
-
-
 def _point_at(plan: FloatArray, cum: FloatArray, s: float) -> FloatArray:
     if s >= cum[-1]:
         return plan[-1].copy()
@@ -668,7 +669,7 @@ def _turns(plan: FloatArray) -> FloatArray:
 def _drive_holonomic(state: LiveState, budget: _Budget) -> LiveState:
     """Move along the piece by the largest distance the limits allow (heading held)."""
     plan, dt = state.plan, budget.dt
-    cum = _arclength(plan)
+    cum = arclength(plan)
     turns = _turns(plan)
     # Where the piece turns by theta, the velocity vector turns too: slow to dv / theta.
     caps = [(float(cum[-1]), 0.0)] + [
@@ -757,7 +758,7 @@ def _advance(
     state: LiveState, budget: _Budget, plan: FloatArray, d: float, phi: float
 ) -> tuple[FloatArray, FloatArray]:
     """Return the point ``d`` along ``plan`` and the rest of the piece after it."""
-    cum = _arclength(plan)
+    cum = arclength(plan)
     rest = _rest_of(plan, cum, d)
     if len(rest) < 2 or d >= cum[-1] - _SAME:
         return plan[-1].copy(), np.zeros((0, 2))
@@ -828,7 +829,7 @@ def _translate(
         v = np.array([*(p - leg[0]) / dt, 0.0])
         rates = budget.rates(v, phi)
         if budget.ok(rates, r_prev):
-            cum = _arclength(state.plan)
+            cum = arclength(state.plan)
             rest = _rest_of(state.plan, cum, d) if d < length else state.plan[1:]
             if len(rest) < 2:
                 rest = np.zeros((0, 2))
@@ -890,7 +891,7 @@ def _brake_along(
     if speed > 0.0:
         if len(old) < 2:
             return None
-        cum = _arclength(old)
+        cum = arclength(old)
         # Only the way to where it can stop needs to be free (with one more step).
         stop = speed * dt + _brake_distance(speed, 0.0, budget.dv, dt) + speed * dt
         if not _plan_free(space, _cut(old, cum, min(stop, float(cum[-1])))):
@@ -1125,7 +1126,7 @@ def record_step(state: LiveState, scene: Scene, sensed: Scene, t0: float) -> Liv
     """Return the record of the step that led to ``state`` (what :class:`LiveTrace` keeps).
 
     ``scene`` is the scene with its motions, ``sensed`` the scene the step was given
-    (:func:`planners.motion.scene_at` at ``t0``, the step's start time).
+    (:func:`planners.scene.scene_at` at ``t0``, the step's start time).
     """
     return LiveStep(
         t=state.t,

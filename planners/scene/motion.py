@@ -6,8 +6,8 @@ does not turn) through a list of waypoints at a constant speed, pausing at each,
 either starts again (``"loop"``: back to where the file puts it, then round again) or
 retraces its way (``"back_and_forth"``). The polygon the file gives is the obstacle at
 time 0, so every planner that plans once (VG, SVG, DSB, Bug2) plans the scene at t = 0;
-:func:`scene_at` gives the scene at any time ``t``, which the live robot
-(:mod:`planners.live`) senses.
+:func:`planners.scene.scene_at` gives the scene at any time ``t``, which the live robot
+(:mod:`planners.bug.live`) senses.
 
 File format (top-level key ``"motions"``, optional)::
 
@@ -29,20 +29,13 @@ __all__ = [
     "MOTION_MODES",
     "Motion",
     "motion_offset",
-    "scene_at",
 ]
 
 import dataclasses
 import itertools
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
-import shapely
-from shapely import Polygon
-
-if TYPE_CHECKING:
-    from planners.scene import Scene
 
 Point = tuple[float, float]
 
@@ -115,33 +108,3 @@ def motion_offset(motion: Motion, t: float) -> Point:
             return (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]))
         tau -= leg
     return cycle[-1]  # fmod's last bit of rounding: the end of the period is its start
-
-
-def _translated(polygon: Polygon, offset: Point) -> Polygon:
-    if offset == (0.0, 0.0):
-        return polygon  # the very polygon: t = 0 is the file's scene, bit for bit
-    dx, dy = offset
-    return shapely.transform(polygon, lambda xy: xy + np.array([dx, dy]))
-
-
-def scene_at(scene: Scene, t: float) -> Scene:
-    """Return the scene as it is at time ``t`` [s]: every moving obstacle where it is then.
-
-    The result is static (no motions): what a sensor sees at that moment. A scene
-    without motions is returned as is.
-
-    Examples
-    --------
-    >>> from planners.scene import Scene
-    >>> square = Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])
-    >>> s = Scene(obstacles=(square,), start=(-2, 0), goal=(3, 0),
-    ...           motions=(Motion(0, ((0.0, 4.0),), speed=1.0),))
-    >>> scene_at(s, 2.0).obstacles[0].bounds, scene_at(s, 2.0).motions
-    ((0.0, 2.0, 1.0, 3.0), ())
-    """
-    if not scene.motions:
-        return scene
-    obstacles = list(scene.obstacles)
-    for m in scene.motions:
-        obstacles[m.obstacle] = _translated(obstacles[m.obstacle], motion_offset(m, t))
-    return dataclasses.replace(scene, obstacles=tuple(obstacles), motions=())

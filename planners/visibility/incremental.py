@@ -39,17 +39,17 @@ import numpy.typing as npt
 import shapely
 from shapely.geometry.base import BaseGeometry as Geometry
 
-from planners.expansion import ConfigurationSpace
-from planners.geometry import take_rows
-from planners.visibility import (
-    _ANGLE_TOL,
-    _Border,
-    _build_border,
-    _exact_free,
-    _leaves_blocked,
-    _point_sights,
-    _Sight,
-    _vertex_visibility,
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import take_rows
+from planners.visibility._graphs import (
+    ANGLE_TOL,
+    Border,
+    Sight,
+    build_border,
+    exact_free,
+    leaves_blocked,
+    point_sights,
+    vertex_visibility,
 )
 
 FloatArray = npt.NDArray[np.float64]
@@ -72,7 +72,7 @@ def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> from planners.visibility import plan_visibility
     >>> a = configuration_space((Polygon([(0, 0), (1, 0), (1, 1)]),), 0.0)
     >>> b = configuration_space((Polygon([(0, 0), (1, 0), (0.5, 1)]),), 0.0)
@@ -80,9 +80,9 @@ def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
     >>> carry_visibility(b, a), plan_visibility(b, (-1, 0), (2, 2)).status
     (True, 'ok')
     """
-    if new.known(_vertex_visibility) is not None:
+    if new.known(vertex_visibility) is not None:
         return True
-    before = old.known(_vertex_visibility)
+    before = old.known(vertex_visibility)
     if before is None or old.eps != new.eps:
         return False
     change = _change(old, new)
@@ -90,11 +90,11 @@ def carry_visibility(new: ConfigurationSpace, old: ConfigurationSpace) -> bool:
     if n > _SMALL and np.count_nonzero(change.stable) < _MOSTLY * n:
         return False  # most of a big border changed: a build from scratch is cheaper
     sight, points = _carried(new, old, before, change)
-    new.adopt(_vertex_visibility, sight)
-    store = new.derive(_point_sights)
+    new.adopt(vertex_visibility, sight)
+    store = new.derive(point_sights)
     for point, rows in points:
         store.put(point, rows)
-    kept = old.known(_point_sights)
+    kept = old.known(point_sights)
     for (a, b), free in kept.pair_items() if kept is not None else []:
         ends = np.array([a]), np.array([b])
         if not _meets_box(*ends, change.box)[0]:
@@ -115,7 +115,7 @@ class _Change:
 
 
 def _change(old: ConfigurationSpace, new: ConfigurationSpace) -> _Change:
-    old_b, new_b = old.derive(_build_border), new.derive(_build_border)
+    old_b, new_b = old.derive(build_border), new.derive(build_border)
     match = _match(old_b.points, new_b.points)
     stable = _stable(old_b, new_b, match)
     box = _changed_box(old, new, match, stable)
@@ -125,14 +125,14 @@ def _change(old: ConfigurationSpace, new: ConfigurationSpace) -> _Change:
 
 
 def _carried(
-    new: ConfigurationSpace, old: ConfigurationSpace, before: _Sight, change: _Change
-) -> tuple[_Sight, list[tuple[tuple[float, float], IntArray]]]:
+    new: ConfigurationSpace, old: ConfigurationSpace, before: Sight, change: _Change
+) -> tuple[Sight, list[tuple[tuple[float, float], IntArray]]]:
     """Return the vertex visibility in ``new`` and what each point ``old`` kept sees.
 
     Every pair to test again -- between vertices, and between a vertex and a kept
     point (start, goal) -- goes through one exact test (one march of the edge grid).
     """
-    new_b = new.derive(_build_border)
+    new_b = new.derive(build_border)
     kept_i, kept_j = _kept_pairs(new_b, change, before)
     # Every other pair again: at an unstable vertex, or crossing the box.
     tests = [*_pairs_to_test(new_b, change.stable, change.box)]
@@ -140,14 +140,14 @@ def _carried(
     tj = np.concatenate([np.zeros(0, dtype=np.intp), *(t[1] for t in tests)])
     a, b = [take_rows(new_b.points, ti)], [take_rows(new_b.points, tj)]
     # The points old kept: rows of stable vertices clear of the box stay.
-    kept = old.known(_point_sights)
+    kept = old.known(point_sights)
     carried = []
     for point, rows in kept.items() if kept is not None else []:
         stay, again = _point_change(new_b, change, point, rows)
         carried.append((point, stay, again))
         a.append(take_rows(new_b.points, again))
         b.append(np.broadcast_to(np.asarray(point), (len(again), 2)))
-    ok = _exact_free(new, new_b, np.vstack(a), np.vstack(b))
+    ok = exact_free(new, new_b, np.vstack(a), np.vstack(b))
     i = np.concatenate([kept_i, ti[ok[: len(ti)]]])
     j = np.concatenate([kept_j, tj[ok[: len(ti)]]])
     # Row-major: one key per pair (each pair comes once); the kept pairs come in
@@ -158,11 +158,11 @@ def _carried(
         seen = again[ok[at : at + len(again)]]
         at += len(again)
         points.append((point, np.sort(np.concatenate([stay, seen]))))
-    return _Sight(len(new_b.points), i[order], j[order]), points
+    return Sight(len(new_b.points), i[order], j[order]), points
 
 
 def _kept_pairs(
-    new_b: _Border, change: _Change, before: _Sight
+    new_b: Border, change: _Change, before: Sight
 ) -> tuple[IntArray, IntArray]:
     """Old visible pairs of stable vertices clear of the box, in the new numbering.
 
@@ -177,7 +177,7 @@ def _kept_pairs(
 
 
 def _point_change(
-    new_b: _Border, change: _Change, point: tuple[float, float], rows: IntArray
+    new_b: Border, change: _Change, point: tuple[float, float], rows: IntArray
 ) -> tuple[IntArray, IntArray]:
     """Split a kept point's vertices: those that still see it, those to test again.
 
@@ -196,7 +196,7 @@ def _point_change(
     again = np.flatnonzero(~change.stable | meets)
     d = p - take_rows(new_b.points, again)
     ends = np.full(len(again), n, dtype=np.intp)  # the point: no wedge
-    keep = ~_leaves_blocked(new_b.wedges.extended(1), again, ends, d[:, 0], d[:, 1])
+    keep = ~leaves_blocked(new_b.wedges.extended(1), again, ends, d[:, 0], d[:, 1])
     return stay, again[keep]
 
 
@@ -224,7 +224,7 @@ def _complex(points: FloatArray) -> npt.NDArray[np.complex128]:
     return z
 
 
-def _stable(old_b: _Border, new_b: _Border, match: IntArray) -> BoolArray:
+def _stable(old_b: Border, new_b: Border, match: IntArray) -> BoolArray:
     """Which new vertices were vertices before with the very same wedge."""
     stable = match >= 0
     k = np.flatnonzero(stable)
@@ -245,7 +245,7 @@ def _changed_box(
     old: ConfigurationSpace, new: ConfigurationSpace, match: IntArray, stable: BoolArray
 ) -> FloatArray | None:
     """Bound all that differs between the two spaces, widened by 8 eps; None if nothing."""
-    old_b, new_b = old.derive(_build_border), new.derive(_build_border)
+    old_b, new_b = old.derive(build_border), new.derive(build_border)
     parts = []
     if (old.free is None) != (new.free is None):
         parts.append(np.vstack([old_b.points, new_b.points]))
@@ -310,7 +310,7 @@ def _meets_box(a: FloatArray, b: FloatArray, box: FloatArray | None) -> BoolArra
 
 
 def _pairs_to_test(
-    new_b: _Border, stable: BoolArray, box: FloatArray | None
+    new_b: Border, stable: BoolArray, box: FloatArray | None
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the pairs (i < j) whose visibility must be tested again, in batches.
 
@@ -325,13 +325,13 @@ def _pairs_to_test(
 
     moved = np.flatnonzero(~stable)
     w = new_b.wedges
-    yield row_pairs(moved, stable, new_b.points, (w.nxt, w.prv, w.narrow), _ANGLE_TOL)
+    yield row_pairs(moved, stable, new_b.points, (w.nxt, w.prv, w.narrow), ANGLE_TOL)
     if box is not None:
         yield from _crossing_box(new_b, stable, box)
 
 
 def _crossing_box(
-    new_b: _Border, stable: BoolArray, box: FloatArray
+    new_b: Border, stable: BoolArray, box: FloatArray
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the screened stable pairs whose segment meets the box.
 
@@ -345,12 +345,12 @@ def _crossing_box(
     code = _outcodes(take_rows(new_b.points, nodes), box)
     w = new_b.wedges
     i, j = box_pairs(
-        new_b.points, nodes, code, box, (w.nxt, w.prv, w.narrow), _ANGLE_TOL
+        new_b.points, nodes, code, box, (w.nxt, w.prv, w.narrow), ANGLE_TOL
     )
     yield i, j
 
 
-def _facing(new_b: _Border, box: FloatArray) -> BoolArray:
+def _facing(new_b: Border, box: FloatArray) -> BoolArray:
     """Tell the vertices from which a segment may leave towards the box unscreened.
 
     A vertex outside the box whose blocked wedge is narrower than pi (a convex cone)
@@ -364,7 +364,7 @@ def _facing(new_b: _Border, box: FloatArray) -> BoolArray:
     from planners.kernels import facing  # noqa: PLC0415 - numba only where graphs are built
 
     w = new_b.wedges
-    return facing(new_b.points, (w.nxt, w.prv, w.narrow), box, _ANGLE_TOL)
+    return facing(new_b.points, (w.nxt, w.prv, w.narrow), box, ANGLE_TOL)
 
 
 def _outcodes(points: FloatArray, box: FloatArray) -> npt.NDArray[np.uint8]:

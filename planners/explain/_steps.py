@@ -14,7 +14,7 @@ each role in its own style; it never decides anything itself.
 
 Explanations are computed on demand (they are not part of :func:`planners.plan_all`),
 so they never slow an edit down. They read the planners' own records (the SVG builder's
-kept pairs, the A* search's settled order, TangentBug's :class:`~planners.bug_context.Decision`
+kept pairs, the A* search's settled order, TangentBug's :class:`~planners.bug._context.Decision`
 records, the expansion's own polygons) rather than deciding anything again.
 
 Examples
@@ -38,7 +38,6 @@ __all__ = [
     "Lazy",
     "Mark",
     "Step",
-    "explain",
     "keep_going",
     "marks",
 ]
@@ -47,14 +46,10 @@ import dataclasses
 import functools
 import operator
 from collections.abc import Callable, Iterator, Sequence
-from typing import TYPE_CHECKING, Any, TypeVar, overload
+from typing import Any, TypeVar, overload
 
 import numpy as np
 import numpy.typing as npt
-
-if TYPE_CHECKING:
-    from planners.registry import PlanOptions
-    from planners.scene import Scene
 
 FloatArray = npt.NDArray[np.float64]
 T = TypeVar("T")
@@ -197,7 +192,7 @@ class Explanation:
     tags: tuple[Any, ...] = ()
     """Per-element records of the method (the SVG's tagged segments, for instance)."""
     data: Any = None
-    """The method's own record (a DSB :class:`~planners.explain_dsb.DsbExplanation`, ...)."""
+    """The method's own record (a DSB :class:`~planners.explain.dsb.DsbExplanation`, ...)."""
 
     def step(self, n: int) -> Step:
         """Return step ``n``, clamped to the steps there are (0-based)."""
@@ -275,6 +270,9 @@ class Abandoned(Exception):
     """
 
 
+Abandoned.__module__ = "planners.explain"  # its public name, in tracebacks too
+
+
 def keep_going(abandoned: Callable[[], bool] | None) -> None:
     """Raise :class:`Abandoned` when ``abandoned`` (if any) says the work is not wanted.
 
@@ -289,50 +287,3 @@ def keep_going(abandoned: Callable[[], bool] | None) -> None:
     """
     if abandoned is not None and abandoned():
         raise Abandoned
-
-
-def explain(
-    scene: Scene,
-    method: str,
-    options: PlanOptions | None = None,
-    **kwargs: Any,
-) -> Explanation:
-    """Explain ``method`` (one of :data:`METHODS`) on ``scene``.
-
-    ``kwargs`` go to the method's function (``obstacle=`` for the expansion;
-    ``abandoned=`` for the VG and the SVG, whose big scenes take long: see
-    :class:`Abandoned`).
-
-    Examples
-    --------
-    >>> import planners
-    >>> scene = planners.load_scene("static_scenarios/02_three_obstacles.json")
-    >>> [len(planners.explain(scene, m).steps) > 1 for m in planners.explain_methods()]
-    [True, True, True, True]
-    """
-    table = _functions()
-    if method not in table:
-        raise ValueError(
-            f"unknown method {method!r}; choose one of {', '.join(METHODS)}"
-        )
-    return table[method](scene, options, **kwargs)
-
-
-def explain_methods() -> tuple[str, ...]:
-    """Return the methods that can be explained, in the chapter's order."""
-    return METHODS
-
-
-def _functions() -> dict[str, Callable[..., Explanation]]:
-    # Imported here: the method modules import this one for its records.
-    from planners.explain_dsb import explain_dsb  # noqa: PLC0415
-    from planners.explain_expansion import explain_expansion  # noqa: PLC0415
-    from planners.explain_svg import explain_svg  # noqa: PLC0415
-    from planners.explain_vg import explain_vg  # noqa: PLC0415
-
-    return {
-        "expansion": explain_expansion,
-        "vg": explain_vg,
-        "svg": explain_svg,
-        "dsb": explain_dsb,
-    }

@@ -13,11 +13,14 @@ their nodes and the edges they test from it. There are two readings of the same 
   union left a hair's breadth off a straight edge.
 
 Each is built once per configuration space (:meth:`ConfigurationSpace.derive`).
+
+The edge index (:class:`EdgeIndex`, ``RingGeometry.index``) names the border edges that
+can matter to a question asked near a point (below).
 """
 
 from __future__ import annotations
 
-__all__ = ["RingGeometry", "ring_geometry"]
+__all__ = ["EdgeIndex", "RingGeometry", "edge_index", "ring_geometry"]
 
 import dataclasses
 import functools
@@ -25,10 +28,10 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+import shapely
 
-from planners.edge_index import EdgeIndex, edge_index
-from planners.expansion import ConfigurationSpace
-from planners.geometry import cross
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import clean_ring, cross
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -312,33 +315,6 @@ class RingGeometry:
         return ((sigma1 - sigma0) * direction) % perimeter
 
 
-def _clean_ring(ring: FloatArray, tol: float) -> FloatArray:
-    """Drop repeated vertices and vertices that lie on the segment joining their neighbours."""
-    pts = np.asarray(ring, dtype=np.float64)
-    changed = True
-    while changed and len(pts) > 3:
-        changed = False
-        step = np.roll(pts, -1, axis=0) - pts
-        short = np.hypot(step[:, 0], step[:, 1]) <= tol
-        if short.any():
-            pts = pts[~short]
-            changed = True
-            continue
-        prev, nxt = np.roll(pts, 1, axis=0), np.roll(pts, -1, axis=0)
-        chord = nxt - prev
-        length = np.hypot(chord[:, 0], chord[:, 1])
-        cross = chord[:, 0] * (pts[:, 1] - prev[:, 1]) - chord[:, 1] * (
-            pts[:, 0] - prev[:, 0]
-        )
-        between = np.einsum("ij,ij->i", pts - prev, chord) > 0
-        flat = (np.abs(cross) <= tol * np.maximum(length, tol)) & between
-        flat &= ~np.roll(flat, 1)  # never two neighbours at once
-        if flat.any():
-            pts = pts[~flat]
-            changed = True
-    return pts
-
-
 def ring_geometry(cspace: ConfigurationSpace, *, cleaned: bool = True) -> RingGeometry:
     """Return (built once per configuration space) the border arrays the planners read.
 
@@ -351,7 +327,7 @@ def ring_geometry(cspace: ConfigurationSpace, *, cleaned: bool = True) -> RingGe
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> geo = ring_geometry(space)
     >>> len(geo.rings), float(geo.perimeter[0]), float(geo.area[0])
@@ -366,7 +342,7 @@ def _build_ring_geometry(cspace: ConfigurationSpace, cleaned: bool) -> RingGeome
     """Build the border arrays of :func:`ring_geometry` (pure)."""
     rings = []
     for r in cspace.rings:
-        ring = _clean_ring(r, cspace.eps) if cleaned else np.asarray(r)
+        ring = clean_ring(r, cspace.eps) if cleaned else np.asarray(r)
         if len(ring) >= 3:
             rings.append(ring)
     if not rings:
@@ -418,3 +394,104 @@ def _build_ring_geometry(cspace: ConfigurationSpace, cleaned: bool) -> RingGeome
         eps=cspace.eps,
         scale=scale,
     )
+
+
+# --------------------------------------------------------------------------- edge index
+#
+# Which border edges can matter to a question asked near a point (section 9.6, issue 15).
+#
+# The range sensor of :mod:`planners.bug.sensor` answers from one position: what lies within
+# the range R (:func:`planners.bug.sensor.sense`), how far a ray goes
+# (:func:`planners.bug.sensor.free_extent`), whether the robot touches the border. Its exact
+# tests are arithmetic per edge; run over every edge of the border they cost O(m) numpy
+# work per question, and TangentBug asks tens of thousands of questions on a big scene (a
+# circle of ten thousand vertices: seconds). :class:`EdgeIndex` names, per question, a
+# superset of the edges the test can flag; the exact test then runs on those only, in the
+# same order (ascending edge index), so the answer is the very same.
+#
+# - :meth:`EdgeIndex.near_disk`: every edge with a point within ``r`` of ``x`` (a box query
+#   on a shapely ``STRtree`` of the edges, padded), plus the edges of the *wide corners*.
+# - :meth:`EdgeIndex.near_segment`: every edge within the pad of a segment.
+#
+# Wide corners. The sensor treats the robot as touching a corner when it lies within eps of
+# both of the corner's edges' lines (:func:`planners.bug.sensor.measure_border`). Those points
+# form a rhombus around the vertex reaching eps / sin(phi / 2) <= 2 eps / sin(phi) from it,
+# phi the angle between the lines: far when the border hardly turns. Corners whose rhombus
+# can reach farther than the pad are listed once and always included.
+
+
+PAD_REL = 1e-3
+"""Padding of every query, relative to the scene's size: far above the rounding of the
+distances and of the sensor's tolerance tests (eps is about 1e-9 of the scene)."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class EdgeIndex:
+    """A spatial index of border edges a[k] -> b[k] (see the comment above :data:`PAD_REL`)."""
+
+    tree: shapely.STRtree
+    """The edges as line strings, in edge order."""
+    pad: float
+    """Every query is widened by this [m]."""
+    wide: IntArray
+    """Sorted edges of the corners whose touching rhombus reaches beyond the pad."""
+    packed: FloatArray
+    """(6, m) per edge: start x, start y, step x, step y, squared length, eps times the
+    length (what the sensor measures, gathered at once for the edges a query names)."""
+
+    def near_disk(self, x: FloatArray, r: float) -> IntArray:
+        """Return, sorted, a superset of the edges with a point within ``r`` of ``x``."""
+        reach = r + self.pad
+        box = shapely.box(x[0] - reach, x[1] - reach, x[0] + reach, x[1] + reach)
+        return self._with_wide(self.tree.query(box))
+
+    def near_segment(self, p: FloatArray, q: FloatArray) -> IntArray:
+        """Return, sorted, a superset of the edges within the pad of the segment p -> q.
+
+        The edges whose boxes meet the segment's box widened by the pad: a box query
+        costs little, and the sensor's numpy test over a long ray's box is cheaper than
+        GEOS's distance to each edge in it.
+        """
+        lo, hi = np.minimum(p, q) - self.pad, np.maximum(p, q) + self.pad
+        return self._with_wide(self.tree.query(shapely.box(lo[0], lo[1], hi[0], hi[1])))
+
+    def _with_wide(self, found: npt.NDArray[np.integer]) -> IntArray:
+        if len(self.wide):
+            return np.union1d(found, self.wide).astype(np.intp, copy=False)
+        return np.sort(found).astype(np.intp, copy=False)
+
+
+def edge_index(geo: RingGeometry) -> EdgeIndex:
+    """Index the border edges of ``geo`` (built once per border: ``geo.index``).
+
+    Examples
+    --------
+    >>> from shapely import Polygon
+    >>> from planners.space.border import ring_geometry
+    >>> from planners.space.expansion import configuration_space
+    >>> geo = ring_geometry(configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0))
+    >>> ix = geo.index
+    >>> ix.near_disk(np.array([0.5, -0.5]), 0.4).tolist()  # nothing within 0.4
+    []
+    >>> geo.start[ix.near_disk(np.array([0.5, -0.5]), 0.55)].tolist()  # boxes: a superset
+    [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    """
+    pad = PAD_REL * geo.scale
+    lines = np.asarray(shapely.linestrings(np.stack([geo.start, geo.end], axis=1)))
+    tree = shapely.STRtree(lines)
+    # 2 eps / sin(phi) bounds the rhombus; twice that, for safety, against the pad.
+    sin_phi = np.abs(cross(geo.unit, geo.prev_dir))
+    corner = np.flatnonzero(4.0 * geo.eps >= pad * sin_phi)
+    # The corner at edge e's start joins e and the edge before it.
+    wide = np.union1d(corner, geo.prev_edge[corner]).astype(np.intp)
+    packed = np.stack(
+        [
+            geo.start[:, 0],
+            geo.start[:, 1],
+            geo.step_x,
+            geo.step_y,
+            geo.len2,
+            geo.eps_length,
+        ]
+    )
+    return EdgeIndex(tree, pad, wide, packed)

@@ -12,7 +12,7 @@ the nodes in the order the planner's A* search settles them
 A step is made when it is shown (:class:`planners.explain.Lazy`): one step per node,
 each with a segment to every other node, is quadratic in the scene, and a student's
 scene of 32 obstacles has 500 nodes. What blocks a segment is found among the border
-edges near it (:func:`planners.sightlines.near_pairs` on a grid of the edges), not
+edges near it (:func:`planners.visibility.sightlines.near_pairs` on a grid of the edges), not
 among all of them: one step costs about the work of its own segments.
 """
 
@@ -29,8 +29,8 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from planners.border import ring_geometry
-from planners.explain import (
+from planners.api import plan_all
+from planners.explain._steps import (
     Explanation,
     Lazy,
     Step,
@@ -39,12 +39,13 @@ from planners.explain import (
     marks,
     point_mark,
 )
-from planners.sightlines import EdgeGrid, edge_grid, near_pairs
+from planners.space.border import ring_geometry
+from planners.visibility.sightlines import EdgeGrid, edge_grid, near_pairs
 
 if TYPE_CHECKING:
-    from planners.expansion import ConfigurationSpace
     from planners.registry import PlanOptions
     from planners.scene import Scene
+    from planners.space.expansion import ConfigurationSpace
     from planners.visibility import GraphArrays
 
 FloatArray = npt.NDArray[np.float64]
@@ -115,8 +116,6 @@ def explain_vg(
     >>> vg.steps[-1].kind
     'vg:path'
     """
-    from planners.api import plan_all  # noqa: PLC0415 - api imports the planners
-
     plans = plans if plans is not None else plan_all(scene, ("vg",), options)
     result = plans["vg"]
     title = "Visibility graph (section 9.4)"
@@ -191,7 +190,7 @@ class _BorderEdges:
     """The border's edges, their grid and their shapes: where blockers are looked for."""
 
     start: FloatArray
-    """First end of each edge, shape (m, 2) [m] (:func:`planners.border.ring_geometry`)."""
+    """First end of each edge, shape (m, 2) [m] (:func:`planners.space.border.ring_geometry`)."""
     end: FloatArray
     """Second end of each edge, shape (m, 2) [m]."""
     grid: EdgeGrid

@@ -1,7 +1,7 @@
 """When boundary following ends: the leave rule as one interchangeable object.
 
-Boundary following (:mod:`planners.bug_follow`) asks the rule on the context three
-things (:class:`LeaveRule`): how far to walk before asking again, where on a walked
+Boundary following (:mod:`planners.bug._follow`) asks the rule on the context three
+things (:class:`~planners.bug._context.LeaveRule`): how far to walk before asking again, where on a walked
 piece of path the rule first holds (updating the rule's memory on the way), and what the
 robot does right after leaving. ``BugParams.leave_rule`` names the rule:
 
@@ -15,30 +15,29 @@ robot does right after leaving. ``BugParams.leave_rule`` names the rule:
 
 from __future__ import annotations
 
-__all__ = ["ChapterLeave", "LeaveCheck", "LeaveRule", "TangentBugLeave", "leave_rule"]
+__all__ = ["ChapterLeave", "TangentBugLeave", "leave_rule"]
 
 import bisect
 import math
-from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from planners.bug_context import (
+from planners.bug._context import (
     LEAVE_RULES,
     SEEK,
+    Context,
     FloatArray,
     Follow,
+    LeaveCheck,
+    LeaveRule,
     Move,
-    _Context,
-    _enter_disk,
-    _evolve,
-    _first_outside,
-    _first_within,
-    _point_along,
-    _pt,
-    _segment_closest,
+    enter_disk,
+    evolve,
+    first_outside,
+    first_within,
+    point_along,
 )
-from planners.sensor import (
+from planners.bug.sensor import (
     IntArray,
     RingGeometry,
     disk_span,
@@ -46,9 +45,11 @@ from planners.sensor import (
     measure_border,
     visible_pieces,
 )
+from planners.space.geometry import as_point as _pt
+from planners.space.geometry import segment_closest as _segment_closest
 
 
-def _reach(ctx: _Context, y: FloatArray, ring: int) -> tuple[float, FloatArray]:
+def _reach(ctx: Context, y: FloatArray, ring: int) -> tuple[float, FloatArray]:
     """Compute d_reach at ``y`` and the point achieving it.
 
     d_reach is the least distance to the goal of the followed border in view, 0 when the
@@ -71,7 +72,7 @@ def _reach(ctx: _Context, y: FloatArray, ring: int) -> tuple[float, FloatArray]:
     return float(dist[k]), closest[k]
 
 
-def _leaves(ctx: _Context, f: Follow, y: FloatArray) -> tuple[bool, float | None]:
+def _leaves(ctx: Context, f: Follow, y: FloatArray) -> tuple[bool, float | None]:
     """Tell whether the leave rule holds at ``y``: (leave, d_reach at ``y``).
 
     d_reach is None where the view cannot matter (:func:`_may_come_closer`): not sensed.
@@ -82,7 +83,7 @@ def _leaves(ctx: _Context, f: Follow, y: FloatArray) -> tuple[bool, float | None
     return d_reach < f.d_followed - ctx.tol, d_reach
 
 
-def _may_come_closer(ctx: _Context, f: Follow, y: FloatArray) -> bool:
+def _may_come_closer(ctx: Context, f: Follow, y: FloatArray) -> bool:
     """Tell whether d_reach at ``y`` may be less than d_followed, without sensing.
 
     The followed border in view lies within R of ``y``: on the ring's edges that pass
@@ -141,7 +142,7 @@ def _any_in_view_closer(  # noqa: PLR0917 - the loop's quantities, as arrays
     """Tell whether some edge's part within sqrt(``r2``) of ``y`` comes closer than ``bound`` to ``g``.
 
     :func:`_may_come_closer`'s loop over ``edges`` as array arithmetic: the same
-    operations (:func:`planners.sensor.disk_span`, then the point of the part closest
+    operations (:func:`planners.bug.sensor.disk_span`, then the point of the part closest
     to the goal), numpy's hypot for the distance (it may differ from the math module's
     in the last bit, far inside the bound's slack).
     """
@@ -164,7 +165,7 @@ def _any_in_view_closer(  # noqa: PLR0917 - the loop's quantities, as arrays
 
 
 def _refine_leave(
-    ctx: _Context, f: Follow, path: FloatArray, cum: FloatArray, d_end: float | None
+    ctx: Context, f: Follow, path: FloatArray, cum: FloatArray, d_end: float | None
 ) -> tuple[float, float | None]:
     """Locate (bisection, then the ring vertices nearby) where the leave rule first holds.
 
@@ -178,7 +179,7 @@ def _refine_leave(
     lo, hi, d_hi = 0.0, total, d_end
     for _ in range(ctx.refine):
         mid = 0.5 * (lo + hi)
-        fires, d_reach = _leaves(ctx, f, _point_along(path, cum, mid))
+        fires, d_reach = _leaves(ctx, f, point_along(path, cum, mid))
         if fires:
             hi, d_hi = mid, d_reach
         else:
@@ -193,49 +194,6 @@ def _refine_leave(
 
 
 # --------------------------------------------------------------------------- the rules
-
-
-class LeaveCheck(NamedTuple):
-    """What the leave rule found on a walked piece of path."""
-
-    follow: Follow
-    """The boundary-following memory, updated with what the rule saw on the way."""
-    stop: float | None
-    """Arclength along the piece where the rule first holds [m], None if nowhere."""
-    d_reach: float | None = None
-    """TangentBug rule: d_reach where the rule holds (None: not that rule)."""
-
-
-class LeaveRule(Protocol):
-    """The leave rule of boundary following: the one thing the two variants differ in.
-
-    Implementations are stateless (their memory lives in :class:`Follow`: d_followed,
-    ``risen``), so one instance serves every run.
-    """
-
-    name: str
-    """The name in ``BugParams.leave_rule``."""
-
-    def walk_length(self, ctx: _Context, f: Follow, remaining: float) -> float:
-        """Return how far to walk along the ring before asking again [m].
-
-        ``remaining`` is what is left of the round (or up to Bug1's exit) [m].
-        """
-        ...
-
-    def check(
-        self, ctx: _Context, f: Follow, path: FloatArray, cum: FloatArray
-    ) -> LeaveCheck:
-        """Find where on ``path`` (k, 2), arclengths ``cum`` (k,), the rule first holds."""
-        ...
-
-    def after_leave(self, ctx: _Context, f: Follow, p: FloatArray) -> Move | None:
-        """Return the move the robot makes right after leaving at ``p``, if any."""
-        ...
-
-    def measures(self, f: Follow) -> tuple[float | None, float | None]:
-        """Return the rule's quantities in ``f`` for the decision records: d_reach, d_followed."""
-        ...
 
 
 class TangentBugLeave:
@@ -254,8 +212,8 @@ class TangentBugLeave:
     (2, 2) is closer to the goal than anything it saw at M:
 
     >>> from shapely import Polygon
-    >>> from planners.bug_context import BugParams, Follow, make_context
-    >>> from planners.expansion import configuration_space
+    >>> from planners.bug._context import BugParams, Follow, make_context
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
     >>> ctx = make_context(space, BugParams(goal=(3.0, 1.0)), TangentBugLeave())
     >>> f = Follow(ring=0, direction=1, local_min=(0.0, 1.0), d_local_min=3.0,
@@ -270,7 +228,7 @@ class TangentBugLeave:
 
     name = "tangent_bug"
 
-    def walk_length(self, ctx: _Context, f: Follow, remaining: float) -> float:
+    def walk_length(self, ctx: Context, f: Follow, remaining: float) -> float:
         """Return one follow step, shortened to the next corner ahead."""
         s = min(ctx.follow_step, max(remaining, 0.0))
         # New border comes into view as the robot rounds a corner: look there (though
@@ -280,7 +238,7 @@ class TangentBugLeave:
         )
 
     def check(
-        self, ctx: _Context, f: Follow, path: FloatArray, cum: FloatArray
+        self, ctx: Context, f: Follow, path: FloatArray, cum: FloatArray
     ) -> LeaveCheck:
         """Sense at the end of ``path``; where the rule holds there, locate where it began."""
         fires, d_reach = _leaves(ctx, f, path[-1])
@@ -288,16 +246,16 @@ class TangentBugLeave:
             return LeaveCheck(f, *_refine_leave(ctx, f, path, cum, d_reach))
         # d_followed takes in what the robot saw; min() as the definition reads.
         d_followed = f.d_followed if d_reach is None else min(f.d_followed, d_reach)
-        return LeaveCheck(_evolve(f, d_followed=d_followed, d_reach=d_reach), None)
+        return LeaveCheck(evolve(f, d_followed=d_followed, d_reach=d_reach), None)
 
-    def after_leave(self, ctx: _Context, f: Follow, p: FloatArray) -> Move | None:
+    def after_leave(self, ctx: Context, f: Follow, p: FloatArray) -> Move | None:
         """Head for the point that made the rule hold until closer to the goal than d_followed."""
         g = ctx.goal
         _, target = _reach(ctx, p, f.ring)
         radius = f.d_followed - ctx.tol
         if math.hypot(*(p - g)) < radius:
             return None
-        s = _enter_disk(p, target, g, radius)
+        s = enter_disk(p, target, g, radius)
         if s is None:
             return None
         span = math.hypot(*(target - p))
@@ -325,8 +283,8 @@ class ChapterLeave:
     side 2 the robot rises at once; along the top it comes back within 3 of the goal at
     x = 3 - sqrt(8), 1 + 0.171573 m along the walk:
 
-    >>> from planners.bug_context import BugParams, Follow, make_context
-    >>> from planners.expansion import configuration_space
+    >>> from planners.bug._context import BugParams, Follow, make_context
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((), 0.0)
     >>> ctx = make_context(space, BugParams(goal=(3.0, 1.0)), ChapterLeave())
     >>> f = Follow(ring=0, direction=1, local_min=(0.0, 1.0), d_local_min=3.0,
@@ -341,26 +299,26 @@ class ChapterLeave:
 
     name = "chapter"
 
-    def walk_length(self, ctx: _Context, f: Follow, remaining: float) -> float:
+    def walk_length(self, ctx: Context, f: Follow, remaining: float) -> float:
         """Return the rest of the round: the crossing is found exactly on the way."""
         return max(remaining, 0.0)
 
     def check(
-        self, ctx: _Context, f: Follow, path: FloatArray, cum: FloatArray
+        self, ctx: Context, f: Follow, path: FloatArray, cum: FloatArray
     ) -> LeaveCheck:
         """Find where the robot, having been farther than M, comes closer than M."""
         g = ctx.goal
         s_rise = (
-            0.0 if f.risen else _first_outside(path, cum, g, f.d_local_min + ctx.tol)
+            0.0 if f.risen else first_outside(path, cum, g, f.d_local_min + ctx.tol)
         )
         if s_rise is None:
             return LeaveCheck(f, None)
-        f = _evolve(f, risen=True)
+        f = evolve(f, risen=True)
         return LeaveCheck(
-            f, _first_within(path, cum, g, f.d_local_min - ctx.tol, start=s_rise)
+            f, first_within(path, cum, g, f.d_local_min - ctx.tol, start=s_rise)
         )
 
-    def after_leave(self, ctx: _Context, f: Follow, p: FloatArray) -> Move | None:
+    def after_leave(self, ctx: Context, f: Follow, p: FloatArray) -> Move | None:
         """Nothing: goal seeking decides from the leave point."""
         return None
 

@@ -1,7 +1,7 @@
 """The distance-sensor-based robot, decision by decision (section 9.6, Figs. 9.15-9.18).
 
 TangentBug already records every sensing step of a run as a
-:class:`~planners.bug_context.Decision` (:attr:`planners.BugTrace.decisions`): the box
+:class:`~planners.bug._context.Decision` (:attr:`planners.BugTrace.decisions`): the box
 of the flowchart of Fig. 9.15, the O_i in view with d(r, O_i) and d(O_i, g), the chosen
 r_next, and the leave rule's quantities. :func:`explain_dsb` turns each into a
 :class:`DsbStep` in the chapter's words: which box, which arrow it takes and why, with
@@ -23,7 +23,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from planners.explain import (
+from planners.api import plan_all
+from planners.explain._steps import (
     Explanation,
     Lazy,
     Step,
@@ -34,10 +35,9 @@ from planners.explain import (
 )
 
 if TYPE_CHECKING:
-    from planners.bug_context import Decision
+    from planners.bug.tangent_bug import BugTrace, Decision
     from planners.registry import PlanOptions
     from planners.scene import Scene
-    from planners.tangent_bug import BugTrace
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -125,7 +125,7 @@ def explain_dsb(
     Returns
     -------
     Explanation
-        One step per :class:`~planners.bug_context.Decision` of the trace; ``tags``
+        One step per :class:`~planners.bug._context.Decision` of the trace; ``tags``
         holds the :class:`DsbStep` records, ``data`` the trace.
 
     Examples
@@ -139,8 +139,6 @@ def explain_dsb(
     >>> print(first.why)  # doctest: +ELLIPSIS
     Fig. 9.16: an obstacle is in the way; O_1 has the least d(r, O_i) + d(O_i, g) = ...
     """
-    from planners.api import plan_all  # noqa: PLC0415 - api imports the planners
-
     plans = plans if plans is not None else plan_all(scene, ("dsb",), options)
     trace = plans["dsb"]
     title = "Distance-sensor-based planning (section 9.6, Fig. 9.15)"

@@ -6,7 +6,7 @@ straight toward the goal while nothing blocks it within R, else toward the best 
 the local tangent graph (Fig. 9.16), re-deciding as the view changes; at a local minimum
 M (Fig. 9.17) it hands over to boundary following by returning a state in the
 ``"follow"`` mode (:func:`_start_following`). This module never imports
-:mod:`planners.bug_follow`.
+:mod:`planners.bug._follow`.
 """
 
 from __future__ import annotations
@@ -21,29 +21,27 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from planners.bug_context import (
+from planners.bug._context import (
     FOLLOW,
     SEEK,
     BugEvent,
     BugState,
     Candidate,
+    Context,
     Decision,
     FloatArray,
     Follow,
     Move,
-    _Context,
-    _evolve,
-    _finish,
-    _label,
-    _moved,
-    _obstacle_at,
-    _pt,
-    _segment_distances,
-    _sigma_on_ring,
-    _tangents,
+    event_label,
+    evolve,
+    finish,
+    moved,
+    obstacle_at,
+    segment_distances,
+    sigma_on_ring,
+    tangents,
 )
-from planners.geometry import unit as _unit
-from planners.sensor import (
+from planners.bug.sensor import (
     OCCLUDING,
     RANGE,
     RingGeometry,
@@ -53,6 +51,8 @@ from planners.sensor import (
     nearby,
     sense,
 )
+from planners.space.geometry import as_point as _pt
+from planners.space.geometry import unit as _unit
 
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.intp]
@@ -128,14 +128,14 @@ class _Seek:
 
 
 def _decide(
-    ctx: _Context,
+    ctx: Context,
     x: FloatArray,
     prefer: _Key | None = None,
     among: IntArray | None = None,
 ) -> _Seek:
     """Take the goal-seeking decision at ``x`` (pure; ``prefer``: the current decision).
 
-    ``among``: :func:`planners.sensor.nearby` for a disk that holds the sensing disk at
+    ``among``: :func:`planners.bug.sensor.nearby` for a disk that holds the sensing disk at
     ``x`` (the same decision, found sooner on a big border).
 
     "Obstacle in the way?" is the goal ray: free to the goal, free within R (move on
@@ -163,7 +163,7 @@ def _decide(
 
 
 def _tangent_graph(
-    ctx: _Context, seen: Sensing, x: FloatArray, dg: float, prefer: _Key | None
+    ctx: Context, seen: Sensing, x: FloatArray, dg: float, prefer: _Key | None
 ) -> _View:
     """Measure every O_i in view and tell which are candidates.
 
@@ -203,7 +203,7 @@ def _tangent_graph(
 
 
 def _choose(
-    ctx: _Context,
+    ctx: Context,
     x: FloatArray,
     ray: _Ray,
     seen: Sensing,
@@ -261,7 +261,7 @@ def _choose(
 
 
 def _slide(
-    ctx: _Context,
+    ctx: Context,
     x: FloatArray,
     chosen: _Seek,
     second: int,
@@ -298,7 +298,7 @@ def _slide(
 
 
 def _best(
-    ctx: _Context,
+    ctx: Context,
     x: FloatArray,
     ray: _Ray,
     seen: Sensing,
@@ -330,7 +330,7 @@ def _best(
 
 
 def _heuristic_gradient(
-    ctx: _Context, seen: Sensing, x: FloatArray, i: int
+    ctx: Context, seen: Sensing, x: FloatArray, i: int
 ) -> FloatArray:
     """Gradient of d(x, O_i) + d(O_i, g) with respect to the robot's position x.
 
@@ -350,7 +350,7 @@ def _heuristic_gradient(
 
 
 def _sliding_direction(
-    ctx: _Context, seen: Sensing, x: FloatArray, a: int, b: int
+    ctx: Context, seen: Sensing, x: FloatArray, a: int, b: int
 ) -> FloatArray | None:
     """Direction of the sliding motion between two equally good choices, or None.
 
@@ -395,7 +395,7 @@ _BOX = types.MappingProxyType(
 )
 
 
-def _seek_step(ctx: _Context, state: BugState) -> BugState:
+def goal_seeking_step(ctx: Context, state: BugState) -> BugState:
     """One goal-seeking step from ``state`` (mode ``"seek"``)."""
     x = np.asarray(state.position, dtype=np.float64)
     dec = state.cache if isinstance(state.cache, _Seek) else _decide(ctx, x)
@@ -406,7 +406,7 @@ def _seek_step(ctx: _Context, state: BugState) -> BugState:
     if dec.kind in ("reached", "goal"):
         # Straight to the goal (from within the tolerance too: the path ends on it exactly).
         move = Move(SEEK, np.array([x, ctx.goal]), _pt(ctx.goal))
-        out = _finish(base, ctx.goal.copy(), (move,), tuple(events))
+        out = finish(base, ctx.goal.copy(), (move,), tuple(events))
         if dec.kind == "reached":
             return out
         at_goal = Decision(
@@ -417,24 +417,22 @@ def _seek_step(ctx: _Context, state: BugState) -> BugState:
             d_goal=0.0,
             chosen=_pt(ctx.goal),
         )
-        return _evolve(out, decisions=(*out.decisions, at_goal))
+        return evolve(out, decisions=(*out.decisions, at_goal))
     if dec.kind == "ahead":
         u = (ctx.goal - x) / math.hypot(*(ctx.goal - x))
         y = x + dec.ahead * u
-        out = _moved(
-            base, (Move(SEEK, np.array([x, y]), _pt(ctx.goal)),), tuple(events)
-        )
-        return _evolve(out, heading=_pt(u))
+        out = moved(base, (Move(SEEK, np.array([x, y]), _pt(ctx.goal)),), tuple(events))
+        return evolve(out, heading=_pt(u))
     # Toward the best O_i: until it, the closest approach to the goal, or one step.
     assert dec.target is not None and dec.sensing is not None
     w, s = _seek_move(ctx, x, dec)
     y, nxt = _switch_point(ctx, x, w, s, dec)
-    out = _moved(base, (Move(SEEK, np.array([x, y]), _pt(dec.target)),), tuple(events))
-    return _evolve(out, cache=nxt, heading=_pt(w))
+    out = moved(base, (Move(SEEK, np.array([x, y]), _pt(dec.target)),), tuple(events))
+    return evolve(out, cache=nxt, heading=_pt(w))
 
 
 def _crossings(
-    ctx: _Context,
+    ctx: Context,
     state: BugState,
     x: FloatArray,
     dec: _Seek,
@@ -454,18 +452,18 @@ def _crossings(
     s = state.travelled
     if dec.blocking != blocking and dec.kind != "reached":
         if blocking >= 0 and not quiet:
-            label = _label("D", blocking_obstacle)
+            label = event_label("D", blocking_obstacle)
             events.append(BugEvent("leave", _pt(x), label, blocking_obstacle, s))
         if dec.blocking >= 0:
             assert dec.hit is not None
-            blocking_obstacle = _obstacle_at(ctx, dec.hit)
-            label = _label("H", blocking_obstacle)
+            blocking_obstacle = obstacle_at(ctx, dec.hit)
+            label = event_label("H", blocking_obstacle)
             events.append(BugEvent("hit", _pt(x), label, blocking_obstacle, s))
             quiet = False
         else:
             blocking_obstacle = None
         blocking = dec.blocking
-    base = _evolve(
+    base = evolve(
         state,
         blocking=blocking,
         blocking_obstacle=blocking_obstacle,
@@ -477,7 +475,7 @@ def _crossings(
 
 
 def _record(
-    ctx: _Context,
+    ctx: Context,
     state: BugState,
     x: FloatArray,
     dec: _Seek,
@@ -537,7 +535,7 @@ def _candidates(dec: _Seek) -> tuple[Candidate, ...]:
 
 
 def _switch_point(
-    ctx: _Context, x: FloatArray, w: FloatArray, s: float, dec: _Seek
+    ctx: Context, x: FloatArray, w: FloatArray, s: float, dec: _Seek
 ) -> tuple[FloatArray, _Seek]:
     """Find where, moving ``s`` along ``w`` from ``x``, the decision first changes.
 
@@ -567,7 +565,7 @@ def _switch_point(
 class _Probe(NamedTuple):
     """The decision along one move: at ``x + s * w`` with ``dec``'s key preferred."""
 
-    ctx: _Context
+    ctx: Context
     x: FloatArray
     w: FloatArray
     dec: _Seek
@@ -652,7 +650,7 @@ def _corner_probe(
 
 
 def _switch_guess(
-    ctx: _Context, x: FloatArray, w: FloatArray, dec: _Seek, limit: float
+    ctx: Context, x: FloatArray, w: FloatArray, dec: _Seek, limit: float
 ) -> float | None:
     """Where, moving from ``x`` along ``w``, the chosen O_i is likely to stop being chosen.
 
@@ -671,7 +669,7 @@ def _switch_guess(
 
 
 def _beyond_corner(
-    ctx: _Context, x: FloatArray, w: FloatArray, dec: _Seek, limit: float
+    ctx: Context, x: FloatArray, w: FloatArray, dec: _Seek, limit: float
 ) -> float | None:
     """Where, moving from ``x`` along ``w``, the edge beyond the chosen corner shows.
 
@@ -680,7 +678,7 @@ def _beyond_corner(
     line. Moving straight at the vertex the robot reaches that line only there; but
     along the border, where it turns only slightly (a finely drawn arc), the robot comes
     within eps of the line, touching the corner, well before the vertex, and sees along
-    the next edge from there (:func:`planners.sensor.measure_border`). Returns the
+    the next edge from there (:func:`planners.bug.sensor.measure_border`). Returns the
     distance along ``w`` at which the robot comes within eps of that line, or None.
     """
     seen = dec.sensing
@@ -711,7 +709,7 @@ def _beyond_corner(
 
 
 def _corner_in_range(
-    ctx: _Context, x: FloatArray, w: FloatArray, dec: _Seek, limit: float
+    ctx: Context, x: FloatArray, w: FloatArray, dec: _Seek, limit: float
 ) -> float | None:
     """Where, moving from ``x`` along ``w``, the chosen range point becomes a corner.
 
@@ -758,7 +756,7 @@ def _corner_in_range(
     return None
 
 
-def _seek_move(ctx: _Context, x: FloatArray, dec: _Seek) -> tuple[FloatArray, float]:
+def _seek_move(ctx: Context, x: FloatArray, dec: _Seek) -> tuple[FloatArray, float]:
     """Direction and length of the next straight move toward the chosen O_i.
 
     The move ends at O_i, at the closest approach to the goal along the way (so that the
@@ -784,7 +782,7 @@ def _seek_move(ctx: _Context, x: FloatArray, dec: _Seek) -> tuple[FloatArray, fl
 
 
 def _start_following(
-    ctx: _Context, state: BugState, x: FloatArray, dec: _Seek, events: list[BugEvent]
+    ctx: Context, state: BugState, x: FloatArray, dec: _Seek, events: list[BugEvent]
 ) -> BugState:
     """Local minimum M at ``x``: pick the border and direction to follow (Choset, sec. 2.3).
 
@@ -794,15 +792,17 @@ def _start_following(
     g = ctx.goal
     seen = dec.sensing if dec.sensing is not None else sense(ctx.geo, x, ctx.radius)
     ring = dec.blocking
-    obstacle = _obstacle_at(ctx, dec.hit) if dec.hit is not None else None
+    obstacle = obstacle_at(ctx, dec.hit) if dec.hit is not None else None
     events.append(
-        BugEvent("local_min", _pt(x), _label("M", obstacle), obstacle, state.travelled)
+        BugEvent(
+            "local_min", _pt(x), event_label("M", obstacle), obstacle, state.travelled
+        )
     )
     d_m = float(math.hypot(*(g - x)))
     on_ring = seen.segment_ring == ring
     d_followed, d_seen = d_m, None
     if on_ring.any():
-        d_seen = float(_segment_distances(seen.segments[on_ring], g).min())
+        d_seen = float(segment_distances(seen.segments[on_ring], g).min())
         d_followed = min(d_followed, d_seen)
     heading = (
         np.asarray(state.heading, dtype=np.float64)
@@ -810,7 +810,7 @@ def _start_following(
         else None
     )
     follow = _join(ctx, state, x, dec, seen=seen, on_ring=on_ring, heading=heading)
-    follow = _evolve(
+    follow = evolve(
         follow,
         local_min=_pt(x),
         d_local_min=d_m,
@@ -819,7 +819,7 @@ def _start_following(
         obstacle=obstacle,
     )
     record = _record(ctx, state, x, dec, mode=FOLLOW, follow=follow)
-    return _evolve(
+    return evolve(
         state,
         mode=FOLLOW,
         follow=follow,
@@ -831,7 +831,7 @@ def _start_following(
 
 
 def _join(
-    ctx: _Context,
+    ctx: Context,
     state: BugState,
     x: FloatArray,
     dec: _Seek,
@@ -849,7 +849,7 @@ def _join(
     direction, target, target_edge, target_t = _piece_end(
         ctx, x, dec, seen=seen, on_ring=on_ring, heading=heading
     )
-    sigma_here = _sigma_on_ring(geo, x, ring, ctx.tol)
+    sigma_here = sigma_on_ring(geo, x, ring, ctx.tol)
     blank = Follow(
         ring=ring,
         direction=direction,
@@ -864,7 +864,7 @@ def _join(
     )
     if sigma_here is not None:
         if heading is not None:
-            forward, backward = _tangents(geo, ring, sigma_here)
+            forward, backward = tangents(geo, ring, sigma_here)
             ahead = float(np.dot(forward, heading)) >= float(np.dot(backward, heading))
             direction = 1 if ahead else -1
         walked = 0.0
@@ -876,23 +876,23 @@ def _join(
             and state.travelled - prev[1] <= 100.0 * ctx.tol
         ):
             walked = prev[0].walked
-        return _evolve(blank, direction=direction, sigma=sigma_here, walked=walked)
+        return evolve(blank, direction=direction, sigma=sigma_here, walked=walked)
     if target is None:
         # The whole border in view is one closed piece (a pocket): walk it from where
         # the goal direction meets it.
         assert dec.hit is not None
         target = dec.hit
-        sig = _sigma_on_ring(geo, dec.hit, ring, math.inf)
+        sig = sigma_on_ring(geo, dec.hit, ring, math.inf)
         target_sigma = float(sig) if sig is not None else 0.0
     else:
         target_sigma = geo.sigma(target_edge, target_t)
-    return _evolve(
+    return evolve(
         blank, target=_pt(target), target_sigma=target_sigma, sigma=target_sigma
     )
 
 
 def _piece_end(
-    ctx: _Context,
+    ctx: Context,
     x: FloatArray,
     dec: _Seek,
     *,
@@ -908,7 +908,7 @@ def _piece_end(
     chain = -1
     if dec.hit is not None and on_ring.any():
         idx = np.flatnonzero(on_ring)
-        near = _segment_distances(seen.segments[idx], dec.hit)
+        near = segment_distances(seen.segments[idx], dec.hit)
         chain = int(seen.segment_chain[idx[int(np.argmin(near))]])
     if chain < 0:
         return 1, None, -1, 0.0

@@ -1,6 +1,6 @@
 """A simulated 360-degree range sensor in the configuration space (section 9.6).
 
-The robot is a point in the configuration space of :mod:`planners.expansion`. Its sensor
+The robot is a point in the configuration space of :mod:`planners.space.expansion`. Its sensor
 sees the border of the free space (expanded obstacles and shrunk walls) up to a range R.
 :func:`sense` returns what it sees, computed exactly on the polygons:
 
@@ -24,7 +24,7 @@ touch it) cannot look into the blocked wedge at its feet; the two edges along th
 sides are seen edge-on and are added as pieces running straight away from the robot.
 
 On a big border (:data:`_INDEX_MIN_EDGES` edges or more) only the edges that a spatial
-index (:mod:`planners.edge_index`) names near the robot, or near a ray, are measured:
+index (:mod:`planners.space.border`) names near the robot, or near a ray, are measured:
 every test here is per edge, so the answers are the same as over every edge.
 
 Touching is up to eps (the configuration space's tolerance): a ray is blocked where it
@@ -62,9 +62,9 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from planners.border import RingGeometry, ring_geometry
-from planners.expansion import ConfigurationSpace
-from planners.geometry import cross
+from planners.space.border import RingGeometry, ring_geometry
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import cross
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -168,7 +168,7 @@ class _Occurrence:
 
 _INDEX_MIN_EDGES = 512
 """Borders with at least this many edges are measured through their spatial index
-(:mod:`planners.edge_index`): only the edges near the question. Below, numpy over every
+(:mod:`planners.space.border`): only the edges near the question. Below, numpy over every
 edge costs less than the index query. Either way the answer is the same."""
 
 
@@ -225,7 +225,7 @@ def measure_border(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> geo = ring_geometry(configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0))
     >>> near = measure_border(geo, (-1.0, 0.5), 2.0)
     >>> free_extent(geo, (-1.0, 0.5), (1.0, 0.0), 5.0, near=near)
@@ -464,7 +464,7 @@ def sense(
     are occluding corners (the range jumps to "nothing" beyond them).
 
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> seen = sense(space, (-1.0, 0.5), 5.0)
     >>> seen.segments.tolist()
@@ -791,7 +791,7 @@ def free_extent(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> geo = ring_geometry(configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0))
     >>> free_extent(geo, (-1.0, 0.5), (1.0, 0.0), 5.0)
     (1.0, 0)

@@ -2,12 +2,12 @@
 
 From the local minimum M the robot follows the border that blocks the goal direction,
 continuing the direction of its last motion; after each piece of the walk it asks the
-leave rule (:mod:`planners.bug_leave`, one interchangeable object on the context)
+leave rule (:mod:`planners.bug._leave`, one interchangeable object on the context)
 whether it may go back to goal seeking, and hands over by returning a state in the
 ``"seek"`` mode. Going all the way round the border without meeting the rule ends the
 run when the border separates robot and goal, else the robot leaves from the border's
 point closest to the goal (Bug1's rule). This module never imports
-:mod:`planners.bug_seek`.
+:mod:`planners.bug._seek`.
 """
 
 from __future__ import annotations
@@ -19,30 +19,30 @@ import math
 import numpy as np
 import shapely
 
-from planners.bug_context import (
+from planners.bug._context import (
     FOLLOW,
     SEEK,
     UNREACHABLE,
     BugEvent,
     BugState,
+    Context,
     Decision,
     FloatArray,
     Follow,
     Move,
-    _Context,
-    _cut,
-    _evolve,
-    _finish,
-    _first_within,
-    _label,
-    _moved,
-    _pt,
-    _segment_closest,
+    cut_path,
+    event_label,
+    evolve,
+    finish,
+    first_within,
+    moved,
 )
-from planners.geometry import unit as _unit
+from planners.space.geometry import as_point as _pt
+from planners.space.geometry import segment_closest as _segment_closest
+from planners.space.geometry import unit as _unit
 
 
-def _follow_step(ctx: _Context, state: BugState) -> BugState:
+def boundary_following_step(ctx: Context, state: BugState) -> BugState:
     """One boundary-following step from ``state`` (mode ``"follow"``)."""
     f = state.follow
     assert f is not None
@@ -59,7 +59,7 @@ def _follow_step(ctx: _Context, state: BugState) -> BugState:
         d_followed=d_followed,
         d_reach=d_reach,
     )
-    state = _evolve(state, decisions=(record,))
+    state = evolve(state, decisions=(record,))
     if f.target is not None:
         # Approach: straight to where the followed piece of border ends in view.
         target = np.asarray(f.target, dtype=np.float64)
@@ -82,7 +82,7 @@ def _follow_step(ctx: _Context, state: BugState) -> BugState:
 
 
 def _walk_and_check(
-    ctx: _Context,
+    ctx: Context,
     state: BugState,
     path: FloatArray,
     *,
@@ -100,15 +100,15 @@ def _walk_and_check(
     cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
     total = float(cum[-1])
     # The goal on the way (it may lie on the border).
-    s_goal = _first_within(path, cum, g, ctx.tol)
+    s_goal = first_within(path, cum, g, ctx.tol)
     f, stop_at, d_reach = ctx.leave.check(ctx, f, path, cum)
     if s_goal is not None and (stop_at is None or s_goal <= stop_at):
-        piece = _cut(path, cum, s_goal)
+        piece = cut_path(path, cum, s_goal)
         piece[-1] = g
-        out = _finish(state, g.copy(), (Move(FOLLOW, piece, None),), ())
+        out = finish(state, g.copy(), (Move(FOLLOW, piece, None),), ())
         return _closing(out, "reached", 0.0)
     if stop_at is not None:
-        cut = _cut(path, cum, stop_at)
+        cut = cut_path(path, cum, stop_at)
         return _leave(ctx, state, f, cut, stop_at, d_reach=d_reach)
     return _walk_on(
         ctx, state, f, path, arrived_sigma=arrived_sigma, walked=walked, total=total
@@ -116,7 +116,7 @@ def _walk_and_check(
 
 
 def _walk_on(
-    ctx: _Context,
+    ctx: Context,
     state: BugState,
     f: Follow,
     path: FloatArray,
@@ -132,26 +132,26 @@ def _walk_on(
     """
     moves = (Move(FOLLOW, path, None),)
     if arrived_sigma is not None:
-        f = _evolve(f, target=None, sigma=arrived_sigma, walked=0.0)
-        return _moved(_evolve(state, follow=f), moves, ())
+        f = evolve(f, target=None, sigma=arrived_sigma, walked=0.0)
+        return moved(evolve(state, follow=f), moves, ())
     if f.target is not None:
-        return _moved(_evolve(state, follow=f), moves, ())
+        return moved(evolve(state, follow=f), moves, ())
     assert walked is not None
     sigma = (f.sigma + f.direction * walked) % float(ctx.geo.perimeter[f.ring])
-    f = _evolve(f, sigma=sigma, walked=f.walked + walked)
+    f = evolve(f, sigma=sigma, walked=f.walked + walked)
     if (
         f.exit_sigma is not None
         and ctx.geo.ring_distance(f.ring, f.sigma, f.exit_sigma, f.direction) <= ctx.tol
     ):
         # Bug1's exit after a futile round: leave from the border's closest point.
-        return _leave(ctx, _evolve(state, follow=f), f, path, total)
+        return _leave(ctx, evolve(state, follow=f), f, path, total)
     if f.exit_sigma is None and f.walked >= float(ctx.geo.perimeter[f.ring]) - ctx.tol:
-        return _full_round(ctx, _evolve(state, follow=f), f, moves)
-    return _moved(_evolve(state, follow=f), moves, ())
+        return _full_round(ctx, evolve(state, follow=f), f, moves)
+    return moved(evolve(state, follow=f), moves, ())
 
 
 def _leave(
-    ctx: _Context,
+    ctx: Context,
     state: BugState,
     f: Follow,
     walked_path: FloatArray,
@@ -165,8 +165,8 @@ def _leave(
     """
     p = walked_path[-1]
     at = state.travelled + walked_len
-    events = (BugEvent("leave", _pt(p), _label("L", f.obstacle), f.obstacle, at),)
-    left = (_evolve(f, walked=f.walked + (walked_len if f.target is None else 0.0)), at)
+    events = (BugEvent("leave", _pt(p), event_label("L", f.obstacle), f.obstacle, at),)
+    left = (evolve(f, walked=f.walked + (walked_len if f.target is None else 0.0)), at)
     moves: list[Move] = [Move(FOLLOW, walked_path, None)]
     # What the rule does right after leaving (not after Bug1's exit: nothing).
     after = ctx.leave.after_leave(ctx, f, p) if f.exit_sigma is None else None
@@ -183,15 +183,15 @@ def _leave(
         d_followed=ctx.leave.measures(f)[1],
         d_reach=d_reach,
     )
-    state = _evolve(state, decisions=(*state.decisions, record))
-    out = _moved(state, tuple(moves), events)
+    state = evolve(state, decisions=(*state.decisions, record))
+    out = moved(state, tuple(moves), events)
     last = moves[-1].path
     heading = (
         _unit(last[-1] - last[-2])
         if len(last) > 1 and math.hypot(*(last[-1] - last[-2])) > 0
         else state.heading
     )
-    return _evolve(
+    return evolve(
         out,
         mode=SEEK,
         follow=None,
@@ -206,7 +206,7 @@ def _leave(
 
 
 def _full_round(
-    ctx: _Context, state: BugState, f: Follow, moves: tuple[Move, ...]
+    ctx: Context, state: BugState, f: Follow, moves: tuple[Move, ...]
 ) -> BugState:
     """Back where boundary following began without meeting the leave rule."""
     geo, g = ctx.geo, ctx.goal
@@ -215,14 +215,14 @@ def _full_round(
     encloses_blocked = float(geo.area[f.ring]) > 0
     separated = inside if encloses_blocked else not inside
     if separated:
-        who = _label("", f.obstacle) if f.obstacle is not None else "the walls"
+        who = event_label("", f.obstacle) if f.obstacle is not None else "the walls"
         what = f"obstacle {who}" if f.obstacle is not None else who
         if encloses_blocked:
             reason = f"the goal is enclosed: the robot went all the way round {what} (expanded, merged) without a way to leave"
         else:
             reason = f"the robot is enclosed: it went all the way round the pocket bounded by {what} without a way out"
-        out = _moved(_evolve(state, follow=f), moves, ())
-        out = _evolve(out, mode=UNREACHABLE, reason=reason, terminated="loop")
+        out = moved(evolve(state, follow=f), moves, ())
+        out = evolve(out, mode=UNREACHABLE, reason=reason, terminated="loop")
         return _closing(
             out, "unreachable", float(math.hypot(*(np.asarray(out.position) - g)))
         )
@@ -233,8 +233,8 @@ def _full_round(
     k = int(np.argmin(dist))
     t = float(np.dot(closest[k] - a[k], b[k] - a[k]) / np.dot(b[k] - a[k], b[k] - a[k]))
     exit_sigma = geo.sigma(int(geo.offset[f.ring]) + k, min(max(t, 0.0), 1.0))
-    out = _moved(
-        _evolve(state, follow=_evolve(f, exit_sigma=exit_sigma)),
+    out = moved(
+        evolve(state, follow=evolve(f, exit_sigma=exit_sigma)),
         moves,
         (),
     )
@@ -242,7 +242,7 @@ def _full_round(
 
 
 def _length(path: FloatArray) -> float:
-    """Length of a polyline, summed as :func:`_moved` sums the path travelled [m].
+    """Length of a polyline, summed as :func:`moved` sums the path travelled [m].
 
     A decision's arclength must order with the next step's: the leave rule's own
     arclength along the walk may differ from it in the last bits.
@@ -255,4 +255,4 @@ def _closing(state: BugState, box: str, d_goal: float) -> BugState:
     record = Decision(
         s=state.travelled, position=state.position, mode=FOLLOW, box=box, d_goal=d_goal
     )
-    return _evolve(state, decisions=(*state.decisions, record))
+    return evolve(state, decisions=(*state.decisions, record))

@@ -39,6 +39,7 @@ from shapely import MultiPolygon, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from planners.memo import Memo
+from planners.space.geometry import clean_ring
 
 DEFAULT_ARC_STEP = math.pi / 8
 """Largest angle [rad] one tangent edge of an expanded arc spans (22.5 degrees)."""
@@ -316,8 +317,8 @@ def _drop_collinear(geometry: BaseGeometry) -> BaseGeometry:
             if Polygon(r).area > 1e-12 * scale * scale
         ]
         original = Polygon(polygon.exterior, holes)
-        rings = [_clean_ring(np.asarray(polygon.exterior.coords))] + [
-            _clean_ring(h) for h in holes
+        rings = [_cleaned(np.asarray(polygon.exterior.coords))] + [
+            _cleaned(h) for h in holes
         ]
         if len(rings[0]) < 3:
             continue
@@ -328,27 +329,9 @@ def _drop_collinear(geometry: BaseGeometry) -> BaseGeometry:
     return MultiPolygon(cleaned)
 
 
-def _clean_ring(coords: FloatArray) -> FloatArray:
+def _cleaned(coords: FloatArray) -> FloatArray:
     ring = _open_ring(coords)
-    tol = 1e-12 * _scale(ring)
-    changed = True
-    while changed and len(ring) > 3:
-        changed = False
-        prev, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
-        chord = nxt - prev
-        length = np.hypot(chord[:, 0], chord[:, 1])
-        cross = chord[:, 0] * (ring[:, 1] - prev[:, 1]) - chord[:, 1] * (
-            ring[:, 0] - prev[:, 0]
-        )
-        # Only drop a vertex that lies between its neighbours, and never two neighbours at
-        # once (dropping one changes the other's test).
-        between = np.einsum("ij,ij->i", ring - prev, chord) > 0
-        flat = (np.abs(cross) <= tol * np.maximum(length, tol)) & between & (length > 0)
-        flat &= ~np.roll(flat, 1)
-        if flat.any():
-            ring = ring[~flat]
-            changed = True
-    return ring
+    return clean_ring(ring, 1e-12 * _scale(ring), repeats=False)
 
 
 def _largest_polygon(geometry: BaseGeometry) -> Polygon:
@@ -394,7 +377,7 @@ class ConfigurationSpace:
 
         Examples
         --------
-        >>> from planners.border import ring_geometry
+        >>> from planners.space.border import ring_geometry
         >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1)]),), 0.0)
         >>> ring_geometry(space) is ring_geometry(space)  # derived once, then kept
         True
@@ -415,7 +398,7 @@ class ConfigurationSpace:
         """Keep ``value`` as what :meth:`derive` would compute for ``fn(self, *args)``.
 
         For a value found another way that is proven equal (the vertex visibility
-        carried over from the space before an edit: :mod:`planners.incremental`). What
+        carried over from the space before an edit: :mod:`planners.visibility.incremental`). What
         was derived already stays.
         """
         self.__dict__.setdefault("_derived", {}).setdefault((fn, args), value)

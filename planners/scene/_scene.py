@@ -26,6 +26,7 @@ __all__ = [
     "move_vertex",
     "replace_robot",
     "save_scene",
+    "scene_at",
     "scene_from_dict",
     "scene_from_text",
     "scene_problems",
@@ -45,7 +46,7 @@ import numpy as np
 import shapely
 from shapely import Polygon
 
-from planners.motion import MOTION_MODES, Motion
+from planners.scene.motion import MOTION_MODES, Motion, motion_offset
 
 ROBOT_KINDS = ("holonomic", "differential")
 EXPANSION_MODES = ("disk", "square")
@@ -62,6 +63,9 @@ class ScenarioError(ValueError):
         self.field = field
         self.problem = problem
         super().__init__(f"{source}: {field}: {problem}")
+
+
+ScenarioError.__module__ = "planners.scene"  # its public name, in tracebacks too
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,7 +115,7 @@ class Scene:
     description: str = ""
     """A sentence or two a lecturer can read aloud."""
     motions: tuple[Motion, ...] = ()
-    """Moving obstacles (:mod:`planners.motion`), at most one per obstacle, by obstacle
+    """Moving obstacles (:mod:`planners.scene.motion`), at most one per obstacle, by obstacle
     index; ``obstacles`` is the scene at time 0."""
 
     def __getstate__(self) -> dict[str, Any]:
@@ -371,7 +375,7 @@ def _robot(source: str, data: Any) -> Robot:
 
 
 def _motions(source: str, value: Any, n_obstacles: int) -> tuple[Motion, ...]:
-    """Check the optional ``motions`` list (:mod:`planners.motion`), one per obstacle."""
+    """Check the optional ``motions`` list (:mod:`planners.scene.motion`), one per obstacle."""
     if not isinstance(value, (list, tuple)):
         raise ScenarioError(
             source, "motions", f"expected a list of motions, got {_describe(value)}"
@@ -743,3 +747,36 @@ def move_obstacle(scene: Scene, i: int, delta: Iterable[float]) -> Scene:
 def replace_robot(scene: Scene, **changes: Any) -> Scene:
     """Return ``scene`` with robot fields changed, e.g. ``replace_robot(s, radius=0.2)``."""
     return dataclasses.replace(scene, robot=dataclasses.replace(scene.robot, **changes))
+
+
+# --------------------------------------------------------------------------- moving obstacles
+
+
+def _translated(polygon: Polygon, offset: Point) -> Polygon:
+    if offset == (0.0, 0.0):
+        return polygon  # the very polygon: t = 0 is the file's scene, bit for bit
+    dx, dy = offset
+    return shapely.transform(polygon, lambda xy: xy + np.array([dx, dy]))
+
+
+def scene_at(scene: Scene, t: float) -> Scene:
+    """Return the scene as it is at time ``t`` [s]: every moving obstacle where it is then.
+
+    The result is static (no motions): what a sensor sees at that moment. A scene
+    without motions is returned as is.
+
+    Examples
+    --------
+    >>> from planners.scene import Scene
+    >>> square = Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])
+    >>> s = Scene(obstacles=(square,), start=(-2, 0), goal=(3, 0),
+    ...           motions=(Motion(0, ((0.0, 4.0),), speed=1.0),))
+    >>> scene_at(s, 2.0).obstacles[0].bounds, scene_at(s, 2.0).motions
+    ((0.0, 2.0, 1.0, 3.0), ())
+    """
+    if not scene.motions:
+        return scene
+    obstacles = list(scene.obstacles)
+    for m in scene.motions:
+        obstacles[m.obstacle] = _translated(obstacles[m.obstacle], motion_offset(m, t))
+    return dataclasses.replace(scene, obstacles=tuple(obstacles), motions=())

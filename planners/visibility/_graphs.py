@@ -1,6 +1,6 @@
 """Visibility graphs (section 9.4) and simplified visibility graphs (section 9.5).
 
-Both graphs live in the configuration space of :mod:`planners.expansion`: the robot is a
+Both graphs live in the configuration space of :mod:`planners.space.expansion`: the robot is a
 point, obstacles are expanded, and free space is closed (a segment may run along an
 expanded edge or touch a vertex, never cross an interior).
 
@@ -24,7 +24,7 @@ Otherwise the border's vertices that lie on it (within a tolerance ``eps``) cut 
 pieces, each of which is entirely free, entirely blocked or runs along an edge; the
 middle of each piece decides. This is exact for collinear vertices, paths grazing a
 vertex, start or goal on an edge, and obstacles touching at a point. Which edges a
-segment may meet is found in bounded memory by :mod:`planners.sightlines` (an edge grid
+segment may meet is found in bounded memory by :mod:`planners.visibility.sightlines` (an edge grid
 the segments march through, disks inside obstacles that certainly block); node pairs
 are screened block by block, and the vertex visibility is kept as the list of pairs
 that see each other, so memory grows with the graph, not with n^2.
@@ -62,10 +62,10 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from planners.border import ring_geometry
-from planners.expansion import ConfigurationSpace
-from planners.geometry import cross, take_rows, unit_rows
-from planners.sightlines import (
+from planners.space.border import ring_geometry
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import cross, take_rows, unit_rows
+from planners.visibility.sightlines import (
     Disks,
     EdgeGrid,
     Edges,
@@ -93,7 +93,7 @@ _BLOCK_PAIRS = 1 << 18
 # Below this many segment x edge pairs, a bounding-box matrix beats the edge grid.
 _DENSE_LIMIT = 100_000
 # Directions closer than this (as a sine) to an edge count as running along it.
-_ANGLE_TOL = 1e-12
+ANGLE_TOL = 1e-12
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -268,7 +268,7 @@ class VisibilityResult:
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class _Border:
+class Border:
     """The free space's border as flat arrays, built once per configuration space."""
 
     points: FloatArray  # (n, 2) unique vertices
@@ -325,7 +325,7 @@ class _Border:
         return _Wedges(
             np.where(alone, self.occ_next[occ], 0.0),
             np.where(alone, self.occ_prev[occ], 0.0),
-            cross(self.occ_next[occ], self.occ_prev[occ]) > _ANGLE_TOL,
+            cross(self.occ_next[occ], self.occ_prev[occ]) > ANGLE_TOL,
         )
 
 
@@ -363,7 +363,7 @@ def _into_wedge(  # noqa: PLR0917 - a numeric kernel on broadcast arrays
     """Tell if direction (dx, dy) leaves a vertex strictly into its blocked wedge.
 
     ``nxt`` and ``prv`` are (..., 2) unit vectors, broadcast against ``dx`` and ``dy``;
-    strictly means by more than ``tol`` (``_ANGLE_TOL`` times the direction's length,
+    strictly means by more than ``tol`` (``ANGLE_TOL`` times the direction's length,
     an angle). A wedge narrower than pi is entered between its two sides; a wider one
     everywhere but the closed free wedge from ``prv`` to ``nxt``. ``backward`` tests
     the direction (-dx, -dy) instead: the same booleans as negating dx and dy (IEEE
@@ -383,24 +383,24 @@ def _into_wedge(  # noqa: PLR0917 - a numeric kernel on broadcast arrays
     return np.where(narrow, after_next & before_prev, after_next | before_prev)
 
 
-def _build_border(cspace: ConfigurationSpace) -> _Border:
+def build_border(cspace: ConfigurationSpace) -> Border:
     # The border model every planner reads, with every vertex as expanded (module
-    # docstring of planners.border): its edges, and at each vertex the directions to
+    # docstring of planners.space.border): its edges, and at each vertex the directions to
     # the next and the previous vertex of its ring.
     geo = ring_geometry(cspace, cleaned=False)
     if not geo.rings:
         empty = np.zeros((0, 2))
         none = np.zeros(0, dtype=np.intp)
         no = np.zeros(0, dtype=bool)
-        return _Border(empty, empty, empty, none, empty, empty, no, cspace.eps)
+        return Border(empty, empty, empty, none, empty, empty, no, cspace.eps)
     # Vertices shared by several rings (obstacles touching at a point) become one node.
     points, occ_node = _unique_points(geo.start)
     to_next = unit_rows(geo.step)
     to_prev = unit_rows(geo.start[geo.prev_edge] - geo.start)
     # Blocked space is on the left of each ring: the blocked wedge at a vertex turns
     # counter-clockwise from the next edge to the previous one.
-    convex = cross(to_next, to_prev) > _ANGLE_TOL
-    return _Border(
+    convex = cross(to_next, to_prev) > ANGLE_TOL
+    return Border(
         points, geo.start, geo.end, occ_node, to_next, to_prev, convex, cspace.eps
     )
 
@@ -428,18 +428,18 @@ def segments_free(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> segments_free(space, [[-1, 0], [-1, -1], [0, 0]], [[2, 0], [2, 2], [1, 1]])
     array([ True, False, False])
     """
     a = np.atleast_2d(np.asarray(a, dtype=np.float64))
     b = np.atleast_2d(np.asarray(b, dtype=np.float64))
-    return _segments_free(cspace, cspace.derive(_build_border), a, b)
+    return _segments_free(cspace, cspace.derive(build_border), a, b)
 
 
 def _segments_free(
-    cspace: ConfigurationSpace, border: _Border, a: FloatArray, b: FloatArray
+    cspace: ConfigurationSpace, border: Border, a: FloatArray, b: FloatArray
 ) -> BoolArray:
     s, m = len(a), len(border.edge_a)
     if s == 0:
@@ -449,11 +449,11 @@ def _segments_free(
         return np.ones(s, dtype=bool)
     starts = _runs_of_equal_starts(a)
     if len(starts) - 1 > s // 16:  # few segments per start: the filter would not pay
-        return _exact_free(cspace, border, a, b)
+        return exact_free(cspace, border, a, b)
     # Cheap first: segments that certainly pass through a disk inside an obstacle.
     free = ~occluded(cspace.derive(_inner_disks), a, b, starts)
     test = np.flatnonzero(free)
-    free[test] = _exact_free(cspace, border, take_rows(a, test), take_rows(b, test))
+    free[test] = exact_free(cspace, border, take_rows(a, test), take_rows(b, test))
     return free
 
 
@@ -495,8 +495,8 @@ def _runs_of_equal_starts(a: FloatArray) -> IntArray:
     return np.concatenate([[0], change, [len(a)]]).astype(np.intp)
 
 
-def _exact_free(
-    cspace: ConfigurationSpace, border: _Border, a: FloatArray, b: FloatArray
+def exact_free(
+    cspace: ConfigurationSpace, border: Border, a: FloatArray, b: FloatArray
 ) -> BoolArray:
     """Tell which segments a[k] -> b[k] are free, by the exact test (module docstring)."""
     s, m = len(a), len(border.edge_a)
@@ -518,18 +518,18 @@ def _exact_free(
 
 def _exact_free_pairs(
     cspace: ConfigurationSpace,
-    border: _Border,
+    border: Border,
     points: FloatArray,
     i: IntArray,
     j: IntArray,
 ) -> BoolArray:
-    """Tell which segments points[i[k]] -> points[j[k]] are free: :func:`_exact_free`.
+    """Tell which segments points[i[k]] -> points[j[k]] are free: :func:`exact_free`.
 
     The marched segments are made from the points' coordinate columns (the same
     numbers as :meth:`Segments.of` on the gathered rows, without gathering (N, 2) rows).
     """
     if len(i) * len(border.edge_a) <= _DENSE_LIMIT:
-        return _exact_free(cspace, border, take_rows(points, i), take_rows(points, j))
+        return exact_free(cspace, border, take_rows(points, i), take_rows(points, j))
     x, y = points[:, 0], points[:, 1]
     ax, ay = x[i], y[i]
     dx, dy = x[j] - ax, y[j] - ay
@@ -537,9 +537,9 @@ def _exact_free_pairs(
 
 
 def _marched_free(
-    cspace: ConfigurationSpace, border: _Border, segs: Segments
+    cspace: ConfigurationSpace, border: Border, segs: Segments
 ) -> BoolArray:
-    """Do :func:`_exact_free` with the edge grid's march."""
+    """Do :func:`exact_free` with the edge grid's march."""
     marched = march(border.grid, border.edges, segs, cspace.eps)
     return _decide_pieces(
         cspace, segs, ~marched.crossed, marched.touch_seg, marched.touch_t
@@ -602,7 +602,7 @@ def _pieces(
 
 
 def _overlapping_boxes(
-    a: FloatArray, b: FloatArray, border: _Border, eps: float
+    a: FloatArray, b: FloatArray, border: Border, eps: float
 ) -> tuple[IntArray, IntArray]:
     """(segment, edge) index pairs whose bounding boxes overlap, from a dense matrix."""
     lo, hi = np.minimum(a, b) - eps, np.maximum(a, b) + eps
@@ -626,9 +626,9 @@ class _Query:
 
 def _query(
     cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
-) -> tuple[_Border, _Query]:
+) -> tuple[Border, _Query]:
     """Return the border and the graph nodes: its vertices plus start and goal."""
-    border = cspace.derive(_build_border)
+    border = cspace.derive(build_border)
     eps = cspace.eps
     points = border.points
     node = np.arange(len(points), dtype=np.intp)
@@ -662,7 +662,7 @@ def _graph_arrays(
     return GraphArrays(q.points, q.start, q.goal, i, j, kept)
 
 
-def _query_wedges(border: _Border, q: _Query) -> _Wedges:
+def _query_wedges(border: Border, q: _Query) -> _Wedges:
     """Return the blocked wedge at each of the query's nodes (none at start and goal)."""
     wedges = border.wedges.extended(len(q.points) - len(border.points))
     free = np.flatnonzero(q.node < 0)
@@ -674,7 +674,7 @@ def _query_wedges(border: _Border, q: _Query) -> _Wedges:
     return wedges
 
 
-def _leaves_blocked(
+def leaves_blocked(
     wedges: _Wedges, i: IntArray, j: IntArray, dx: FloatArray, dy: FloatArray
 ) -> BoolArray:
     """Tell if segment i -> j (direction (dx, dy)) leaves i or j into their wedges.
@@ -682,7 +682,7 @@ def _leaves_blocked(
     ``i`` and ``j`` index the wedges and broadcast like ``dx`` and ``dy`` (rows against
     columns for a block of pairs).
     """
-    tol = _ANGLE_TOL * np.hypot(dx, dy)
+    tol = ANGLE_TOL * np.hypot(dx, dy)
     nxt, prv, narrow = wedges.nxt, wedges.prv, wedges.narrow
     return _into_wedge(
         take_rows(nxt, i), take_rows(prv, i), narrow.take(i), dx, dy, tol
@@ -701,7 +701,7 @@ def _not_tangent(
     blocked at that end or not tangent there (section 9.5). Only for narrow wedges (the
     SVG's candidates are convex vertices, start, goal and pinches).
     """
-    tol = _ANGLE_TOL * np.hypot(dx, dy)
+    tol = ANGLE_TOL * np.hypot(dx, dy)
     enters = np.zeros(np.broadcast_shapes(np.shape(dx), np.shape(i), np.shape(j)), bool)
     for k in (i, j):
         nxt, prv = take_rows(wedges.nxt, k), take_rows(wedges.prv, k)
@@ -712,7 +712,7 @@ def _not_tangent(
 
 
 def _visible(
-    cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray, j: IntArray
+    cspace: ConfigurationSpace, border: Border, q: _Query, i: IntArray, j: IntArray
 ) -> BoolArray:
     """Tell which node pairs (i, j) of the query see each other.
 
@@ -721,7 +721,7 @@ def _visible(
     where rings touch.
     """
     d = take_rows(q.points, j) - take_rows(q.points, i)
-    ok = ~_leaves_blocked(_query_wedges(border, q), i, j, d[:, 0], d[:, 1])
+    ok = ~leaves_blocked(_query_wedges(border, q), i, j, d[:, 0], d[:, 1])
     idx = np.flatnonzero(ok)
     ok[idx] = _segments_free(
         cspace, border, take_rows(q.points, i[idx]), take_rows(q.points, j[idx])
@@ -743,7 +743,7 @@ def _candidate_pairs(
     """
     k = len(nodes)
     x, y = points[nodes, 0], points[nodes, 1]
-    screen = _not_tangent if tangent else _leaves_blocked
+    screen = _not_tangent if tangent else leaves_blocked
     found: list[tuple[IntArray, IntArray]] = []
     count = 0
     r0 = 0
@@ -786,7 +786,7 @@ def visibility_graph(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> g = visibility_graph(space, (-1, 0.5), (2, 0.5))
     >>> g.number_of_nodes(), g.number_of_edges()
@@ -804,7 +804,7 @@ def _vg_arrays(
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class _Sight:
+class Sight:
     """Which border vertices see each other: the pairs that do, i < j, row-major.
 
     Memory grows with the visibility graph's edges, not with n^2.
@@ -828,7 +828,7 @@ class _Sight:
         return (self.keys[at] == key) if len(self.keys) else np.zeros(len(i), bool)
 
 
-def _vertex_visibility(cspace: ConfigurationSpace) -> _Sight:
+def vertex_visibility(cspace: ConfigurationSpace) -> Sight:
     """Which border vertices see each other (section 9.4), block by block.
 
     It depends on the configuration space alone, so it is derived once per configuration
@@ -839,18 +839,18 @@ def _vertex_visibility(cspace: ConfigurationSpace) -> _Sight:
     for them too. A cold build finds it with the start's and goal's rows
     (:func:`_cold_sights`).
     """
-    border = cspace.derive(_build_border)
+    border = cspace.derive(build_border)
     none = np.zeros(0, dtype=np.intp)
     return _sights(cspace, border, border.points, none, none)[0]
 
 
 def _sights(
     cspace: ConfigurationSpace,
-    border: _Border,
+    border: Border,
     points: FloatArray,
     extra_i: IntArray,
     extra_j: IntArray,
-) -> tuple[_Sight, BoolArray]:
+) -> tuple[Sight, BoolArray]:
     """Find the border vertices that see each other, and which extra pairs are free.
 
     ``points`` are the border vertices, then any others (start and goal); the extra
@@ -888,7 +888,7 @@ def _sights(
     if apart:  # found ring by ring: back to row-major order
         order = np.argsort(i.astype(np.int64) * n + j)
         i, j = i[order], j[order]
-    return _Sight(n, i, j), extra_free
+    return Sight(n, i, j), extra_free
 
 
 def _point_of(q: _Query, node: int) -> tuple[float, float]:
@@ -934,10 +934,10 @@ def _convex_ring_of(cspace: ConfigurationSpace) -> _ConvexRings:
     the directions from v to v + 2, v + 3, ..., v - 2 turn one way from one side of the
     wedge to the other, and the sine of the angle to a side is concave on [0, pi], so
     every vertex but v's two neighbours lies inside by that margin: the wedge screen
-    (:func:`_leaves_blocked`) drops every such pair, and :func:`_candidate_pairs_apart`
+    (:func:`leaves_blocked`) drops every such pair, and :func:`_candidate_pairs_apart`
     need not enumerate them (the circle of 10,000 vertices: 50 million pairs).
     """
-    border = cspace.derive(_build_border)
+    border = cspace.derive(build_border)
     geo = ring_geometry(cspace, cleaned=False)
     ring = np.full(len(border.points), -1, dtype=np.intp)
     edge_i, edge_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
@@ -954,7 +954,7 @@ def _convex_ring_of(cspace: ConfigurationSpace) -> _ConvexRings:
     return _ConvexRings(ring, np.concatenate(edge_i), np.concatenate(edge_j))
 
 
-def _inside_by_margin(border: _Border, occ: IntArray) -> bool:
+def _inside_by_margin(border: Border, occ: IntArray) -> bool:
     """Tell if from every vertex of a ring its vertices two on lie inside its wedge."""
     p = border.points[border.occ_node[occ]]
     nxt, prv = border.occ_next[occ], border.occ_prev[occ]
@@ -973,7 +973,7 @@ def _inside_by_margin(border: _Border, occ: IntArray) -> bool:
 
 
 def _candidate_pairs_apart(
-    border: _Border, rings: _ConvexRings
+    border: Border, rings: _ConvexRings
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the pairs :func:`_candidate_pairs` yields, without enumerating ring pairs.
 
@@ -998,7 +998,7 @@ def _candidate_pairs_apart(
     # The rings' own edges, screened like every other pair.
     i, j = rings.edge_i, rings.edge_j
     d = take_rows(points, j) - take_rows(points, i)
-    keep = ~_leaves_blocked(wedges, i, j, d[:, 0], d[:, 1])
+    keep = ~leaves_blocked(wedges, i, j, d[:, 0], d[:, 1])
     found.append((i[keep], j[keep]))
     yield _joined(found)
 
@@ -1016,7 +1016,7 @@ def _rows_against(
     """Yield the pairs (r, c), r in ``rows``, c in ``cols``, r < c, that pass the screen.
 
     Both ascending; in blocks of about ``_SCREEN_PAIRS`` pairs, as
-    :func:`_candidate_pairs` screens them (:func:`_leaves_blocked`).
+    :func:`_candidate_pairs` screens them (:func:`leaves_blocked`).
     """
     x, y = points[cols, 0], points[cols, 1]
     k = 0
@@ -1028,19 +1028,19 @@ def _rows_against(
         c = cols[None, first:]
         dx = x[None, first:] - points[r, 0]
         dy = y[None, first:] - points[r, 1]
-        out = _leaves_blocked(wedges, r, c, dx, dy) | (c <= r)
+        out = leaves_blocked(wedges, r, c, dx, dy) | (c <= r)
         a, b = np.nonzero(~out)
         yield rows[k + a], cols[first + b]
         k = r1
 
 
 def _visibility(
-    cspace: ConfigurationSpace, border: _Border, q: _Query
+    cspace: ConfigurationSpace, border: Border, q: _Query
 ) -> tuple[IntArray, IntArray]:
     """Return the pairs (i < j, row-major) of the query's nodes that see each other."""
-    if cspace.known(_vertex_visibility) is None:
+    if cspace.known(vertex_visibility) is None:
         _cold_sights(cspace, border, q)
-    base = cspace.derive(_vertex_visibility)
+    base = cspace.derive(vertex_visibility)
     n, total = base.n, len(q.points)
     if total == n:
         return base.i, base.j
@@ -1063,7 +1063,7 @@ def _visibility(
     return np.insert(base.i, at, i), np.insert(base.j, at, j)
 
 
-def _cold_sights(cspace: ConfigurationSpace, border: _Border, q: _Query) -> None:
+def _cold_sights(cspace: ConfigurationSpace, border: Border, q: _Query) -> None:
     """Derive the vertex visibility and the new nodes' rows together, in one exact test.
 
     A cold build (a fresh configuration space, a new start and goal) needs the pairs of
@@ -1079,7 +1079,7 @@ def _cold_sights(cspace: ConfigurationSpace, border: _Border, q: _Query) -> None
     n, total = len(border.points), len(q.points)
     if total == n or not len(border.edge_a) or not np.all(q.node[:n] >= 0):
         return
-    store = cspace.derive(_point_sights)
+    store = cspace.derive(point_sights)
     wedges = _query_wedges(border, q)
     vertices = np.arange(n, dtype=np.intp)
     rows: list[tuple[tuple[float, float], IntArray]] = []
@@ -1090,7 +1090,7 @@ def _cold_sights(cspace: ConfigurationSpace, border: _Border, q: _Query) -> None
             continue
         ends = np.full(n, node, dtype=np.intp)
         d = take_rows(q.points, ends) - take_rows(q.points, vertices)
-        keep = ~_leaves_blocked(wedges, vertices, ends, d[:, 0], d[:, 1])
+        keep = ~leaves_blocked(wedges, vertices, ends, d[:, 0], d[:, 1])
         rows.append((point, vertices[keep]))
         extra_i.append(vertices[keep])
         extra_j.append(ends[keep])
@@ -1104,7 +1104,7 @@ def _cold_sights(cspace: ConfigurationSpace, border: _Border, q: _Query) -> None
     sight, free = _sights(
         cspace, border, q.points, np.concatenate(extra_i), np.concatenate(extra_j)
     )
-    cspace.adopt(_vertex_visibility, sight)
+    cspace.adopt(vertex_visibility, sight)
     at = 0
     for point, candidates in rows:
         store.put(point, candidates[free[at : at + len(candidates)]])
@@ -1120,7 +1120,7 @@ class _PointSights:
     and the configuration space alone (the exact segment test decides), so they are
     kept on the configuration space (:meth:`ConfigurationSpace.derive`) for the next
     query with the same point -- the SVG after the VG, the next obstacle drag, which
-    carries them over (:mod:`planners.incremental`). Only the last
+    carries them over (:mod:`planners.visibility.incremental`). Only the last
     :attr:`KEPT` points are kept, so dragging the start does not fill memory.
     """
 
@@ -1174,13 +1174,13 @@ class _PointSights:
             return list(self._pairs.items())
 
 
-def _point_sights(_cspace: ConfigurationSpace) -> _PointSights:
+def point_sights(_cspace: ConfigurationSpace) -> _PointSights:
     """Make the configuration space's store of what query points see (empty)."""
     return _PointSights()
 
 
 def _point_rows(
-    cspace: ConfigurationSpace, border: _Border, q: _Query, node: int
+    cspace: ConfigurationSpace, border: Border, q: _Query, node: int
 ) -> IntArray:
     """Return the border vertices that the query's new node ``node`` sees, ascending.
 
@@ -1190,17 +1190,17 @@ def _point_rows(
     n = len(border.points)
     point = (float(q.points[node, 0]), float(q.points[node, 1]))
     plain = bool(np.all(q.node[:n] >= 0))
-    store = cspace.derive(_point_sights)
+    store = cspace.derive(point_sights)
     rows = store.get(point) if plain else None
     if rows is None:
         vertices = np.arange(n, dtype=np.intp)
         ends = np.full(n, node, dtype=np.intp)
         d = take_rows(q.points, ends) - take_rows(q.points, vertices)
-        keep = ~_leaves_blocked(
+        keep = ~leaves_blocked(
             _query_wedges(border, q), vertices, ends, d[:, 0], d[:, 1]
         )
         vertices = vertices[keep]
-        ok = _exact_free(
+        ok = exact_free(
             cspace,
             border,
             take_rows(q.points, vertices),
@@ -1212,9 +1212,7 @@ def _point_rows(
     return rows
 
 
-def _ends_see_each_other(
-    cspace: ConfigurationSpace, border: _Border, q: _Query
-) -> bool:
+def _ends_see_each_other(cspace: ConfigurationSpace, border: Border, q: _Query) -> bool:
     """Tell if the start and the goal see each other, both new nodes (n and n + 1).
 
     Kept on the configuration space like the points' rows (:class:`_PointSights`).
@@ -1222,7 +1220,7 @@ def _ends_see_each_other(
     n = len(border.points)
     a = (float(q.points[n, 0]), float(q.points[n, 1]))
     b = (float(q.points[n + 1, 0]), float(q.points[n + 1, 1]))
-    store = cspace.derive(_point_sights)
+    store = cspace.derive(point_sights)
     free = store.pair(a, b)
     if free is None:
         free = bool(_visible(cspace, border, q, np.array([n]), np.array([n + 1]))[0])
@@ -1231,7 +1229,7 @@ def _ends_see_each_other(
 
 
 def _pairs_visible(
-    cspace: ConfigurationSpace, border: _Border, q: _Query, i: IntArray, j: IntArray
+    cspace: ConfigurationSpace, border: Border, q: _Query, i: IntArray, j: IntArray
 ) -> BoolArray:
     """Tell which node pairs (i, j) see each other, reusing what is already known.
 
@@ -1240,7 +1238,7 @@ def _pairs_visible(
     goal from what that point sees when it is kept (:class:`_PointSights`); the rest are
     tested.
     """
-    base = cspace.known(_vertex_visibility)
+    base = cspace.known(vertex_visibility)
     if base is None:
         return _visible(cspace, border, q, i, j)
     n = base.n
@@ -1266,7 +1264,7 @@ def _known_rows(
     cspace: ConfigurationSpace, q: _Query, node: int, n: int
 ) -> BoolArray | None:
     """Per border vertex, whether the new node ``node`` sees it, if that is kept."""
-    store = cspace.known(_point_sights)
+    store = cspace.known(point_sights)
     if store is None or not np.all(q.node[:n] >= 0):
         return None
     rows = store.get((float(q.points[node, 0]), float(q.points[node, 1])))
@@ -1291,7 +1289,7 @@ def simplified_visibility_graph(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> g = simplified_visibility_graph(space, (-1, 0.5), (2, 0.5))
     >>> g.number_of_nodes(), g.number_of_edges()
@@ -1321,7 +1319,7 @@ def svg_reasons(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> arrays, why = svg_reasons(space, (-1, 0.5), (2, 0.5))
     >>> arrays.edges, why
@@ -1344,7 +1342,7 @@ def svg_node_reasons(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> _, why = svg_node_reasons(space, (-1, 0.5), (2, 0.5))
     >>> why == svg_reasons(space, (-1, 0.5), (2, 0.5))[1]
@@ -1354,7 +1352,7 @@ def svg_node_reasons(
     return q.points, _node_reasons(border, q)
 
 
-def _node_reasons(border: _Border, q: _Query) -> tuple[str, ...]:
+def _node_reasons(border: Border, q: _Query) -> tuple[str, ...]:
     """Per query node: start, goal, pinch, convex or reflex (:func:`svg_reasons`)."""
     convex = np.append(border.convex_nodes, False)
     pinch = np.append(border.pinch_nodes, False)
@@ -1371,7 +1369,7 @@ def _node_reasons(border: _Border, q: _Query) -> tuple[str, ...]:
 
 def _svg_build(
     cspace: ConfigurationSpace, start: npt.ArrayLike, goal: npt.ArrayLike
-) -> tuple[GraphArrays, _Border, _Query]:
+) -> tuple[GraphArrays, Border, _Query]:
     border, q = _query(cspace, start, goal)
     # Index -1 (start, goal) reads the appended False.
     convex = np.append(border.convex_nodes, False)
@@ -1382,7 +1380,7 @@ def _svg_build(
     # may bend around one obstacle while the extension points into the other, so no
     # per-segment condition holds there (no wedge) and every visible segment is kept.
     wedges = _query_wedges(border, q)
-    known = cspace.known(_vertex_visibility)
+    known = cspace.known(vertex_visibility)
     found_i, found_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
     if known is None:
         blocks = _candidate_pairs(q.points, wedges, candidate, tangent=True)
@@ -1404,7 +1402,7 @@ def _svg_build(
 
 
 def _tangents_of_known(
-    known: _Sight, q: _Query, wedges: _Wedges, candidate: IntArray
+    known: Sight, q: _Query, wedges: _Wedges, candidate: IntArray
 ) -> tuple[IntArray, IntArray]:
     """Return the visible pairs of border vertices the SVG keeps, the VG's known.
 
@@ -1417,11 +1415,11 @@ def _tangents_of_known(
     is_candidate = np.zeros(len(q.points), dtype=bool)
     is_candidate[candidate] = True
     sides = (wedges.nxt, wedges.prv)
-    return tangent_pairs(known.i, known.j, is_candidate, q.points, sides, _ANGLE_TOL)
+    return tangent_pairs(known.i, known.j, is_candidate, q.points, sides, ANGLE_TOL)
 
 
 def _tangent_rows(
-    known: _Sight, q: _Query, wedges: _Wedges, candidate: IntArray
+    known: Sight, q: _Query, wedges: _Wedges, candidate: IntArray
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield each new node's (start's, goal's) tangent pairs with the candidates before it."""
     for new in range(known.n, len(q.points)):
@@ -1479,7 +1477,7 @@ def plan_visibility(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
     >>> result = plan_visibility(space, (-1, 1), (3, 1))
     >>> result.status, round(result.length, 6)  # around a corner: 2 * sqrt(2) + 2

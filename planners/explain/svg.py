@@ -36,7 +36,8 @@ import numpy.typing as npt
 import shapely
 from shapely import LineString, Point, Polygon
 
-from planners.explain import (
+from planners.api import plan_all
+from planners.explain._steps import (
     Explanation,
     Lazy,
     Step,
@@ -49,9 +50,9 @@ from planners.explain import (
 from planners.visibility import GraphArrays, svg_node_reasons
 
 if TYPE_CHECKING:
-    from planners.expansion import ConfigurationSpace
     from planners.registry import PlanOptions
     from planners.scene import Scene
+    from planners.space.expansion import ConfigurationSpace
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -224,8 +225,6 @@ def explain_svg(
     >>> print(svg.steps[-1].text)  # doctest: +ELLIPSIS
     Step 3: end of procedure. The shortest path through the SVG is ... m long.
     """
-    from planners.api import plan_all  # noqa: PLC0415 - api imports the planners
-
     plans = plans if plans is not None else plan_all(scene, ("svg",), options)
     result = plans["svg"]
     title = "Simplified visibility graph (section 9.5)"

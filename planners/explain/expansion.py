@@ -5,7 +5,7 @@ the disk" (Fig. 9.7); the chapter's simplified model places the robot's enclosin
 instead (Fig. 9.8). :func:`explain_expansion` shows the construction for one obstacle:
 the robot's shape placed at each vertex in turn, the edges pushed out by the robot, and
 the union, which is the expanded obstacle the planners use
-(:func:`planners.expansion.expand_polygon`, the same call).
+(:func:`planners.space.expansion.expand_polygon`, the same call).
 """
 
 from __future__ import annotations
@@ -21,8 +21,7 @@ import numpy.typing as npt
 import shapely
 from shapely import Polygon
 
-from planners.expansion import expand_polygon
-from planners.explain import (
+from planners.explain._steps import (
     Explanation,
     Lazy,
     Step,
@@ -34,6 +33,7 @@ from planners.explain import (
     segment_mark,
 )
 from planners.registry import PlanOptions
+from planners.space.expansion import expand_polygon
 
 if TYPE_CHECKING:
     from planners.scene import Scene

@@ -20,7 +20,7 @@ In a lecture Bug2 shows what the range sensor buys: Bug2 walks the whole far sid
 obstacle that TangentBug leaves as soon as it sees round it.
 
 Like every planner here it works in the configuration space of
-:mod:`planners.expansion`: the robot is a point, obstacles are expanded, and the border is
+:mod:`planners.space.expansion`: the robot is a point, obstacles are expanded, and the border is
 free, so the robot may walk along it. Where borders touch at a single point (a *pinch*),
 the robot passes onto the other border and walks round the whole connected obstacle. Its
 one blind spot is free space joined to the rest *only* through pinches (zero-width gaps):
@@ -45,13 +45,13 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 
-from planners.border import RingGeometry, ring_geometry
-from planners.expansion import ConfigurationSpace
-from planners.geometry import as_point as _pt
-from planners.geometry import unit as _unit
-from planners.sensor import free_extent
-from planners.tangent_bug import BugEvent
-from planners.trace import FOLLOW, SEEK, WalkedPath, simplify_walk
+from planners.bug.sensor import free_extent
+from planners.bug.tangent_bug import BugEvent
+from planners.bug.trace import FOLLOW, SEEK, WalkedPath, simplify_walk
+from planners.space.border import RingGeometry, ring_geometry
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import as_point as _pt
+from planners.space.geometry import unit as _unit
 
 FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
@@ -180,7 +180,7 @@ def plan_bug2(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
     >>> trace = plan_bug2(space, (-1.0, 1.0), (3.0, 1.0))
     >>> trace.status, round(trace.length, 6)  # turn left: up, across the top, down

@@ -1,12 +1,12 @@
 """The pieces TangentBug's two modes share (section 9.6, Fig. 9.15).
 
-Goal seeking (:mod:`planners.bug_seek`) and boundary following (:mod:`planners.bug_follow`)
+Goal seeking (:mod:`planners.bug._seek`) and boundary following (:mod:`planners.bug._follow`)
 never import each other: what passes between them is a :class:`BugState` built from the
-records here, and the :class:`_Context` built once per (configuration space, parameters).
+records here, and the :class:`Context` built once per (configuration space, parameters).
 The records of the run (:class:`BugParams`, :class:`BugEvent`, :class:`Move`,
 :class:`Follow`, :class:`BugState`) and of its decisions are public through
-:mod:`planners.tangent_bug`; the small geometry below (points, polylines, disks) is what
-both modes and the leave rules (:mod:`planners.bug_leave`) measure with.
+:mod:`planners.bug.tangent_bug`; the small geometry below (points, polylines, disks) is what
+both modes and the leave rules (:mod:`planners.bug._leave`) measure with.
 """
 
 from __future__ import annotations
@@ -24,26 +24,25 @@ __all__ = [
     "Candidate",
     "Decision",
     "Follow",
+    "LeaveCheck",
+    "LeaveRule",
     "Move",
     "make_context",
 ]
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
+from typing import Any, NamedTuple, Protocol, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 import shapely
 
-from planners.border import RingGeometry, ring_geometry
-from planners.expansion import ConfigurationSpace
-from planners.geometry import as_point as _pt
-from planners.geometry import segment_closest as _segment_closest
-from planners.trace import FOLLOW, SEEK
-
-if TYPE_CHECKING:
-    from planners.bug_leave import LeaveRule
+from planners.bug.trace import FOLLOW, SEEK
+from planners.space.border import RingGeometry, ring_geometry
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import as_point as _pt
+from planners.space.geometry import segment_closest as _segment_closest
 
 FloatArray = npt.NDArray[np.float64]
 Point = tuple[float, float]
@@ -218,7 +217,7 @@ class Candidate(NamedTuple):
     """O_i [m]."""
     kind: str
     """``"occluding"``, ``"occluded"`` (a corner) or ``"range"`` (where the border leaves
-    the sensing circle), as in :class:`planners.sensor.Sensing`."""
+    the sensing circle), as in :class:`planners.bug.sensor.Sensing`."""
     d_robot: float
     """d(r, O_i) [m]."""
     d_goal: float
@@ -265,7 +264,7 @@ class Decision:
 _Record = TypeVar("_Record", "BugState", "Follow")
 
 
-def _evolve(record: _Record, **changes: Any) -> _Record:
+def evolve(record: _Record, **changes: Any) -> _Record:
     """Return a copy of a frozen ``BugState`` or ``Follow`` with ``changes``.
 
     What :func:`dataclasses.replace` does, five times faster: it re-reads the fields and
@@ -284,8 +283,51 @@ def _evolve(record: _Record, **changes: Any) -> _Record:
 # --------------------------------------------------------------------------- context
 
 
+class LeaveCheck(NamedTuple):
+    """What the leave rule found on a walked piece of path."""
+
+    follow: Follow
+    """The boundary-following memory, updated with what the rule saw on the way."""
+    stop: float | None
+    """Arclength along the piece where the rule first holds [m], None if nowhere."""
+    d_reach: float | None = None
+    """TangentBug rule: d_reach where the rule holds (None: not that rule)."""
+
+
+class LeaveRule(Protocol):
+    """The leave rule of boundary following: the one thing the two variants differ in.
+
+    Implementations are stateless (their memory lives in :class:`Follow`: d_followed,
+    ``risen``), so one instance serves every run.
+    """
+
+    name: str
+    """The name in ``BugParams.leave_rule``."""
+
+    def walk_length(self, ctx: Context, f: Follow, remaining: float) -> float:
+        """Return how far to walk along the ring before asking again [m].
+
+        ``remaining`` is what is left of the round (or up to Bug1's exit) [m].
+        """
+        ...
+
+    def check(
+        self, ctx: Context, f: Follow, path: FloatArray, cum: FloatArray
+    ) -> LeaveCheck:
+        """Find where on ``path`` (k, 2), arclengths ``cum`` (k,), the rule first holds."""
+        ...
+
+    def after_leave(self, ctx: Context, f: Follow, p: FloatArray) -> Move | None:
+        """Return the move the robot makes right after leaving at ``p``, if any."""
+        ...
+
+    def measures(self, f: Follow) -> tuple[float | None, float | None]:
+        """Return the rule's quantities in ``f`` for the decision records: d_reach, d_followed."""
+        ...
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
-class _Context:
+class Context:
     """Everything derived once per (configuration space, parameters)."""
 
     cspace: ConfigurationSpace
@@ -309,10 +351,10 @@ class _Context:
 
 def make_context(
     cspace: ConfigurationSpace, params: BugParams, leave: LeaveRule
-) -> _Context:
+) -> Context:
     """Derive the step sizes, tolerances and border tables of a run (pure).
 
-    ``leave`` is the rule ``params.leave_rule`` names (:func:`planners.bug_leave.leave_rule`).
+    ``leave`` is the rule ``params.leave_rule`` names (:func:`planners.bug._leave.leave_rule`).
     """
     radius = float(params.sensor_range)
     if not radius > 0:
@@ -344,7 +386,7 @@ def make_context(
     # seek_step / 2**refine; heuristic distances change at most twice as fast as the robot
     # moves, so there the two choices differ by less than this band.
     slide_band = 4.0 * seek_step / 2.0**params.refine + 10.0 * tol
-    return _Context(
+    return Context(
         cspace=cspace,
         geo=geo,
         goal=goal,
@@ -368,7 +410,7 @@ def _edges_by_goal(
     geo: RingGeometry, goal: FloatArray
 ) -> tuple[tuple[list[float], list[int]], ...]:
     """Per ring: the distances from the goal to its edges, ascending, and those edges."""
-    goal_edge = _segment_distances(np.stack([geo.start, geo.end], axis=1), goal)
+    goal_edge = segment_distances(np.stack([geo.start, geo.end], axis=1), goal)
     out = []
     for k in range(len(geo.rings)):
         lo, hi = int(geo.offset[k]), int(geo.offset[k + 1])
@@ -377,7 +419,7 @@ def _edges_by_goal(
     return tuple(out)
 
 
-def _obstacle_at(ctx: _Context, point: FloatArray) -> int | None:
+def obstacle_at(ctx: Context, point: FloatArray) -> int | None:
     """Name the scene obstacle (1-based) whose expanded border is nearest ``point``.
 
     None when the walls are nearer.
@@ -394,14 +436,14 @@ def _obstacle_at(ctx: _Context, point: FloatArray) -> int | None:
     return which
 
 
-def _label(prefix: str, obstacle: int | None) -> str:
+def event_label(prefix: str, obstacle: int | None) -> str:
     return f"{prefix}{'w' if obstacle is None else obstacle}"
 
 
 # --------------------------------------------------------------------------- helpers
 
 
-def _moved(
+def moved(
     state: BugState, moves: tuple[Move, ...], events: tuple[BugEvent, ...]
 ) -> BugState:
     length = sum(
@@ -410,7 +452,7 @@ def _moved(
         if len(m.path) > 1
     )
     end = moves[-1].path[-1] if moves else np.asarray(state.position)
-    return _evolve(
+    return evolve(
         state,
         position=_pt(end),
         moves=moves,
@@ -420,7 +462,7 @@ def _moved(
     )
 
 
-def _finish(
+def finish(
     state: BugState,
     end: FloatArray,
     moves: tuple[Move, ...],
@@ -431,8 +473,8 @@ def _finish(
     terminated: str = "goal",
 ) -> BugState:
     """Make the final state after ``moves``: at the goal unless told otherwise."""
-    out = _moved(state, moves, events)
-    return _evolve(
+    out = moved(state, moves, events)
+    return evolve(
         out,
         position=_pt(end),
         mode=mode,
@@ -442,11 +484,11 @@ def _finish(
     )
 
 
-def _segment_distances(segments: FloatArray, p: FloatArray) -> FloatArray:
+def segment_distances(segments: FloatArray, p: FloatArray) -> FloatArray:
     return _segment_closest(segments, p)[0]
 
 
-def _sigma_on_ring(
+def sigma_on_ring(
     geo: RingGeometry, x: FloatArray, ring: int, tol: float
 ) -> float | None:
     """Arclength of ``x`` along ``ring`` if it lies on it (within ``tol``)."""
@@ -462,7 +504,7 @@ def _sigma_on_ring(
     return geo.sigma(lo + k, min(max(t, 0.0), 1.0))
 
 
-def _tangents(
+def tangents(
     geo: RingGeometry, ring: int, sigma: float
 ) -> tuple[FloatArray, FloatArray]:
     """Return the unit directions along ``ring`` at arclength ``sigma``: forward, backward."""
@@ -477,22 +519,22 @@ def _tangents(
     return geo.unit[e], -geo.unit[e]
 
 
-def _point_along(path: FloatArray, cum: FloatArray, s: float) -> FloatArray:
+def point_along(path: FloatArray, cum: FloatArray, s: float) -> FloatArray:
     i = min(max(int(np.searchsorted(cum, s, side="right")) - 1, 0), len(path) - 2)
     span = cum[i + 1] - cum[i]
     t = (s - cum[i]) / span if span > 0 else 0.0
     return path[i] + min(max(t, 0.0), 1.0) * (path[i + 1] - path[i])
 
 
-def _cut(path: FloatArray, cum: FloatArray, s: float) -> FloatArray:
+def cut_path(path: FloatArray, cum: FloatArray, s: float) -> FloatArray:
     """Cut the polyline ``path`` at arclength ``s``."""
     keep = path[: int(np.searchsorted(cum, s, side="left"))]
-    end = _point_along(path, cum, s)
+    end = point_along(path, cum, s)
     out = np.vstack([keep, end[None, :]]) if len(keep) else np.array([path[0], end])
     return out
 
 
-def _first_within(
+def first_within(
     path: FloatArray, cum: FloatArray, g: FloatArray, radius: float, start: float = 0.0
 ) -> float | None:
     """First arclength >= ``start`` along ``path`` within ``radius`` of ``g`` (None if never)."""
@@ -501,14 +543,14 @@ def _first_within(
     for i in range(len(path) - 1):
         if cum[i + 1] < start:
             continue
-        p = path[i] if cum[i] >= start else _point_along(path, cum, start)
-        s = _enter_disk(p, path[i + 1], g, radius)
+        p = path[i] if cum[i] >= start else point_along(path, cum, start)
+        s = enter_disk(p, path[i + 1], g, radius)
         if s is not None:
             return max(float(cum[i]), start) + s
     return None
 
 
-def _first_outside(
+def first_outside(
     path: FloatArray, cum: FloatArray, g: FloatArray, radius: float
 ) -> float | None:
     """First arclength along ``path`` farther than ``radius`` from ``g`` (None if never)."""
@@ -529,7 +571,7 @@ def _first_outside(
     return None
 
 
-def _enter_disk(
+def enter_disk(
     p: FloatArray, q: FloatArray, g: FloatArray, radius: float
 ) -> float | None:
     """Distance along segment p -> q where it first comes within ``radius`` of ``g``."""

@@ -1,8 +1,8 @@
 """Distance-sensor-based path planning (section 9.6): TangentBug.
 
-The robot is a point in the configuration space of :mod:`planners.expansion`. It knows
+The robot is a point in the configuration space of :mod:`planners.space.expansion`. It knows
 where it is and where the goal g is, but not the map: every decision uses only what its
-360-degree range sensor of range R sees (:mod:`planners.sensor`): the visible border
+360-degree range sensor of range R sees (:mod:`planners.bug.sensor`): the visible border
 within R and the discontinuity points O_i. Two modes alternate (the chapter's Fig. 9.15;
 Kamon, Rivlin and Rimon 1998; Choset et al. 2005, section 2.3).
 
@@ -67,11 +67,11 @@ what grounds: every decision is a :class:`Decision` record (the box of Fig. 9.15
 O_i with d(r, O_i) and d(O_i, g), r_next, d_reach and d_followed), in
 :attr:`BugTrace.decisions` and :meth:`BugTrace.decision_at`.
 
-The code follows the flowchart: goal seeking (:mod:`planners.bug_seek`) and boundary
-following (:mod:`planners.bug_follow`) never import each other and hand over by the
-mode of the state they return; the leave rule is one object (:mod:`planners.bug_leave`);
+The code follows the flowchart: goal seeking (:mod:`planners.bug._seek`) and boundary
+following (:mod:`planners.bug._follow`) never import each other and hand over by the
+mode of the state they return; the leave rule is one object (:mod:`planners.bug._leave`);
 the records and the context a run derives from (configuration space, parameters) are in
-:mod:`planners.bug_context`. This module is the entry point: the step, the run and the
+:mod:`planners.bug._context`. This module is the entry point: the step, the run and the
 trace.
 
 References
@@ -94,7 +94,6 @@ __all__ = [
     "Decision",
     "Follow",
     "Move",
-    "heuristic_distances",
     "initial_state",
     "plan_tangent_bug",
     "run",
@@ -110,7 +109,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from planners.bug_context import (
+from planners.bug._context import (
     FOLLOW,
     LEAVE_RULES,
     REACHED,
@@ -120,21 +119,21 @@ from planners.bug_context import (
     BugParams,
     BugState,
     Candidate,
+    Context,
     Decision,
     FloatArray,
     Follow,
     Move,
     Point,
-    _Context,
-    _pt,
     make_context,
 )
-from planners.bug_follow import _follow_step
-from planners.bug_leave import leave_rule
-from planners.bug_seek import _seek_step
-from planners.expansion import ConfigurationSpace
-from planners.sensor import Sensing, sense
-from planners.trace import WalkedPath, arclength, simplify_walk
+from planners.bug._follow import boundary_following_step
+from planners.bug._leave import leave_rule
+from planners.bug._seek import goal_seeking_step
+from planners.bug.sensor import Sensing, sense
+from planners.bug.trace import WalkedPath, arclength, simplify_walk
+from planners.space.expansion import ConfigurationSpace
+from planners.space.geometry import as_point as _pt
 
 # --------------------------------------------------------------------------- the run
 
@@ -196,7 +195,7 @@ class BugTrace(WalkedPath):
         Examples
         --------
         >>> from shapely import Polygon
-        >>> from planners.expansion import configuration_space
+        >>> from planners.space.expansion import configuration_space
         >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
         >>> trace = run(space, (-1.0, 1.0), BugParams(goal=(3.0, 1.0), sensor_range=math.inf))
         >>> d = trace.decision_at(0.5)
@@ -223,44 +222,24 @@ class BugTrace(WalkedPath):
         return sense(self.cspace, self.position_at(s), self.sensor_range)
 
 
-def heuristic_distances(sensing: Sensing, goal: npt.ArrayLike) -> FloatArray:
-    """Heuristic distance d(r, O_i) + d(O_i, g) of each discontinuity point, shape (M,).
-
-    Examples
-    --------
-    >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
-    >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
-    >>> seen = sense(space, (-1.0, 0.5), 5.0)
-    >>> heuristic_distances(seen, (2.0, 0.5)).round(4).tolist()  # both corners alike
-    [3.1796, 3.1796]
-    """
-    g = np.asarray(goal, dtype=np.float64)
-    if len(sensing.points) == 0:
-        return np.zeros(0)
-    return np.hypot(*(sensing.points - sensing.position).T) + np.hypot(
-        *(sensing.points - g).T
-    )
-
-
 # --------------------------------------------------------------------------- the step
 
 
-def _context(cspace: ConfigurationSpace, params: BugParams) -> _Context:
+def _context(cspace: ConfigurationSpace, params: BugParams) -> Context:
     """Build the context of a run: ``params`` on ``cspace`` (about 55 us).
 
     Built per run, not kept on the configuration space: it depends on the goal, and a
     goal dragged over a fixed configuration space would leave one behind per position.
-    What it reads of the border (:func:`planners.border.ring_geometry`) is kept there.
+    What it reads of the border (:func:`planners.space.border.ring_geometry`) is kept there.
     """
     return make_context(cspace, params, leave_rule(params.leave_rule))
 
 
-def _step(ctx: _Context, state: BugState) -> BugState:
+def _step(ctx: Context, state: BugState) -> BugState:
     """One step of the mode the robot is in (the two boxes of Fig. 9.15)."""
     if state.mode == SEEK:
-        return _seek_step(ctx, state)
-    return _follow_step(ctx, state)
+        return goal_seeking_step(ctx, state)
+    return boundary_following_step(ctx, state)
 
 
 def initial_state(start: npt.ArrayLike) -> BugState:
@@ -295,7 +274,7 @@ def step(state: BugState, cspace: ConfigurationSpace, params: BugParams) -> BugS
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]),), 0.0)
     >>> params = BugParams(goal=(3.0, 0.5), sensor_range=10.0)
     >>> state = step(initial_state((-1.0, 0.5)), space, params)
@@ -334,7 +313,7 @@ def run(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
     >>> trace = run(space, (-1.0, 1.0), BugParams(goal=(3.0, 1.0), sensor_range=math.inf))
     >>> trace.status, round(trace.length, 6)  # over a corner, along a side, down: optimal
@@ -470,7 +449,7 @@ def plan_tangent_bug(
     Examples
     --------
     >>> from shapely import Polygon
-    >>> from planners.expansion import configuration_space
+    >>> from planners.space.expansion import configuration_space
     >>> space = configuration_space((Polygon([(0, 0), (2, 0), (2, 2), (0, 2)]),), 0.0)
     >>> plan_tangent_bug(space, (1, 1), (3, 1)).status
     'invalid'

@@ -6,7 +6,15 @@ rows of vectors are arrays of shape (N, 2).
 
 from __future__ import annotations
 
-__all__ = ["as_point", "cross", "segment_closest", "take_rows", "unit", "unit_rows"]
+__all__ = [
+    "as_point",
+    "clean_ring",
+    "cross",
+    "segment_closest",
+    "take_rows",
+    "unit",
+    "unit_rows",
+]
 
 import math
 from typing import Any
@@ -89,3 +97,45 @@ def segment_closest(
     t = np.clip(np.einsum("ij,ij->i", p - a, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
     closest = a + t[:, None] * d
     return np.hypot(*(closest - p).T), closest
+
+
+def clean_ring(ring: npt.ArrayLike, tol: float, *, repeats: bool = True) -> FloatArray:
+    """Drop the vertices of an open ring (N, 2) that lie on the segment joining their neighbours.
+
+    A vertex is dropped when it lies between its neighbours within ``tol`` of their
+    chord (relative to the chord's length), never two neighbours in one pass (dropping
+    one changes the other's test); passes repeat until none is dropped or three vertices
+    remain. With ``repeats``, a vertex within ``tol`` of the next one is dropped first.
+
+    Examples
+    --------
+    >>> clean_ring([(0, 0), (1, 0), (2, 0), (2, 2), (2, 2), (0, 2)], 1e-9).tolist()
+    [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]
+    >>> clean_ring([(0, 0), (1, 0), (2, 0), (2, 2), (0, 2)], 1e-9, repeats=False).tolist()
+    [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]
+    """
+    pts = np.asarray(ring, dtype=np.float64)
+    changed = True
+    while changed and len(pts) > 3:
+        changed = False
+        if repeats:
+            step = np.roll(pts, -1, axis=0) - pts
+            short = np.hypot(step[:, 0], step[:, 1]) <= tol
+            if short.any():
+                pts = pts[~short]
+                changed = True
+                continue
+        prev, nxt = np.roll(pts, 1, axis=0), np.roll(pts, -1, axis=0)
+        chord = nxt - prev
+        length = np.hypot(chord[:, 0], chord[:, 1])
+        cross = chord[:, 0] * (pts[:, 1] - prev[:, 1]) - chord[:, 1] * (
+            pts[:, 0] - prev[:, 0]
+        )
+        # Between its neighbours: a positive projection on the chord, so a chord of length 0 never.
+        between = np.einsum("ij,ij->i", pts - prev, chord) > 0
+        flat = (np.abs(cross) <= tol * np.maximum(length, tol)) & between
+        flat &= ~np.roll(flat, 1)  # never two neighbours at once
+        if flat.any():
+            pts = pts[~flat]
+            changed = True
+    return pts

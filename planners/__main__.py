@@ -1,6 +1,6 @@
 """Command line: ``python -m planners plan FILE [FILE ...] [--planners vg,svg,dsb] [--sensor-range R]``.
 
-With one file, prints one JSON object (DESIGN.md); with several, one JSON object per line
+With one file, prints one JSON object (docs/api.md, "Command line"); with several, one JSON object per line
 in input order. An unreadable or invalid file: exit 2 with one line on stderr.
 """
 

@@ -1,4 +1,4 @@
-"""Keep freed memory for the next edit: glibc's allocator thresholds (issue 15).
+"""Keep freed memory for the next edit: glibc's allocator thresholds.
 
 Planning one edit makes many numpy temporaries of a few hundred KiB (the candidate pairs
 of the visibility test: 13,000 pairs of points are 420 KiB). glibc's ``malloc`` serves a
@@ -7,7 +7,7 @@ with fresh pages from the kernel and gives them back on ``free``, and it trims t
 heap's free top beyond its *trim threshold*: either way the next edit's temporaries land
 on fresh pages, and each 4 KiB page costs a page fault when first written. In a
 32-obstacle student room that was about 790 faults a vertex drag, some 2 ms of a 16 ms
-plan on the 2-core machine of ``tests/benchmarks/README.md``; with the thresholds below,
+plan on the 2-core machine of ``docs/benchmarks.md``; with the thresholds below,
 2 or 3.
 
 :func:`keep_freed_memory` raises both thresholds for the calling process: blocks up to

@@ -12,7 +12,7 @@ __all__ = [
 ]
 
 import dataclasses
-import time  # the only clock in planners/: plan_all reports compute times (DESIGN.md)
+import time  # the only clock in planners/: plan_all reports compute times
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -120,7 +120,7 @@ def plan_all(
         memo=memo,
     )
     if previous is not None and previous is not cspace:
-        # An edit: the vertex visibility follows from the one before it (issue 15).
+        # An edit: the vertex visibility follows from the one before it.
         carry_visibility(cspace, previous)
     shared_ms = (time.perf_counter() - t0) * 1e3
     reason = _endpoint_problem(scene, cspace)
@@ -137,7 +137,7 @@ def plan_all(
                 f"planner {name!r} returned {type(result).__name__}, not a dataclass "
                 "with an 'ms' field (planners.registry.PlanResult)"
             )
-        # Planners cannot read a clock (STYLE.md), so the time is measured around the
+        # Planners cannot read a clock (docs/architecture.md, "Conventions"), so the time is measured around the
         # call and the complete result is a copy with it.
         results[name] = dataclasses.replace(result, ms=ms)
     results["cspace"] = cspace
@@ -178,7 +178,7 @@ def _endpoint_problem(scene: Scene, cspace: ConfigurationSpace) -> str | None:
 def result_to_json(
     name: str, result: Any, registry: Mapping[str, PlannerSpec] = REGISTRY
 ) -> dict[str, Any]:
-    """Turn one planner result into the CLI's JSON object (DESIGN.md contract)."""
+    """Turn one planner result into the CLI's JSON object (docs/api.md, "Command line")."""
     path = np.asarray(result.path, dtype=np.float64).reshape(-1, 2)
     out: dict[str, Any] = {
         "status": result.status,

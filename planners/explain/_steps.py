@@ -261,7 +261,7 @@ def circle_segments(center: Any, radius: float, n: int = 64) -> FloatArray:
 
 
 class Abandoned(Exception):
-    """An explanation given up part way: its caller asked for another one (issue 15).
+    """An explanation given up part way: its caller asked for another one.
 
     On a big scene some parts take a second or more (the SVG's tags of 10,000 edges, a
     VG vertex's blocked lines of sight); they ask the caller's ``abandoned`` function

@@ -2,7 +2,7 @@
 
 A :class:`Scene` is an immutable value: every edit returns a new scene, so a scene can be
 cached, compared, undone and shared between threads without locks. Scenario files are the
-JSON format of ``DESIGN.md``; :func:`load_scene` validates every field and names the file
+JSON format of ``docs/scenario-format.md``; :func:`load_scene` validates every field and names the file
 and the field in its error, :func:`save_scene` writes atomically.
 """
 
@@ -233,7 +233,7 @@ def _polygon_problem(polygon: Polygon) -> str:
 
 
 def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
-    """Validate a scenario mapping (the JSON format of DESIGN.md) and build a Scene.
+    """Validate a scenario mapping (the JSON format of docs/scenario-format.md) and build a Scene.
 
     Parameters
     ----------

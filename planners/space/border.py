@@ -398,7 +398,7 @@ def _build_ring_geometry(cspace: ConfigurationSpace, cleaned: bool) -> RingGeome
 
 # --------------------------------------------------------------------------- edge index
 #
-# Which border edges can matter to a question asked near a point (section 9.6, issue 15).
+# Which border edges can matter to a question asked near a point (section 9.6).
 #
 # The range sensor of :mod:`planners.bug.sensor` answers from one position: what lies within
 # the range R (:func:`planners.bug.sensor.sense`), how far a ray goes

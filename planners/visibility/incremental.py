@@ -1,4 +1,4 @@
-"""The vertex visibility after an edit, from the one before it (issue 15, item 1).
+"""The vertex visibility after an edit, from the one before it.
 
 A drag changes one obstacle; the visibility graph of section 9.4 changes only near it.
 Whether two border vertices see each other depends on the blocked space along their

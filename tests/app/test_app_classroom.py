@@ -427,7 +427,7 @@ def test_private_copies_share_a_bounded_pool_of_workers(planner):
 
 
 def test_private_copies_plan_big_scenes_in_the_shared_pool(planner):
-    """Issue 15, item 4: students who all open a CAD-sized scene start at most
+    """Students who all open a CAD-sized scene start at most
     ``copy_workers`` processes for its graphs, not one each; an edit of one copy gives
     its own computation up, and every copy ends with its own scene's plans."""
     room = planner.classroom

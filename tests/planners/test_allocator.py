@@ -1,4 +1,4 @@
-"""planners.allocator: freed temporaries are reused, not faulted in again (issue 15)."""
+"""planners.allocator: freed temporaries are reused, not faulted in again."""
 
 from __future__ import annotations
 

@@ -258,7 +258,7 @@ def test_the_modes_do_not_branch_on_the_leave_rule():
         assert ".rule" not in (BUG_DIR / f"{module}.py").read_text()
 
 
-# Modules other branches are rewriting (issue 12, item 4); remove once they land.
+# Decision records are frozen values.
 def test_a_decision_is_a_frozen_value():
     d = Decision(s=0.0, position=(0.0, 0.0), mode=SEEK, box="reached", d_goal=0.0)
     with pytest.raises(AttributeError):

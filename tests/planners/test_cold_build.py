@@ -1,4 +1,4 @@
-"""The cold full build: vertex pairs, the start's and goal's rows in one exact test (issue 15).
+"""The cold full build: vertex pairs, the start's and goal's rows in one exact test.
 
 A fresh configuration space with a new start and goal finds the vertex visibility, both
 rows and the start-goal pair together (`visibility._cold_sights`). These properties hold

@@ -1,4 +1,4 @@
-"""Explain mode's data (issue 13): each method's steps against the planners' own answers."""
+"""Explain mode's data: each method's steps against the planners' own answers."""
 
 from __future__ import annotations
 

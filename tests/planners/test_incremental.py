@@ -1,4 +1,4 @@
-"""The vertex visibility carried over an edit equals the one built from scratch (issue 15).
+"""The vertex visibility carried over an edit equals the one built from scratch.
 
 Random edit sequences (vertex drags that merge and split obstacles, vertex inserts and
 deletes, obstacle moves, inserts and deletes, edits that make the scene invalid and back)
@@ -549,7 +549,7 @@ def test_drags_in_a_student_layout_are_carried_exactly(seed):
 def test_the_benchmark_apart_rooms_keep_their_obstacles_apart_and_are_carried():
     """bench_student's ``apart`` rooms: no two expanded obstacles meet, so the
     configuration space has a ring per obstacle and the room's (612 vertices at 32
-    obstacles, the issue's "up to 600"); the benchmark's two drags there are carried
+    obstacles, up to 600); the benchmark's two drags there are carried
     exactly."""
     from tests.benchmarks.bench_student import drag_points, student_layout
 

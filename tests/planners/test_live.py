@@ -1,4 +1,4 @@
-"""Live DSB (issue 17): the robot decides every dt in the scene as it is at that moment.
+"""Live DSB: the robot decides every dt in the scene as it is at that moment.
 
 Proofs asked for: with static obstacles the live path is the planner's DSB path (same
 events in the same order, positions within tracking tolerance); with moving obstacles the

@@ -246,7 +246,7 @@ def _hex_points(points):
 
 
 # Counterexamples random exploration found, kept as plain regression tests. The first two
-# (CI, 2026-11-22): the robot on an edge a few eps (not within eps) from a vertex. In the
+# (found on CI): the robot on an edge a few eps (not within eps) from a vertex. In the
 # first the vertex is a convex corner 1.35 eps away: the robot sees past it through the
 # corner's tip, thinner than eps there. In the second the border turns by 2 degrees at
 # the vertex, 6 eps away: the neighbouring edge, whose line passes within eps of the

@@ -1,4 +1,4 @@
-"""planners.visibility.sightlines against brute force: the grid march and the disk filter (issue 15)."""
+"""planners.visibility.sightlines against brute force: the grid march and the disk filter."""
 
 import dataclasses
 import functools

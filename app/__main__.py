@@ -260,8 +260,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.snapshot is not None and args.explain is None:
         return _snapshot(args)
 
-    from app.files import FolderError  # noqa: PLC0415
     from app.server import DEFAULT_SCENARIO, resolve_scenario, start_app  # noqa: PLC0415
+    from app.session.files import FolderError  # noqa: PLC0415
     from planners.scene import ScenarioError  # noqa: PLC0415
 
     scenario = args.scenario or DEFAULT_SCENARIO

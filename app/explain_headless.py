@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from app import headless
-from app.explain_panel import METHOD_TITLES
+from app.explain.panel import METHOD_TITLES
 from planners.explain import METHODS
 
 

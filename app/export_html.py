@@ -8,7 +8,7 @@ script) into a single document. This module uses exactly that mechanism, so the 
 drawn by the same client as the app, with every layer the app draws:
 
 1. start the app (no browser needed) and let the view draw for a picture
-   (:meth:`app.view.PlannerView.present`: no editing gizmos);
+   (:meth:`app.ui.view.PlannerView.present`: no editing gizmos);
 2. start recording: the serializer takes the current scene, then every message after;
 3. put the robot at ``t_k = k / fps`` for every frame (:func:`app.record.frame_times`),
    waiting until each pose is drawn and sent, with a pause of ``1 / fps`` recorded
@@ -37,7 +37,7 @@ from app import headless
 from app.jobs import JobFailure, start_quietly
 from app.record import LIVE_FOLLOW, MAX_FPS, RECORD_FPS, check_until, frame_times
 from app.slides import legend_rows
-from app.text import html_text
+from app.ui.text import html_text
 
 
 def legend_html(

@@ -48,8 +48,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from app.frames import RobotPose
-from app.text import markdown_text
+from app.session.frames import RobotPose
+from app.ui.text import markdown_text
 from planners.bug.live import (
     LiveEvent,
     LiveOptions,

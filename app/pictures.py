@@ -8,7 +8,7 @@ per batch, not once per picture.
 
 Each picture is laid out by :func:`app.slides.layout` for its size (camera, title, legend,
 labels placed so none overlaps another or a marker) and drawn by the app's own view in
-"presentation" mode (:meth:`app.view.PlannerView.present`: no editing gizmos, screen-pixel
+"presentation" mode (:meth:`app.ui.view.PlannerView.present`: no editing gizmos, screen-pixel
 lines scaled to the picture, the view's own 3-D labels replaced by the slide's).
 
 Frames of a recording (:meth:`Studio.frame`) are taken at trajectory times given

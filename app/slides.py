@@ -15,8 +15,8 @@ the size:
 
 What it returns (:class:`Slide`) is drawn over the 3-D canvas by :data:`DRAW_OVERLAY_JS`,
 as HTML boxes with exactly the sizes the placer reserved. The labels say what the planners
-recorded (their events, by :func:`app.view.event_labels`); nothing is derived here.
-Colours are the documented colour-blind-safe set of :mod:`app.style`.
+recorded (their events, by :func:`app.ui.view.event_labels`); nothing is derived here.
+Colours are the documented colour-blind-safe set of :mod:`app.ui.style`.
 """
 
 from __future__ import annotations
@@ -49,8 +49,8 @@ import planners
 from app.headless import CameraPose, frame_camera, scene_bounds
 from app.labels import Box, LabelRequest, Placement, label_size, place_labels
 from app.slide_options import SlideOptions
-from app.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
-from app.view import event_labels
+from app.ui.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
+from app.ui.view import event_labels
 from planners.registry import PlannerSpec
 from planners.scene import Scene
 
@@ -64,8 +64,8 @@ _LEGEND_FONT = 0.8  # of the label font
 _TITLE_FONT = 1.2
 _TEXT_WIDTH = 0.62  # [em] per character of DejaVu Sans, an upper estimate
 _TOP_FOV = math.radians(20.0)  # as app.headless's top view
-_EVENT_CROSS = 0.12  # [m] half-size of an event's cross (app.view draws it)
-_MARKER_MIN = 0.12  # [m] smallest start/goal marker radius (app.view._marker_size)
+_EVENT_CROSS = 0.12  # [m] half-size of an event's cross (app.ui.view draws it)
+_MARKER_MIN = 0.12  # [m] smallest start/goal marker radius (app.ui.view._marker_size)
 
 
 @dataclasses.dataclass(frozen=True)

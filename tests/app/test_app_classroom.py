@@ -22,7 +22,6 @@ import pytest
 
 import planners
 from app import start_app
-from app.big import SharedWorkers
 from app.classroom import (
     PRESENTER_PATH,
     banner_html,
@@ -30,9 +29,10 @@ from app.classroom import (
     is_presenter_path,
     presenter_url,
 )
-from app.explain_panel import METHOD_TITLES
-from app.gate import GatedController, Refusals
+from app.explain.panel import METHOD_TITLES
+from app.guard.gate import GatedController, Refusals
 from app.server import _is_loopback
+from app.session.big import SharedWorkers
 from tests.app.app_helpers import classroom_client as client
 from tests.app.app_helpers import has_label as _has
 from tests.app.app_helpers import wait_until
@@ -149,7 +149,7 @@ class _RecorderGroup:
 
 def _entry_points() -> list[tuple[str, str]]:
     """Every public method of the controller and its groups: each is an edit entry point."""
-    from app.controller import Controller, MouseTools, ScenarioFiles, SceneEdits
+    from app.session.controller import Controller, MouseTools, ScenarioFiles, SceneEdits
 
     points = [
         ("", n)

@@ -24,8 +24,8 @@ from app.export_html import export_html, export_page
 from app.jobs import JobFailure
 from app.record_live import live_trace
 from app.server import resolve_scenario
-from app.style import HEIGHTS
-from app.view import prism_mesh
+from app.ui.style import HEIGHTS
+from app.ui.view import prism_mesh
 from planners.scene import load_scene, scene_at
 from tests.app.app_helpers import live_drawings
 from tests.browser import use_browser

@@ -113,7 +113,7 @@ def test_the_snapshot_command_does_not_import_the_app_before_the_browser() -> No
     # planners (their import is what the browser's launch overlaps).
     code = (
         "import sys, app.__main__, app.headless, app.slide_options\n"
-        "print(sorted(m for m in ('viser', 'planners', 'app.server', 'app.view')"
+        "print(sorted(m for m in ('viser', 'planners', 'app.server', 'app.ui.view')"
         " if m in sys.modules))"
     )
     result = subprocess.run(

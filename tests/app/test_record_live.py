@@ -29,8 +29,8 @@ from app.record import LIVE_FOLLOW, record, record_video
 from app.record_live import FIGURE_EVENTS, LiveFilm, live_trace, show_live
 from app.server import resolve_scenario
 from app.slides import SlideOptions, layout, project, relabel
-from app.style import COLORS, HEIGHTS
-from app.view import prism_mesh
+from app.ui.style import COLORS, HEIGHTS
+from app.ui.view import prism_mesh
 from planners.bug.live import LiveOptions, live_space
 from planners.scene import Scene, load_scene, scene_at
 from planners.scene.motion import Motion

@@ -1,4 +1,4 @@
-"""Thinning of big graph layers (app.thinning): a drawing choice, never a planner's decision."""
+"""Thinning of big graph layers (app.ui.thinning): a drawing choice, never a planner's decision."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import planners
-from app.thinning import (
+from app.ui.thinning import (
     THIN_ABOVE,
     edges_counted,
     edges_to_draw,

@@ -22,10 +22,10 @@ from hypothesis import strategies as st
 from shapely import Polygon
 
 import planners
-from app.controller import Controller
-from app.scoped import ScopedTarget
-from app.style import HEIGHTS
-from app.view import (
+from app.session.controller import Controller
+from app.ui.scoped import ScopedTarget
+from app.ui.style import HEIGHTS
+from app.ui.view import (
     PlannerView,
     _Chunked,
     chunk_size,

@@ -77,7 +77,7 @@ class GatedController:
     Parameters
     ----------
     controller
-        The session's :class:`app.controller.Controller`.
+        The session's :class:`app.session.controller.Controller`.
     allowed
         Asked at every call: may the browser behind this panel edit now?
     refusals

@@ -5,8 +5,8 @@ its visibility graph (section 9.4) takes seconds, not the few milliseconds of a 
 scene. Computed in the fast lane's thread that would hold the interpreter lock against
 the server (every browser would freeze) and keep the user's next edit waiting. So when a
 scene has more than :data:`BIG_SCENE_VERTICES` vertices, the scheduler
-(:mod:`app.scheduler`) hands the fast planners to a :class:`BigJob`: a worker process
-(:class:`app.lanes.ProcessLane`) computes them while the fast lane's thread draws a
+(:mod:`app.session.scheduler`) hands the fast planners to a :class:`BigJob`: a worker process
+(:class:`app.session.lanes.ProcessLane`) computes them while the fast lane's thread draws a
 progress frame every :data:`PROGRESS_S` -- the scene as edited, the last plans greyed,
 "Computing VG, SVG... (10,000 vertices, 2.3 s)" in the panel. The next edit gives the job
 up: the worker is stopped (a fresh one starts at once), and its result can never be
@@ -42,8 +42,8 @@ import time
 from collections.abc import Callable, Hashable, Iterator
 from typing import Any, Protocol
 
-from app.lanes import Interrupted, ProcessLane
-from app.pool import WorkerPool
+from app.session.lanes import Interrupted, ProcessLane
+from app.session.pool import WorkerPool
 from planners.scene import Scene
 
 BIG_SCENE_VERTICES = 1000
@@ -80,7 +80,7 @@ class BigWorkers(Protocol):
     ) -> contextlib.AbstractContextManager[ProcessLane]:
         """Hold a worker for one job (it may interrupt it meanwhile).
 
-        Raises :class:`app.lanes.Interrupted` when ``abandoned`` says the job was given
+        Raises :class:`app.session.lanes.Interrupted` when ``abandoned`` says the job was given
         up before it held one (it never waits for a worker it would not use).
         """
         ...

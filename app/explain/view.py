@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from app.style import BLACK, BLUE, DARK_PURPLE, GREEN, ORANGE, SKY, VERMILLION, tint
-from app.view import _Labels, _Segments, lift_segments, merge_labels
+from app.ui.style import BLACK, BLUE, DARK_PURPLE, GREEN, ORANGE, SKY, VERMILLION, tint
+from app.ui.view import _Labels, _Segments, lift_segments, merge_labels
 from planners.explain import ROLES, Step, circle_segments
 
 if TYPE_CHECKING:

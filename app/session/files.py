@@ -46,11 +46,11 @@ def plain_name(text: str) -> str:
     >>> plain_name("NUL.json")
     Traceback (most recent call last):
     ...
-    app.files.FolderError: a file name here is letters, digits, spaces, _ - . (at most 64, no folders): 'NUL.json'
+    app.session.files.FolderError: a file name here is letters, digits, spaces, _ - . (at most 64, no folders): 'NUL.json'
     >>> plain_name("../etc/passwd")
     Traceback (most recent call last):
     ...
-    app.files.FolderError: a file name here is letters, digits, spaces, _ - . (at most 64, no folders): '../etc/passwd'
+    app.session.files.FolderError: a file name here is letters, digits, spaces, _ - . (at most 64, no folders): '../etc/passwd'
     """
     name = text.strip()
     plain = _PLAIN.fullmatch(name) and ".." not in name and not name.endswith(".")

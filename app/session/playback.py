@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from app.frames import RobotPose, Views
-from app.session import SessionState
+from app.session._state import SessionState
+from app.session.frames import RobotPose, Views
 from planners.scene import Scene
 
 logger = logging.getLogger(__name__)

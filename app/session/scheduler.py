@@ -8,7 +8,7 @@ Data flow on an edit (docs/architecture.md)::
            plans = fast.run(scene, enabled graph names)  # planners.plan_all, outside it
            frame = build_frame(snapshot, plans + the slow lane's newest results)
            views.render(frame)                           # only versions newer than drawn
-      slow lane (a thread waiting on a worker process, app.lanes): the "trace" planners
+      slow lane (a thread waiting on a worker process, app.session.lanes): the "trace" planners
            results for the newest version it has not tried; stored as SlowResults, the
            fast lane draws them in its next round
 
@@ -52,7 +52,8 @@ import numpy.typing as npt
 from shapely import Polygon
 
 import planners
-from app.big import (
+from app.session._state import SessionState, Snapshot
+from app.session.big import (
     BIG_SCENE_VERTICES,
     PROGRESS_S,
     SETTLE_S,
@@ -61,10 +62,9 @@ from app.big import (
     OwnWorker,
     scene_vertices,
 )
-from app.frames import Frame, Views, build_frame
-from app.lanes import Interrupted, ProcessLane, picklable
-from app.playback import Playback
-from app.session import SessionState, Snapshot
+from app.session.frames import Frame, Views, build_frame
+from app.session.lanes import Interrupted, ProcessLane, picklable
+from app.session.playback import Playback
 from planners.registry import REGISTRY, PlannerSpec, planners_of_kind
 from planners.scene import Scene
 
@@ -155,7 +155,7 @@ class Lane:
     process: ProcessLane | None = None
     """The worker process the lane runs in, if any (closed with the scheduler)."""
     big: BigWorkers | None = None
-    """Where a big scene's plans are computed (:mod:`app.big`): the session's own worker
+    """Where a big scene's plans are computed (:mod:`app.session.big`): the session's own worker
     process or a classroom's shared pool; None: in the lane's thread."""
 
     def which(self, enabled: frozenset[str]) -> tuple[str, ...]:
@@ -186,8 +186,8 @@ def lanes_for(
     planners can be pickled (``slow_process``), else in a thread. A caller's ``plan``
     replaces the fast lane; ``slow_plan`` (computing ``slow_names``) the slow one;
     passing ``plan`` alone means no slow lane. A callable ``slow_process`` (a shared
-    :class:`app.pool.WorkerPool`) runs the slow lane instead of a process of its own,
-    and ``big_workers`` (:class:`app.big.SharedWorkers`) a big scene's fast planners.
+    :class:`app.session.pool.WorkerPool`) runs the slow lane instead of a process of its own,
+    and ``big_workers`` (:class:`app.session.big.SharedWorkers`) a big scene's fast planners.
     """
     fast_names = planners_of_kind("graph", registry=registry)
     slow = planners_of_kind("trace", registry=registry)
@@ -210,7 +210,7 @@ def lanes_for(
     fn = functools.partial(default_plan, which=slow, registry=dict(registry))
     if slow_process and picklable(fn):
         # A process of its own: TangentBug would otherwise hold the GIL against the
-        # VG/SVG lane (see app.lanes). Its child keeps its own Memo.
+        # VG/SVG lane (see app.session.lanes). Its child keeps its own Memo.
         process = ProcessLane(fn)
         return fast, Lane(slow, _remote(process), process=process)
     memo = planners.Memo()
@@ -434,7 +434,7 @@ class Scheduler:
         self._robot_drawn_at = -math.inf  # time.monotonic() of the last robot frame
         self.robot_lag_s = ROBOT_LAG_S
         """How long the robot may stay on an older edit's trajectory during a drag [s]."""
-        self._job: BigJob | None = None  # a big scene's computation (app.big)
+        self._job: BigJob | None = None  # a big scene's computation (app.session.big)
         self._slow_big = False  # the slow lane computes a big scene
         self._slow_given_up: _PlanKey | None = None  # the slow call given up on
         # The fast lane's thread only:

@@ -28,13 +28,13 @@ import time
 from collections.abc import Callable, Hashable
 from types import MappingProxyType
 
-from app import tools
-from app.history import Entry, History
-from app.tools import Outcome, UiState
+from app.session import tools
+from app.session.history import Entry, History
+from app.session.tools import Outcome, UiState
 from planners.scene import Scene
 
 Step = Callable[[Scene, UiState], Outcome]
-"""A pure decision: (scene, UI state) -> what changes (see :mod:`app.tools`)."""
+"""A pure decision: (scene, UI state) -> what changes (see :mod:`app.session.tools`)."""
 
 
 @dataclasses.dataclass(frozen=True)

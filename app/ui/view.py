@@ -49,11 +49,11 @@ from shapely import MultiPolygon, Polygon
 from shapely.geometry.base import BaseGeometry
 
 import planners
-from app.controller import Frame, Handle, RobotPose
-from app.robot import RobotModel
-from app.scoped import ScopedTarget
-from app.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
-from app.thinning import edges_to_draw
+from app.session.controller import Frame, Handle, RobotPose
+from app.session.robot import RobotModel
+from app.ui.scoped import ScopedTarget
+from app.ui.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
+from app.ui.thinning import edges_to_draw
 from planners.bug.trace import FOLLOW
 
 FloatArray = npt.NDArray[np.float64]
@@ -68,7 +68,7 @@ MAX_NUMBERED_OBSTACLES = 100
 (a maze, a CAD floor plan) would bury the scene. Pictures number the obstacles as big as
 their number (:mod:`app.slides`)."""
 
-# The grey of an older scene's plans, kept while a big scene is computed (app.big).
+# The grey of an older scene's plans, kept while a big scene is computed (app.session.big).
 STALE_RGB = (176, 176, 176)
 
 # Drawings of polygons kept for the next frames (by value), and the most vertices a kept
@@ -698,7 +698,7 @@ class _GraphLayer:
             ):
                 rgb = STALE_RGB if frame.stale else (color or self.look.path)
                 layer.handle.colors = np.asarray(rgb, dtype=np.uint8)
-        # A big graph is thinned unless its "edges: all" layer is on (app.thinning).
+        # A big graph is thinned unless its "edges: all" layer is on (app.ui.thinning).
         self.edges.set(
             lift_segments(
                 edges_to_draw(result, all_edges).segments, self.look.edges_height
@@ -786,10 +786,10 @@ class PlannerView:
     target
         A :class:`viser.ViserServer` (every browser sees the same scene), a
         :class:`viser.ClientHandle`, or either under a root node
-        (:class:`app.scoped.ScopedTarget`, a classroom's views).
+        (:class:`app.ui.scoped.ScopedTarget`, a classroom's views).
     on_drag
         Called as ``on_drag(handle, (x, y), phase)`` when a user drags a gizmo; the app
-        passes :meth:`app.controller.SceneEdits.drag_handle`.
+        passes :meth:`app.session.controller.SceneEdits.drag_handle`.
     registry
         The planners to draw a layer for (each as its kind says).
     """
@@ -1224,7 +1224,7 @@ class PlannerView:
             layer.set(_NO_SEGMENTS, False)
 
     def set_robot_model(self, key: Any, model: RobotModel) -> None:
-        """Show the robot's meshes (see :func:`app.robot.robot_model`).
+        """Show the robot's meshes (see :func:`app.session.robot.robot_model`).
 
         The meshes are sent again only when ``key`` changes; a new radius only rescales
         the body.
@@ -1385,7 +1385,7 @@ class SensingPicture(NamedTuple):
 def sensing_geometry(sensing: Mapping[str, Any]) -> SensingPicture:
     """Turn what the app's sampler attached to the pose into segments to draw.
 
-    ``sensing`` is :func:`app.robot.sensing_at`'s mapping: ``center``, ``radius``,
+    ``sensing`` is :func:`app.session.robot.sensing_at`'s mapping: ``center``, ``radius``,
     ``seen``, ``tangents``, and ``chosen`` (the planner's r_next, or None) with ``goal``.
     """
     center = sensing["center"]

@@ -25,12 +25,12 @@ import numpy.typing as npt
 import viser
 
 import planners
-from app.controller import TOOLS, Controller, Frame, RobotPose
-from app.files import ScenesFolder
-from app.style import COLORS, hex_color, planner_look
-from app.text import markdown_text
-from app.thinning import frame_note
-from app.tools import layer_names
+from app.session.controller import TOOLS, Controller, Frame, RobotPose
+from app.session.files import ScenesFolder
+from app.session.tools import layer_names
+from app.ui.style import COLORS, hex_color, planner_look
+from app.ui.text import markdown_text
+from app.ui.thinning import frame_note
 from planners.registry import PlannerSpec
 
 _WHEEL_COLORS = ("#0072b2", "#d55e00", "#009e73")
@@ -324,7 +324,7 @@ class Panels:
         """Disable every control that changes the session (a watcher's panel), or enable it.
 
         Button groups cannot be disabled in viser: they are hidden instead. The server
-        refuses a locked panel's edits anyway (:mod:`app.gate`); this only shows it.
+        refuses a locked panel's edits anyway (:mod:`app.guard.gate`); this only shows it.
         """
         self.locked = locked
         for handle in self.controls():
@@ -606,7 +606,7 @@ def _set(handle: Any, name: str, value: Any) -> None:
 def status_markdown(frame: Frame) -> str:
     """Return what the user needs to know now: the answer to the last action, then problems.
 
-    Every text is escaped (:mod:`app.text`): a message can quote a file's name, a field
+    Every text is escaped (:mod:`app.ui.text`): a message can quote a file's name, a field
     of an uploaded file or a value a browser sent.
 
     Examples
@@ -620,7 +620,7 @@ def status_markdown(frame: Frame) -> str:
     """
     parts = []
     progress = getattr(frame, "progress", None)
-    if progress:  # a big scene's worker computes (app.big)
+    if progress:  # a big scene's worker computes (app.session.big)
         parts.append(
             f"**{markdown_text(progress)}**  \n*The last plans are shown grey until then.*"
         )

@@ -108,7 +108,7 @@ def layer_names(registry: Mapping[str, PlannerSpec]) -> Mapping[str, str]:
         if spec.kind == "graph":
             out[f"{name}_edges"] = f"{short} edges"
             out[f"{name}_path"] = f"{short} path"
-            # A big graph is drawn thinned (app.thinning); this draws every edge.
+            # A big graph is drawn thinned (app.ui.thinning); this draws every edge.
             out[f"{name}_edges_all"] = f"{short} edges: all"
         else:
             out[f"{name}_path"] = f"{short} path and events"

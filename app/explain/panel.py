@@ -2,7 +2,7 @@
 
 A folder *Explain* in the GUI: choose a method (obstacle expansion, VG, SVG, DSB), then
 step forward and back, jump to the start or the end, or drag a slider over the steps.
-The scene shows the current step (:class:`app.explain_view.ExplainView`) and the panel
+The scene shows the current step (:class:`app.explain.view.ExplainView`) and the panel
 its line of text, and for DSB the table of the O_i and the flowchart of Fig. 9.15 with
 the current box highlighted.
 
@@ -40,10 +40,10 @@ from collections.abc import Callable, Mapping
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
-from app.big import BIG_SCENE_VERTICES, scene_vertices
-from app.explain_view import ExplainView
-from app.scheduler import Pending
-from app.text import html_text, markdown_text
+from app.explain.view import ExplainView
+from app.session.big import BIG_SCENE_VERTICES, scene_vertices
+from app.session.scheduler import Pending
+from app.ui.text import html_text, markdown_text
 from planners import Memo, PlanOptions, plan_all
 from planners.explain import Abandoned, Explanation, Step
 from planners.explain.dsb import FLOWCHART, explain_dsb
@@ -54,7 +54,7 @@ from planners.explain.vg import explain_vg
 if TYPE_CHECKING:
     import viser
 
-    from app.frames import Frame, RobotPose
+    from app.session.frames import Frame, RobotPose
     from planners.scene import Scene
 
 logger = logging.getLogger(__name__)
@@ -452,7 +452,7 @@ def _own_copy(plans: Mapping[str, Any]) -> dict[str, Any]:
 def _not_here(frame: Frame, method: str) -> str | None:
     """Say why ``method`` is not planned here for a big scene, or None to plan it.
 
-    A big scene (:mod:`app.big`) is planned by its worker: while it computes (a stale
+    A big scene (:mod:`app.session.big`) is planned by its worker: while it computes (a stale
     frame with its progress), "" (wait, say nothing more); when the frame has no plan
     of ``method`` (switched off), what to do about it; when the planner failed, why.
     """

@@ -1,7 +1,7 @@
 """Bounded pools of worker processes shared by the students' private copies.
 
 Each session of the presenter's kind has worker processes of its own: one for TangentBug
-(:mod:`app.lanes`), one for a big scene's graphs (:mod:`app.big`, started on first use).
+(:mod:`app.session.lanes`), one for a big scene's graphs (:mod:`app.session.big`, started on first use).
 A classroom may hold dozens of private copies; processes of their own would grow without
 bound (about 60 MB and a start-up of a second or so each, and a big scene's planning some
 hundreds of MB more). The copies share two pools instead, one for each kind of work: at
@@ -30,11 +30,11 @@ import threading
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from app.lanes import Interrupted, ProcessLane
+from app.session.lanes import Interrupted, ProcessLane
 
 
 class WorkerPool:
-    """At most ``size`` :class:`app.lanes.ProcessLane` workers computing ``fn``, shared.
+    """At most ``size`` :class:`app.session.lanes.ProcessLane` workers computing ``fn``, shared.
 
     Parameters
     ----------
@@ -67,13 +67,13 @@ class WorkerPool:
     ) -> Iterator[ProcessLane]:
         """Hold a free worker (waiting for one) for the caller alone until the block ends.
 
-        The caller may :meth:`app.lanes.ProcessLane.interrupt` it while it holds it (a
-        big scene's job given up, :mod:`app.big`): its process is replaced by a fresh
+        The caller may :meth:`app.session.lanes.ProcessLane.interrupt` it while it holds it (a
+        big scene's job given up, :mod:`app.session.big`): its process is replaced by a fresh
         one at once, and the worker goes back to the pool as usual.
 
         ``abandoned`` (optional) tells whether the caller has given up: one that gives up
         while it waits calls :meth:`wake`, and the lease raises
-        :class:`app.lanes.Interrupted` at once instead of waiting for a worker only to
+        :class:`app.session.lanes.Interrupted` at once instead of waiting for a worker only to
         hand it back (a student dragging a big scene gives a job up per edit).
         """
         worker = self._take(abandoned or _never)

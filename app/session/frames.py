@@ -23,9 +23,9 @@ from typing import Any, Protocol
 
 from shapely import Polygon
 
-from app import tools
-from app.session import Snapshot
-from app.tools import Handle, Point, Selection
+from app.session import tools
+from app.session._state import Snapshot
+from app.session.tools import Handle, Point, Selection
 from planners import scene as edits
 from planners.scene import Scene
 
@@ -71,7 +71,7 @@ class Frame:
     message: str | None
     """The answer to the user's last action, when it needs one (a refused edit, a save)."""
     tool: str
-    """Current mouse tool, a key of :data:`app.tools.TOOLS`."""
+    """Current mouse tool, a key of :data:`app.session.tools.TOOLS`."""
     layers: Mapping[str, bool]
     """Layer key -> visible."""
     selection: Selection | None
@@ -101,7 +101,7 @@ class Frame:
     enabled: frozenset[str] = frozenset()
     """Planners switched on (their lanes run them); the others have no entry in ``plans``."""
     progress: str | None = None
-    """What a big scene's worker computes now and for how long (:mod:`app.big`), or None."""
+    """What a big scene's worker computes now and for how long (:mod:`app.session.big`), or None."""
     stale: bool = False
     """The plans are an older scene's, kept (greyed) while the new ones are computed."""
 

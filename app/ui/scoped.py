@@ -1,4 +1,4 @@
-"""Draw a :class:`app.view.PlannerView` under a root node, for everyone or for one browser.
+"""Draw a :class:`app.ui.view.PlannerView` under a root node, for everyone or for one browser.
 
 In a classroom (:mod:`app.classroom`) the presenter's scene is drawn once for every
 browser under ``/shared`` (viser's broadcast scope), and a browser that edits draws its

@@ -7,16 +7,16 @@ the app passes the 3-D view and the panel.
 
 The parts, each a module with one job:
 
-==========================  ==========================================================
-:mod:`app.session`          the scene, its version, the history and the UI state,
-                            under the session's one lock
-:mod:`app.history`          undo and redo (pure value)
-:mod:`app.tools`            mouse tools, selection, picking (pure functions)
-:mod:`app.scheduler`        the two planning lanes, coalescing, frames
-:mod:`app.lanes`            the slow lane's worker process
-:mod:`app.playback`         the robot's motion along the followed path
-:mod:`app.frames`           what the views draw (Frame, RobotPose)
-==========================  ==========================================================
+==============================  ======================================================
+``_state``                      the scene, its version, the history and the UI state,
+                                under the session's one lock
+:mod:`app.session.history`      undo and redo (pure value)
+:mod:`app.session.tools`        mouse tools, selection, picking (pure functions)
+:mod:`app.session.scheduler`    the two planning lanes, coalescing, frames
+:mod:`app.session.lanes`        the slow lane's worker process
+:mod:`app.session.playback`     the robot's motion along the followed path
+:mod:`app.session.frames`       what the views draw (Frame, RobotPose)
+==============================  ======================================================
 
 Data flow on an edit (docs/architecture.md)::
 
@@ -66,14 +66,14 @@ from pathlib import Path
 from typing import Any, Literal
 
 import planners
-from app import tools
-from app.big import BigWorkers
-from app.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
-from app.frames import Frame, RobotPose, View, Views
-from app.playback import Playback, SampleFn, TrajectoryFn
-from app.scheduler import Pending, PlanFn, Scheduler, default_plan, lanes_for
-from app.session import SessionState
-from app.tools import LAYERS, TOOLS, Handle, Selection, UiState, pick
+from app.session import tools
+from app.session._state import SessionState
+from app.session.big import BigWorkers
+from app.session.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
+from app.session.frames import Frame, RobotPose, View, Views
+from app.session.playback import Playback, SampleFn, TrajectoryFn
+from app.session.scheduler import Pending, PlanFn, Scheduler, default_plan, lanes_for
+from app.session.tools import LAYERS, TOOLS, Handle, Selection, UiState, pick
 from planners import scene as edits
 from planners.registry import PlannerSpec
 from planners.scene import ScenarioError, Scene
@@ -104,12 +104,12 @@ class Controller:
         Names of the planners ``slow_plan`` computes (default: the registry's "trace"
         planners).
     slow_process
-        Compute the slow lane in a worker process (see :mod:`app.lanes`); False keeps it
-        in a thread; a callable (a shared :class:`app.pool.WorkerPool`) computes it.
+        Compute the slow lane in a worker process (see :mod:`app.session.lanes`); False keeps it
+        in a thread; a callable (a shared :class:`app.session.pool.WorkerPool`) computes it.
     big_workers
-        Where big scenes' graphs are computed (:mod:`app.big`): None, a worker process
+        Where big scenes' graphs are computed (:mod:`app.session.big`): None, a worker process
         of this session's own; a classroom's copies share one
-        (:class:`app.big.SharedWorkers`).
+        (:class:`app.session.big.SharedWorkers`).
     trajectory
         (scene, path) -> timed trajectory (or None); None disables the robot.
     sample
@@ -377,7 +377,7 @@ class SceneEdits:
 class MouseTools:
     """What the mouse does, and the buttons that act on the selection or the draft.
 
-    Each action is a pure function of :mod:`app.tools` applied in one critical section:
+    Each action is a pure function of :mod:`app.session.tools` applied in one critical section:
     a click that closes a polygon, or a delete of the selection, reads and edits the
     scene with no other browser's edit in between.
     """
@@ -418,7 +418,7 @@ class MouseTools:
 class ScenarioFiles:
     """Scenario files: shipped ones, uploads, downloads, and the scenes folder if any.
 
-    No text from a browser is used as a server path (:mod:`app.files`): a browser saves
+    No text from a browser is used as a server path (:mod:`app.session.files`): a browser saves
     by downloading (:meth:`download`) and loads by uploading (:meth:`load_text`) or by
     choosing a shipped scenario; the folder named on the command line is read and
     written by plain names only. Loading replaces the scene as one undo step; on an
@@ -486,7 +486,7 @@ class ScenarioFiles:
         return f"{stem or 'scene'}.json", data.encode("utf-8")
 
     def load_from_folder(self, name: str) -> None:
-        """Load the scenes folder's file ``name`` (a plain name, see :mod:`app.files`)."""
+        """Load the scenes folder's file ``name`` (a plain name, see :mod:`app.session.files`)."""
         if self.folder is None:
             self._state.say("No scenes folder: start the app with --scenes-dir DIR.")
             return

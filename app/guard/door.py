@@ -13,7 +13,7 @@ what the planner's page sends in normal use:
   button group's one of its buttons, a slider's a finite number in its range, a
   checkbox's a bool, a text at most :data:`MAX_TEXT` characters; only ``value`` is set;
 - **uploads checked before they are buffered**: declared size at most
-  :data:`app.files.MAX_UPLOAD_BYTES`, parts within it, one upload at a time per browser;
+  :data:`app.session.files.MAX_UPLOAD_BYTES`, parts within it, one upload at a time per browser;
   a refused upload is told to its browser;
 - **a frame size limit** (:data:`MAX_MESSAGE_BYTES`) set on the websocket server itself
   (:func:`message_limit`), so an oversized frame closes its sender before it is read;
@@ -29,7 +29,7 @@ Data flow::
 
     browser B's websocket frame -> Door.admit(B, raw)
       no  -> dropped (counted)
-      yes -> viser decodes and dispatches it -> callbacks (app.fair)
+      yes -> viser decodes and dispatches it -> callbacks (app.guard.fair)
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ import msgspec
 import viser
 import websockets.asyncio.server
 
-from app.files import MAX_UPLOAD_BYTES
+from app.session.files import MAX_UPLOAD_BYTES
 
 logger = logging.getLogger(__name__)
 

@@ -30,7 +30,7 @@ from typing import IO, Any
 
 logger = logging.getLogger(__name__)
 
-_CHILD = "from app.lanes import _child_main; _child_main()"
+_CHILD = "from app.session.lanes import _child_main; _child_main()"
 
 
 class Interrupted(RuntimeError):

@@ -134,7 +134,7 @@ def step_pose(step: LiveStep, scene: Scene, memo: Memo | None = None) -> RobotPo
 
     Pose and wheel rates are the step's, r_next its aim; the sensing picture is the
     sensor's reading at the step's pose in ``scene`` (:func:`planners.bug.sensor.sense`).
-    A recording of moving obstacles (:mod:`app.record_live`) draws its frames so.
+    A recording of moving obstacles (:mod:`app.media.record_live`) draws its frames so.
     """
     return _robot_pose(step, scene, memo, playing=False)
 

@@ -16,8 +16,8 @@ import pytest
 from PIL import Image
 
 import app
-from app import headless
-from app.headless import CameraPose, capture, frame_camera, scene_bounds, snapshot
+from app.media import browser as headless
+from app.media.browser import CameraPose, capture, frame_camera, scene_bounds, snapshot
 from planners.scene import load_scene
 from tests.browser import use_browser
 from tests.conftest import ROOT, run_module

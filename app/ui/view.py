@@ -66,7 +66,7 @@ MAX_VERTEX_HANDLES = 600
 MAX_NUMBERED_OBSTACLES = 100
 """A scene with more obstacles than this shows no obstacle numbers: hundreds of labels
 (a maze, a CAD floor plan) would bury the scene. Pictures number the obstacles as big as
-their number (:mod:`app.slides`)."""
+their number (:mod:`app.media.slides`)."""
 
 # The grey of an older scene's plans, kept while a big scene is computed (app.session.big).
 STALE_RGB = (176, 176, 176)
@@ -1273,7 +1273,7 @@ class PlannerView:
             node.scale = (model.body_scale, model.body_scale, 1.0)
 
     def present(self, *, line_scale: float = 1.0, labels: bool = True) -> None:
-        """Draw for a picture instead of for editing (:mod:`app.slides`, :mod:`app.export_html`).
+        """Draw for a picture instead of for editing (:mod:`app.media.slides`, :mod:`app.media.export_html`).
 
         The start and goal gizmos lose their arrows and squares (the markers stay), lines
         drawn in screen pixels are ``line_scale`` times as wide, and with ``labels``

@@ -20,10 +20,10 @@ MODULES = [
     "app.server",
     "app.ui.style",
     "app.ui.view",
-    "app.labels",
-    "app.slides",
-    "app.record",
-    "app.record_live",
+    "app.media.labels",
+    "app.media.slides",
+    "app.media.record",
+    "app.media.record_live",
 ]
 
 

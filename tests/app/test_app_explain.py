@@ -22,7 +22,7 @@ from app import start_app
 from app.explain import panel as explain_panel
 from app.explain.panel import HIDDEN_LAYERS, Explainer, flowchart_html, table_html
 from app.explain.view import ROLE_LOOKS, role_segments
-from app.explain_headless import explain_snapshots, parse_step, step_bounds
+from app.media.explain_pictures import explain_snapshots, parse_step, step_bounds
 from app.session.big import BIG_SCENE_VERTICES
 from app.session.frames import Frame
 from app.session.scheduler import Failed, Pending

@@ -1,4 +1,4 @@
-"""Slide pictures (app.slides, app.pictures): legible labels at projector and paper sizes.
+"""Slide pictures (app.media.slides, app.media.pictures): legible labels at projector and paper sizes.
 
 The browser tests draw 02_three_obstacles at 1920 x 1080 (a projector) and 800 x 500 (a
 two-column paper figure) and measure the labels' text in the picture's pixels; the layout
@@ -21,10 +21,10 @@ from PIL import Image
 
 import planners
 from app import live, start_app
-from app.headless import frame_camera, scene_bounds
-from app.labels import Box
-from app.pictures import batch, open_studio, run_with_browser
-from app.slides import (
+from app.media.browser import frame_camera, scene_bounds
+from app.media.labels import Box
+from app.media.pictures import batch, open_studio, run_with_browser
+from app.media.slides import (
     MOVING_ROUTE,
     SlideOptions,
     font_px,

@@ -6,14 +6,14 @@ Each measurement is a fresh ``python -m app`` process (import, server, browser, 
 picture, stop), as a lecturer runs it:
 
 - ``snapshot``: one ``--snapshot`` at 1920 x 1080 (the slide picture);
-- ``plain``: the same picture through the pre-issue-16 path (``app.headless.capture``:
+- ``plain``: the same picture through the pre-issue-16 path (``app.media.browser.capture``:
   browser launched after the app, page opened at full size, three identical PNGs) for
   comparison, in-process but with the same steps;
 - ``batch N``: ``--snapshot-dir`` over the N shipped scenarios at 1920 x 1080, and the
   cost per extra picture, (batch - snapshot) / (N - 1);
 - ``record``: ``--record`` of 4 s of the run at 10 fps, 640 x 360 (41 frames), per frame;
 - ``live``: ``--record`` of 4 s of the moving-obstacle scenario 09 at 10 fps, 640 x 360
-  (41 frames of the live run, :mod:`app.record_live`), and its cost per frame beyond
+  (41 frames of the live run, :mod:`app.media.record_live`), and its cost per frame beyond
   ``record``'s;
 - ``export``: ``--export-html`` of the whole run at 15 fps.
 
@@ -39,7 +39,7 @@ MOVING = "09_sliding_door"
 PLAIN = """
 import sys
 from app import start_app
-from app.headless import capture, launch_browser, _Threaded, _quiet_stdout
+from app.media.browser import capture, launch_browser, _Threaded, _quiet_stdout
 with _quiet_stdout():
     app = start_app(sys.argv[1], port=0, print_url=False)
 def take():

@@ -65,12 +65,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from app.headless import scene_bounds
 from app.live import step_pose
-from app.pictures import FirstPicture, open_studio
-from app.record import RECORD_FPS, Recording, _pixels, _writer, frame_times
+from app.media.browser import scene_bounds
+from app.media.pictures import FirstPicture, open_studio
+from app.media.record import RECORD_FPS, Recording, _pixels, _writer, frame_times
+from app.media.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout, relabel
 from app.session.frames import RobotPose
-from app.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout, relabel
 from planners.bug.live import (
     MAX_DURATION_S,
     LiveEvent,

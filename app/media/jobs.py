@@ -2,7 +2,7 @@
 
 ``--snapshot-dir``, ``--record`` and ``--export-html`` run through :func:`run_job`, which
 checks the browser and the output folder before anything slow starts, starts the app
-while Chromium launches (:func:`app.pictures.run_with_browser`), and turns every failure
+while Chromium launches (:func:`app.media.pictures.run_with_browser`), and turns every failure
 into one line on stderr and an exit code: 2 for a bad scenario or argument, 1 when the
 browser, the app or the file system fails, 130 when interrupted. It never prints a
 traceback.
@@ -17,9 +17,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from app import headless
-from app.headless import SnapshotError
-from app.pictures import run_with_browser
+from app.media import browser as headless
+from app.media.browser import SnapshotError
+from app.media.pictures import run_with_browser
 
 
 def run_job(

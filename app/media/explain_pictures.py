@@ -3,7 +3,7 @@
 ``python -m app --scenario 06 --snapshot OUT.png --explain svg --step 3`` draws step 3
 (numbered from 1, as the panel shows "step 3 of N"); ``--step all`` writes one picture
 per step, ``OUT/001.png``, ``OUT/002.png``, ... into the folder OUT, and a ``steps.txt``
-beside them with each step's line of text. It is :mod:`app.headless` (the same browser,
+beside them with each step's line of text. It is :mod:`app.media.browser` (the same browser,
 camera and settling) with the Explain panel switched on; one browser page serves every
 step, so a sequence of 30 pictures takes one page load.
 """
@@ -19,8 +19,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from app import headless
 from app.explain.panel import METHOD_TITLES
+from app.media import browser as headless
 from planners.explain import METHODS
 
 
@@ -68,7 +68,7 @@ def explain_snapshots(
     """Write the picture of one step, or of every step, of ``method`` on ``scenario``.
 
     Returns the exit code: 0 written, 2 bad argument or scenario, 1 browser or app failed
-    (one line on stderr, as :func:`app.headless.snapshot`).
+    (one line on stderr, as :func:`app.media.browser.snapshot`).
     """
     try:
         _run(

@@ -3,17 +3,17 @@
 The robot follows the chosen planner's path at the trajectory's real time: frame ``k`` is
 the robot at trajectory time ``t_k = k / fps`` (wheels turned as far as they have turned
 by then), from ``t = 0`` to the end of the trajectory (or ``until``). The time is set
-explicitly for each frame (:meth:`app.pictures.Studio.frame`), never read from a clock,
+explicitly for each frame (:meth:`app.media.pictures.Studio.frame`), never read from a clock,
 so two recordings of the same scenario are the same frame for frame.
 
-The pictures are the slide pictures of :mod:`app.slides` (title, legend, labels placed for
+The pictures are the slide pictures of :mod:`app.media.slides` (title, legend, labels placed for
 the video's size) drawn by the app in headless Chromium. The encoding is done by ffmpeg
 through ``imageio-ffmpeg`` (a PyPI wheel that bundles the ffmpeg binary) for MP4
 (H.264, yuv420p, so it plays in every browser and in slide software), and by Pillow
 through ``imageio`` for GIF (which stores frame times in hundredths of a second: a frame
 rate that does not divide 100 is played slightly off).
 
-A scenario with moving obstacles is recorded live (:mod:`app.record_live`): the DSB robot
+A scenario with moving obstacles is recorded live (:mod:`app.media.record_live`): the DSB robot
 sensing as it drives while the obstacles move, as the app's *Live DSB* mode shows it,
 frame ``k`` again at ``t_k = k / fps`` of that run. ``follow`` is then an error (one
 line, exit code 2): the planners that plan once see only the scene at t = 0.
@@ -44,10 +44,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from app.headless import CameraPose, SnapshotError
-from app.jobs import JobFailure, run_job
-from app.pictures import FirstPicture, open_studio
-from app.slides import SlideOptions
+from app.media.browser import CameraPose, SnapshotError
+from app.media.jobs import JobFailure, run_job
+from app.media.pictures import FirstPicture, open_studio
+from app.media.slides import SlideOptions
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
@@ -117,7 +117,7 @@ def record_video(
     """Record the robot of a running app following ``follow``'s path into ``out``.
 
     A scene with moving obstacles is recorded live instead: the DSB robot sensing as it
-    drives among them (:func:`app.record_live.record_live_video`); ``follow`` must then
+    drives among them (:func:`app.media.record_live.record_live_video`); ``follow`` must then
     be None.
 
     Raises
@@ -129,7 +129,7 @@ def record_video(
         ``follow`` given for a scene with moving obstacles (exit code 2).
     """
     if planner_app.controller.scene.motions:
-        from app.record_live import record_live_video  # noqa: PLC0415
+        from app.media.record_live import record_live_video  # noqa: PLC0415
 
         if follow is not None:
             raise JobFailure(LIVE_FOLLOW.format(follow=follow), 2)

@@ -3,8 +3,8 @@
 ``python -m app --scenario NAME --snapshot OUT.png`` ends up in :func:`snapshot`. It starts
 the app on a free loopback port without printing a URL while Debian's headless Chromium
 launches, opens the app in it through playwright, waits until every scene node is in the
-browser, and takes the slide picture of :mod:`app.pictures` (camera, title, legend and
-labels laid out for the picture's size by :mod:`app.slides`), writes the PNG and stops
+browser, and takes the slide picture of :mod:`app.media.pictures` (camera, title, legend and
+labels laid out for the picture's size by :mod:`app.media.slides`), writes the PNG and stops
 everything it started. :func:`capture` is the plain picture of the app as it is (no
 title, legend or placed labels), which tests use.
 
@@ -77,7 +77,7 @@ except ImportError:  # pragma: no cover - depends on the environment
 if TYPE_CHECKING:
     from playwright.sync_api import Browser, Page
 
-    from app.slides import SlideOptions
+    from app.media.slides import SlideOptions
     from planners.scene import Scene
 
 CHROMIUM = "/usr/bin/chromium"
@@ -124,7 +124,7 @@ SLIDE_CSS = (
     _HIDE_GUI_CSS
     + "\n#planner-slide, #planner-slide * { visibility: visible !important; }\n"
 )
-"""The style sheet of a slide picture's page (:mod:`app.pictures`): only the canvas and
+"""The style sheet of a slide picture's page (:mod:`app.media.pictures`): only the canvas and
 the slide's overlay (title, legend, labels) are drawn."""
 
 _LOAD_VIEWPORT = (480, 300)
@@ -930,7 +930,7 @@ def snapshot(
     chromium
         Path to the browser; None for :func:`chromium_path`.
     options
-        Legend, title and labels of the slide picture (:mod:`app.slides`); None: all
+        Legend, title and labels of the slide picture (:mod:`app.media.slides`); None: all
         of them.
 
     Returns
@@ -1031,9 +1031,9 @@ def _take_snapshot(
             raise _Failure(f"cannot load scenario: {_first_line(error)}", 2) from None
 
     def take(planner_app: Any, browser: Browser) -> bytes:
-        # The slide picture (app.pictures): sized labels, legend and title.
-        from app import pictures  # noqa: PLC0415
-        from app.slides import SlideOptions  # noqa: PLC0415
+        # The slide picture (app.media.pictures): sized labels, legend and title.
+        from app.media import pictures  # noqa: PLC0415
+        from app.media.slides import SlideOptions  # noqa: PLC0415
 
         return pictures.shoot(
             planner_app,

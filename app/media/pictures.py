@@ -6,7 +6,7 @@ changed nodes only), another view is another camera. What costs seconds (startin
 server, launching Chromium, loading viser's client and compiling its shaders) is paid once
 per batch, not once per picture.
 
-Each picture is laid out by :func:`app.slides.layout` for its size (camera, title, legend,
+Each picture is laid out by :func:`app.media.slides.layout` for its size (camera, title, legend,
 labels placed so none overlaps another or a marker) and drawn by the app's own view in
 "presentation" mode (:meth:`app.ui.view.PlannerView.present`: no editing gizmos, screen-pixel
 lines scaled to the picture, the view's own 3-D labels replaced by the slide's).
@@ -40,9 +40,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from app import headless
-from app.headless import PlaywrightError, run_with_browser
-from app.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout
+from app.media import browser as headless
+from app.media.browser import PlaywrightError, run_with_browser
+from app.media.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser, Page
@@ -137,7 +137,7 @@ class Studio:
         """Lay out the picture of what the app shows now and draw its overlay.
 
         ``slide``: a layout made elsewhere (a recording of moving obstacles,
-        :mod:`app.record_live`) to use instead.
+        :mod:`app.media.record_live`) to use instead.
         """
         if slide is None:
             slide = _layout(self.app, self.width, self.height, view, options)
@@ -170,11 +170,11 @@ class Studio:
         ``robot_time``: where the robot is drawn along its trajectory; None, at the
         start. In a scenario whose obstacles move, a ``robot_time`` draws the live run
         at that time instead, obstacles and robot alike, as a recording's frame
-        (:func:`app.record_live.live_picture`); None draws what the app shows: every
+        (:func:`app.media.record_live.live_picture`); None draws what the app shows: every
         planner's answer for the scene at t = 0.
         """
         if robot_time is not None and self.app.controller.scene.motions:
-            from app.record_live import live_picture  # noqa: PLC0415 - imports this
+            from app.media.record_live import live_picture  # noqa: PLC0415 - imports this
 
             return live_picture(self, float(robot_time), view, options)
         self.app.set_robot_time(0.0 if robot_time is None else float(robot_time))
@@ -234,7 +234,7 @@ class Studio:
 def _layout(
     planner_app: Any, width: int, height: int, view: str, options: SlideOptions
 ) -> Slide:
-    """Lay out (:func:`app.slides.layout`) a picture of what the app shows now."""
+    """Lay out (:func:`app.media.slides.layout`) a picture of what the app shows now."""
     controller = planner_app.controller
     frame = controller.frame
     layers = frame.layers if frame is not None else {}
@@ -309,7 +309,7 @@ def open_studio(
 
     ``first`` says what the first picture will show; it is put in place before the page
     opens (:func:`_stage`), which makes that picture quicker. Any other picture is
-    right too, only slower. ``page``: a page :func:`app.headless.open_early` opened on
+    right too, only slower. ``page``: a page :func:`app.media.browser.open_early` opened on
     the app's port while it started (it is closed on exit, as a page opened here is).
     """
     presented = _stage(planner_app, width, height, first, timeout)
@@ -461,7 +461,7 @@ def snapshot_dir(
     scenario's key (``02_three_obstacles``) or file stem. One server, one browser and one
     page serve the whole batch. Returns the exit code (0: every file written).
     """
-    from app.jobs import run_job  # noqa: PLC0415
+    from app.media.jobs import run_job  # noqa: PLC0415
     from app.server import resolve_scenario  # noqa: PLC0415
     from planners.scene import ScenarioError  # noqa: PLC0415
 

@@ -10,7 +10,7 @@ drawn by the same client as the app, with every layer the app draws:
 1. start the app (no browser needed) and let the view draw for a picture
    (:meth:`app.ui.view.PlannerView.present`: no editing gizmos);
 2. start recording: the serializer takes the current scene, then every message after;
-3. put the robot at ``t_k = k / fps`` for every frame (:func:`app.record.frame_times`),
+3. put the robot at ``t_k = k / fps`` for every frame (:func:`app.media.record.frame_times`),
    waiting until each pose is drawn and sent, with a pause of ``1 / fps`` recorded
    between frames, so the page plays the run at the trajectory's real time (and loops);
 4. write the page, with a small title and legend added as plain HTML.
@@ -33,10 +33,10 @@ from pathlib import Path
 from typing import Any
 
 import planners
-from app import headless
-from app.jobs import JobFailure, start_quietly
-from app.record import LIVE_FOLLOW, MAX_FPS, RECORD_FPS, check_until, frame_times
-from app.slides import legend_rows
+from app.media import browser as headless
+from app.media.jobs import JobFailure, start_quietly
+from app.media.record import LIVE_FOLLOW, MAX_FPS, RECORD_FPS, check_until, frame_times
+from app.media.slides import legend_rows
 from app.ui.text import html_text
 
 
@@ -148,12 +148,12 @@ def _live_page(
 ) -> str:
     """Record the live run of a scene whose obstacles move, as ``--record`` films it.
 
-    Frame ``k`` is :meth:`app.record_live.LiveFilm.frame` at ``t_k = k / fps``: every
+    Frame ``k`` is :meth:`app.media.record_live.LiveFilm.frame` at ``t_k = k / fps``: every
     obstacle where it is then, the robot, its sensing and the path driven so far,
     drawn by the app's view; only what changed is recorded (one obstacle's chunk of
     the obstacle layers, the robot). The legend is the whole run's.
     """
-    from app.record_live import (  # noqa: PLC0415 - the live run's modules, only here
+    from app.media.record_live import (  # noqa: PLC0415 - the live run's modules, only here
         LiveFilm,
         draw_app_again,
         legend_plans,
@@ -225,7 +225,7 @@ def export_html(
     until: float | None = None,
     title: str | None = None,
 ) -> int:
-    """Write ``scenario``'s page to ``out``; return the exit code (0, 1 or 2, as :mod:`app.jobs`)."""
+    """Write ``scenario``'s page to ``out``; return the exit code (0, 1 or 2, as :mod:`app.media.jobs`)."""
     path = Path(out)
     problem = _check(path, fps, follow, until)
     if problem is not None:

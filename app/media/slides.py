@@ -10,7 +10,7 @@ the size:
 - a camera that leaves room for a title strip at the top and, when the picture is wider
   than the scene, a legend column on the right (:func:`slide_camera`);
 - the labels (obstacle numbers, start and goal, the trace planners' events H, D, L, M of
-  Fig. 9.19), in pixels, placed by :func:`app.labels.place_labels` so that none overlaps
+  Fig. 9.19), in pixels, placed by :func:`app.media.labels.place_labels` so that none overlaps
   another, a marker, the title or the legend.
 
 What it returns (:class:`Slide`) is drawn over the 3-D canvas by :data:`DRAW_OVERLAY_JS`,
@@ -46,9 +46,9 @@ import shapely
 from shapely import Polygon
 
 import planners
-from app.headless import CameraPose, frame_camera, scene_bounds
-from app.labels import Box, LabelRequest, Placement, label_size, place_labels
-from app.slide_options import SlideOptions
+from app.media.browser import CameraPose, frame_camera, scene_bounds
+from app.media.labels import Box, LabelRequest, Placement, label_size, place_labels
+from app.media.slide_options import SlideOptions
 from app.ui.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
 from app.ui.view import event_labels
 from planners.registry import PlannerSpec
@@ -352,14 +352,14 @@ def layout(
         Picture size [px].
     view
         ``"top"`` (the scene fits beside the title and the legend) or ``"perspective"``
-        (the camera of :func:`app.headless.frame_camera`; title and legend over it).
+        (the camera of :func:`app.media.browser.frame_camera`; title and legend over it).
     options
         Legend, title and labels on or off.
     registry
         The planners drawn.
     bounds
         The floor area to frame (xmin, ymin, xmax, ymax) [m]; None: the scene's
-        (:func:`app.headless.scene_bounds`). A video whose obstacles move frames the
+        (:func:`app.media.browser.scene_bounds`). A video whose obstacles move frames the
         area they cover over the whole run, so that every frame has the same camera.
 
     Returns
@@ -414,7 +414,7 @@ def relabel(
     """Place the labels of ``scene`` and ``plans`` on ``slide``'s picture.
 
     The camera, title, legend and time stamp box stay: a video whose obstacles move
-    (:mod:`app.record_live`) keeps one layout and places each frame's labels (the moving
+    (:mod:`app.media.record_live`) keeps one layout and places each frame's labels (the moving
     obstacle's number, the events so far) anew. :func:`layout` places its labels so.
     """
     size = (slide.width, slide.height)

@@ -162,11 +162,11 @@ def _media(args: argparse.Namespace) -> int | None:
     options = SlideOptions(legend=not args.no_legend, title=args.title)
     names = [n for n in (args.scenario or "").split(",") if n]
     if args.snapshot_dir is not None:
-        from app.media import pictures  # noqa: PLC0415
+        from app.media import jobs  # noqa: PLC0415
         from app.server import list_scenarios  # noqa: PLC0415
 
         views = (args.views or args.view).split(",")
-        return pictures.snapshot_dir(
+        return jobs.snapshot_dir(
             names or list(list_scenarios()),
             args.snapshot_dir,
             views=views,
@@ -232,14 +232,14 @@ def _explain_arguments(parser: argparse.ArgumentParser) -> None:
 def _snapshot(args: argparse.Namespace) -> int:
     """``--snapshot``: one slide picture; a bad scenario is one line and exit code 2.
 
-    Only the light modules are imported here: :func:`app.media.browser.snapshot` launches
+    Only the light modules are imported here: :func:`app.media.jobs.snapshot` launches
     Chromium first and imports the app (viser, the planners) while it starts.
     """
-    from app.media import browser as headless  # noqa: PLC0415 - needs playwright; the server does not
+    from app.media import jobs  # noqa: PLC0415 - needs playwright; the server does not
     from app.media.slide_options import SlideOptions  # noqa: PLC0415
 
     return int(
-        headless.snapshot(
+        jobs.snapshot(
             scenario=args.scenario,
             out=args.snapshot,
             width=args.width,
@@ -272,9 +272,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
     if args.snapshot is not None:
-        from app.media import explain_pictures as explain_headless  # noqa: PLC0415 - needs playwright
+        from app.media import explain_pictures  # noqa: PLC0415 - needs playwright
 
-        return explain_headless.explain_snapshots(
+        return explain_pictures.explain_snapshots(
             scenario,
             args.snapshot,
             method=args.explain,

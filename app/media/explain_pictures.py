@@ -3,8 +3,8 @@
 ``python -m app --scenario 06 --snapshot OUT.png --explain svg --step 3`` draws step 3
 (numbered from 1, as the panel shows "step 3 of N"); ``--step all`` writes one picture
 per step, ``OUT/001.png``, ``OUT/002.png``, ... into the folder OUT, and a ``steps.txt``
-beside them with each step's line of text. It is :mod:`app.media.browser` (the same browser,
-camera and settling) with the Explain panel switched on; one browser page serves every
+beside them with each step's line of text. It is the slide pictures' browser
+(:mod:`app.media.browser`), camera and settling with the Explain panel switched on; one browser page serves every
 step, so a sequence of 30 pictures takes one page load.
 """
 
@@ -20,7 +20,20 @@ from pathlib import Path
 from typing import Any
 
 from app.explain.panel import METHOD_TITLES
-from app.media import browser as headless
+from app.media.browser import (
+    HIDE_GUI_CSS,
+    RECOMPILE_MATERIALS_JS,
+    SnapshotError,
+    apply_camera,
+    check_chromium,
+    chromium_path,
+    first_line,
+    launch_browser,
+    open_page,
+)
+from app.media.camera import frame_camera, picture_bounds
+from app.media.jobs import Threaded, check_args, fail, quiet_stdout
+from app.media.pictures import settle
 from planners.explain import METHODS
 
 
@@ -68,7 +81,7 @@ def explain_snapshots(
     """Write the picture of one step, or of every step, of ``method`` on ``scenario``.
 
     Returns the exit code: 0 written, 2 bad argument or scenario, 1 browser or app failed
-    (one line on stderr, as :func:`app.media.browser.snapshot`).
+    (one line on stderr, as :func:`app.media.jobs.snapshot`).
     """
     try:
         _run(
@@ -85,15 +98,13 @@ def explain_snapshots(
             chromium=chromium,
         )
     except _Failure as failure:
-        return headless._fail(failure.message, failure.code)
-    except headless.SnapshotError as error:
-        return headless._fail(str(error), 1)
+        return fail(failure.message, failure.code)
+    except SnapshotError as error:
+        return fail(str(error), 1)
     except KeyboardInterrupt:
-        return headless._fail("interrupted", 130)
+        return fail("interrupted", 130)
     except Exception as error:  # a command-line tool: one line, no traceback
-        return headless._fail(
-            f"explain snapshot failed: {type(error).__name__}: {error}", 1
-        )
+        return fail(f"explain snapshot failed: {type(error).__name__}: {error}", 1)
     return 0
 
 
@@ -127,13 +138,13 @@ def _run(
     chromium: str | None,
 ) -> None:
     number = _check(method, step, sensor_range)
-    problem = headless._check_args(width, height, view, None)
+    problem = check_args(width, height, view, None)
     if problem is not None:
         raise _Failure(problem, 2)
-    chromium = chromium or headless.chromium_path()
+    chromium = chromium or chromium_path()
     try:
-        headless.check_chromium(chromium)
-    except headless.SnapshotError as error:
+        check_chromium(chromium)
+    except SnapshotError as error:
         raise _Failure(str(error), 1) from None
     folder = out if number is None else out.parent
     try:
@@ -143,17 +154,15 @@ def _run(
     from app import start_app  # noqa: PLC0415 - app/__init__ imports the server
 
     try:
-        with headless._quiet_stdout():
+        with quiet_stdout():
             planner_app = start_app(scenario, host="127.0.0.1", port=0, print_url=False)
     except (ValueError, LookupError, FileNotFoundError) as error:
-        raise _Failure(
-            f"cannot load scenario: {headless._first_line(error)}", 2
-        ) from None
+        raise _Failure(f"cannot load scenario: {first_line(error)}", 2) from None
     try:
         _prepare(planner_app, method, obstacle, sensor_range, timeout)
 
         def take() -> bytes:
-            with headless.launch_browser(chromium) as browser:
+            with launch_browser(chromium) as browser:
                 _pictures(
                     planner_app,
                     browser,
@@ -166,9 +175,9 @@ def _run(
                 )
             return b""
 
-        headless._Threaded(take, "snapshot-browser").result()
+        Threaded(take, "snapshot-browser").result()
     finally:
-        with headless._quiet_stdout(), contextlib.suppress(Exception):
+        with quiet_stdout(), contextlib.suppress(Exception):
             planner_app.stop()
 
 
@@ -214,23 +223,23 @@ def _pictures(
         )
     wanted = [number - 1] if number is not None else list(range(count))
     deadline = time.monotonic() + timeout * max(1, len(wanted))
-    whole = headless.scene_bounds(planner_app.controller.scene)
-    with headless.open_page(
+    whole = picture_bounds(planner_app.controller.scene)
+    with open_page(
         planner_app, browser, width=width, height=height, timeout=timeout
     ) as shown:
-        shown.page.add_style_tag(content=headless._HIDE_GUI_CSS)
+        shown.page.add_style_tag(content=HIDE_GUI_CSS)
         shown.page.evaluate("() => document.fonts.ready.then(() => true)")
         lines = []
         for n in wanted:
             bounds = step_bounds(explanation, n, whole)
             planner_app.explain.caption_bounds = bounds
-            pose = headless.frame_camera(bounds, width, height, view)
-            headless._apply_camera(shown.client, pose, deadline)
+            pose = frame_camera(bounds, width, height, view)
+            apply_camera(shown.client, pose, deadline)
             explainer.go(n)
             explainer.wait_ready(timeout)
             planner_app.wait_idle(timeout)
-            shown.page.evaluate(headless._RECOMPILE_MATERIALS_JS)
-            png = headless._settle(shown.page, deadline)
+            shown.page.evaluate(RECOMPILE_MATERIALS_JS)
+            png = settle(shown.page, deadline)
             target = out if number is not None else out / f"{n + 1:03d}.png"
             _write(target, png)
             lines.append(f"{n + 1:03d} {explanation.steps[n].text}")

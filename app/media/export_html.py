@@ -10,7 +10,7 @@ drawn by the same client as the app, with every layer the app draws:
 1. start the app (no browser needed) and let the view draw for a picture
    (:meth:`app.ui.view.PlannerView.present`: no editing gizmos);
 2. start recording: the serializer takes the current scene, then every message after;
-3. put the robot at ``t_k = k / fps`` for every frame (:func:`app.media.record.frame_times`),
+3. put the robot at ``t_k = k / fps`` for every frame (:func:`app.media.video.frame_times`),
    waiting until each pose is drawn and sent, with a pause of ``1 / fps`` recorded
    between frames, so the page plays the run at the trajectory's real time (and loops);
 4. write the page, with a small title and legend added as plain HTML.
@@ -33,10 +33,11 @@ from pathlib import Path
 from typing import Any
 
 import planners
-from app.media import browser as headless
-from app.media.jobs import JobFailure, start_quietly
-from app.media.record import LIVE_FOLLOW, MAX_FPS, RECORD_FPS, check_until, frame_times
+from app.media.browser import SnapshotError, first_line
+from app.media.jobs import JobFailure, fail, quiet_stdout, start_quietly
+from app.media.record import LIVE_FOLLOW, check_until
 from app.media.slides import legend_rows
+from app.media.video import MAX_FPS, RECORD_FPS, frame_times
 from app.ui.text import html_text
 
 
@@ -198,9 +199,7 @@ def _with_legend(
 
 def _wait(planner_app: Any) -> None:
     if planner_app.wait_idle(60.0) is False:
-        raise headless.SnapshotError(
-            "the app did not finish planning and drawing in time"
-        )
+        raise SnapshotError("the app did not finish planning and drawing in time")
 
 
 def _check(
@@ -229,7 +228,7 @@ def export_html(
     path = Path(out)
     problem = _check(path, fps, follow, until)
     if problem is not None:
-        return headless._fail(problem, 2)
+        return fail(problem, 2)
     planner_app = None
     try:
         planner_app = start_quietly(scenario)
@@ -241,16 +240,16 @@ def export_html(
         partial.write_text(page, encoding="utf-8")
         partial.replace(path)
     except JobFailure as failure:
-        return headless._fail(failure.message, failure.code)
+        return fail(failure.message, failure.code)
     except OSError as error:
-        return headless._fail(f"cannot write {path}: {error.strerror or error}", 1)
+        return fail(f"cannot write {path}: {error.strerror or error}", 1)
     except Exception as error:  # a command-line tool: no traceback
-        return headless._fail(
-            f"failed: {type(error).__name__}: {headless._first_line(error)}",
+        return fail(
+            f"failed: {type(error).__name__}: {first_line(error)}",
             1,
         )
     finally:
         if planner_app is not None:
-            with headless._quiet_stdout():
+            with quiet_stdout():
                 planner_app.stop()
     return 0

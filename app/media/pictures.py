@@ -23,10 +23,8 @@ __all__ = [
     "Studio",
     "batch",
     "open_studio",
-    "run_with_browser",
     "settle",
     "shoot",
-    "snapshot_dir",
     "time_stamp",
 ]
 
@@ -40,8 +38,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from app.media import browser as headless
-from app.media.browser import PlaywrightError, run_with_browser
+from app.media.browser import (
+    RECOMPILE_MATERIALS_JS,
+    SLIDE_CSS,
+    AppPage,
+    PlaywrightError,
+    SnapshotError,
+    apply_camera,
+    attach_page,
+    first_line,
+    loading_size,
+    open_page,
+)
 from app.media.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout
 
 if TYPE_CHECKING:
@@ -91,7 +99,7 @@ class Studio:
 
     app: Any
     """What :func:`app.start_app` returned."""
-    shown: headless.AppPage
+    shown: AppPage
     width: int
     height: int
     timeout: float = 60.0
@@ -113,12 +121,12 @@ class Studio:
         else:
             files.load_text(Path(path).read_bytes(), Path(path).name)
         self.presented = None  # the new scenario's layers and labels are drawn anew
-        self._wait_idle()
+        self.wait_idle()
 
     def follow(self, planner: str) -> None:
         """Let the robot follow ``planner``'s path."""
         self.app.controller.playback.set_follow(planner)
-        self._wait_idle()
+        self.wait_idle()
 
     @property
     def duration(self) -> float:
@@ -145,14 +153,14 @@ class Studio:
         # Camera, line widths and overlay first, the page's full size last: the software
         # renderer draws the intermediate frames at the small loading size. What
         # :func:`_stage` put in place before the page opened is not sent again.
-        headless._apply_camera(self.shown.client, slide.camera, deadline)
+        apply_camera(self.shown.client, slide.camera, deadline)
         if self.presented != slide.line_scale:
             self.app.view.present(line_scale=slide.line_scale, labels=False)
             self.presented = slide.line_scale
-        self._wait_idle()
+        self.wait_idle()
         page = self.shown.page
         page.evaluate(DRAW_OVERLAY_JS, slide.overlay_spec())
-        page.evaluate(headless._RECOMPILE_MATERIALS_JS)
+        page.evaluate(RECOMPILE_MATERIALS_JS)
         size = page.viewport_size
         if size is None or (size["width"], size["height"]) != (self.width, self.height):
             page.set_viewport_size({"width": self.width, "height": self.height})
@@ -178,7 +186,7 @@ class Studio:
 
             return live_picture(self, float(robot_time), view, options)
         self.app.set_robot_time(0.0 if robot_time is None else float(robot_time))
-        self._wait_idle()
+        self.wait_idle()
         self.compose(view, options)
         return settle(self.shown.page, time.monotonic() + self.timeout)
 
@@ -190,7 +198,7 @@ class Studio:
         after two more animation frames, so it does not depend on timing.
         """
         self.app.set_robot_time(float(t))
-        self._wait_idle()
+        self.wait_idle()
         return self.shot(t, image_format=image_format)
 
     def shot(
@@ -224,11 +232,10 @@ class Studio:
         page.evaluate(_TWO_FRAMES_JS)
         return page.screenshot(type=image_format, animations="disabled", caret="hide")  # type: ignore[arg-type]
 
-    def _wait_idle(self) -> None:
+    def wait_idle(self) -> None:
+        """Wait until the app has planned and drawn everything (SnapshotError if late)."""
         if self.app.wait_idle(self.timeout) is False:
-            raise headless.SnapshotError(
-                "the app did not finish planning and drawing in time"
-            )
+            raise SnapshotError("the app did not finish planning and drawing in time")
 
 
 def _layout(
@@ -275,9 +282,7 @@ def _stage(
     """
     planner_app.set_robot_time(first.robot_time)
     if planner_app.wait_idle(timeout) is False:
-        raise headless.SnapshotError(
-            "the app did not finish planning and drawing in time"
-        )
+        raise SnapshotError("the app did not finish planning and drawing in time")
     slide = _layout(planner_app, width, height, first.view, first.options)
     camera = planner_app.server.initial_camera
     camera.up = slide.camera.up
@@ -288,9 +293,7 @@ def _stage(
     camera.look_at = slide.camera.look_at
     planner_app.view.present(line_scale=slide.line_scale, labels=False)
     if planner_app.wait_idle(timeout) is False:
-        raise headless.SnapshotError(
-            "the app did not finish planning and drawing in time"
-        )
+        raise SnapshotError("the app did not finish planning and drawing in time")
     return slide.line_scale
 
 
@@ -317,9 +320,7 @@ def open_studio(
         try:
             shown.page.evaluate("() => document.fonts.ready.then(() => true)")
         except PlaywrightError as error:
-            raise headless.SnapshotError(
-                f"the browser failed: {headless._first_line(error)}"
-            ) from None
+            raise SnapshotError(f"the browser failed: {first_line(error)}") from None
         yield Studio(planner_app, shown, width, height, timeout, presented=presented)
 
 
@@ -330,22 +331,22 @@ def _studio_page(
     size: tuple[int, int],
     timeout: float,
     page: Page | None,
-) -> Iterator[headless.AppPage]:
+) -> Iterator[AppPage]:
     """Yield the app's page at the loading size: ``page`` once loaded, or a new one."""
     if page is None:
-        small_w, small_h = headless.loading_size(*size)
-        with headless.open_page(
+        small_w, small_h = loading_size(*size)
+        with open_page(
             planner_app,
             browser,
             width=small_w,
             height=small_h,
             timeout=timeout,
-            css=headless.SLIDE_CSS,
+            css=SLIDE_CSS,
         ) as shown:
             yield shown
         return
     try:
-        yield headless.attach_page(planner_app, page, timeout)
+        yield attach_page(planner_app, page, timeout)
     finally:
         with contextlib.suppress(Exception):
             page.context.close()
@@ -366,9 +367,7 @@ def settle(page: Page, deadline: float) -> bytes:
         if current == previous:
             return page.screenshot(type="png", animations="disabled", caret="hide")
         if time.monotonic() > deadline:
-            raise headless.SnapshotError(
-                "the picture kept changing; it did not settle in time"
-            )
+            raise SnapshotError("the picture kept changing; it did not settle in time")
         previous = current
         page.evaluate(_TWO_FRAMES_JS)
 
@@ -406,9 +405,7 @@ def shoot(
         try:
             return shot.picture(view, options, robot_time)
         except PlaywrightError as error:
-            raise headless.SnapshotError(
-                f"the browser failed: {headless._first_line(error)}"
-            ) from None
+            raise SnapshotError(f"the browser failed: {first_line(error)}") from None
 
 
 def batch(
@@ -442,60 +439,3 @@ def batch(
             partial.replace(path)
             written.append(path)
     return written
-
-
-def snapshot_dir(
-    scenarios: Sequence[str],
-    folder: str | os.PathLike[str],
-    *,
-    views: Sequence[str] = ("top",),
-    width: int = 1280,
-    height: int = 800,
-    options: SlideOptions = SlideOptions(),  # noqa: B008
-    timeout: float = 60.0,
-    chromium: str | None = None,
-) -> int:
-    """``--snapshot-dir``: a slide picture of every scenario (and view) into ``folder``.
-
-    Files are named ``NAME.png`` (``NAME-VIEW.png`` with several views), NAME the
-    scenario's key (``02_three_obstacles``) or file stem. One server, one browser and one
-    page serve the whole batch. Returns the exit code (0: every file written).
-    """
-    from app.media.jobs import run_job  # noqa: PLC0415
-    from app.server import resolve_scenario  # noqa: PLC0415
-    from planners.scene import ScenarioError  # noqa: PLC0415
-
-    out = Path(folder)
-    problem = headless._check_args(width, height, views[0] if views else "", None)
-    bad = [v for v in views if v not in headless.VIEWS]
-    if bad or not views:
-        problem = (
-            f"views must be among {', '.join(headless.VIEWS)}, got {', '.join(views)!r}"
-        )
-    jobs: list[tuple[str, str, Path]] = []
-    for name in scenarios:
-        try:
-            key, path = resolve_scenario(name)
-        except ScenarioError as error:
-            problem = problem or f"cannot load scenario: {error}"
-            continue
-        stem = key or Path(path).stem
-        for view in views:
-            suffix = f"-{view}" if len(views) > 1 else ""
-            jobs.append((str(path), view, out / f"{stem}{suffix}.png"))
-    if not jobs and problem is None:
-        problem = "no scenario to draw"
-
-    def work(planner_app: Any, browser: Browser) -> list[Path]:
-        return batch(
-            planner_app,
-            browser,
-            jobs,
-            width=width,
-            height=height,
-            options=options,
-            timeout=timeout,
-        )
-
-    first = jobs[0][0] if jobs else None
-    return run_job(first, out, problem, work, chromium=chromium)

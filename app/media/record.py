@@ -7,11 +7,8 @@ explicitly for each frame (:meth:`app.media.pictures.Studio.frame`), never read 
 so two recordings of the same scenario are the same frame for frame.
 
 The pictures are the slide pictures of :mod:`app.media.slides` (title, legend, labels placed for
-the video's size) drawn by the app in headless Chromium. The encoding is done by ffmpeg
-through ``imageio-ffmpeg`` (a PyPI wheel that bundles the ffmpeg binary) for MP4
-(H.264, yuv420p, so it plays in every browser and in slide software), and by Pillow
-through ``imageio`` for GIF (which stores frame times in hundredths of a second: a frame
-rate that does not divide 100 is played slightly off).
+the video's size) drawn by the app in headless Chromium, and encoded by
+:mod:`app.media.video` (ffmpeg for MP4, Pillow for GIF).
 
 A scenario with moving obstacles is recorded live (:mod:`app.media.record_live`): the DSB robot
 sensing as it drives while the obstacles move, as the app's *Live DSB* mode shows it,
@@ -24,81 +21,41 @@ from __future__ import annotations
 __all__ = [
     "FORMATS",
     "LIVE_FOLLOW",
-    "RECORD_FPS",
-    "Recording",
     "check_until",
-    "frame_times",
     "record",
+    "record_live_video",
     "record_video",
 ]
 
-import contextlib
-import dataclasses
-import io
 import math
 import os
-from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-import numpy.typing as npt
-
-from app.media.browser import CameraPose, SnapshotError
+from app.media.browser import SnapshotError
 from app.media.jobs import JobFailure, run_job
 from app.media.pictures import FirstPicture, open_studio
+from app.media.record_live import (
+    LiveFilm,
+    base_slide,
+    live_drawing,
+    live_trace,
+    shoot_frame,
+)
 from app.media.slides import SlideOptions
+from app.media.video import MAX_FPS, RECORD_FPS, Recording, frame_times, pixels, writer
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
 
-    from planners.bug.live import LiveTrace
 
 FORMATS = (".mp4", ".gif")
 """File suffixes :func:`record` writes."""
-MAX_FPS = 60
-RECORD_FPS = 15.0
-"""Frames a second of a recording (and of an exported page) unless told otherwise."""
 LIVE_FOLLOW = (
     "--follow {follow}: this scenario's obstacles move, so it is recorded live (the DSB"
     " robot sensing as it drives); --follow is for scenarios without moving obstacles"
 )
 """The one-line error for ``--follow`` on a scenario with moving obstacles."""
-_MP4_QUALITY = 8  # imageio-ffmpeg's scale 0..10 (10: near lossless)
-
-
-@dataclasses.dataclass(frozen=True)
-class Recording:
-    """What :func:`record_video` wrote."""
-
-    path: Path
-    fps: float
-    times: tuple[float, ...]
-    """Trajectory time [s] of each frame."""
-    duration: float
-    """Length of the recorded stretch of the trajectory [s]."""
-    camera: CameraPose
-    """The camera of every frame."""
-    width: int
-    height: int
-    live: LiveTrace | None = None
-    """The live run recorded (a scenario with moving obstacles), else None."""
-
-
-def frame_times(duration: float, fps: float) -> tuple[float, ...]:
-    """Trajectory times of the frames: ``k / fps`` for every k with ``k / fps <= duration``.
-
-    So a recording has ``floor(duration * fps) + 1`` frames, the first at the start.
-
-    Examples
-    --------
-    >>> frame_times(1.0, 4.0)
-    (0.0, 0.25, 0.5, 0.75, 1.0)
-    >>> len(frame_times(2.3, 10.0))
-    24
-    """
-    n = math.floor(duration * fps + 1e-9) + 1
-    return tuple(k / fps for k in range(n))
 
 
 def record_video(
@@ -117,7 +74,7 @@ def record_video(
     """Record the robot of a running app following ``follow``'s path into ``out``.
 
     A scene with moving obstacles is recorded live instead: the DSB robot sensing as it
-    drives among them (:func:`app.media.record_live.record_live_video`); ``follow`` must then
+    drives among them (:func:`record_live_video`); ``follow`` must then
     be None.
 
     Raises
@@ -129,8 +86,6 @@ def record_video(
         ``follow`` given for a scene with moving obstacles (exit code 2).
     """
     if planner_app.controller.scene.motions:
-        from app.media.record_live import record_live_video  # noqa: PLC0415
-
         if follow is not None:
             raise JobFailure(LIVE_FOLLOW.format(follow=follow), 2)
         return record_live_video(
@@ -156,7 +111,7 @@ def record_video(
         first=FirstPicture("top", options),
     ) as studio:
         studio.app.set_robot_time(0.0)
-        studio._wait_idle()
+        studio.wait_idle()
         duration = studio.duration
         if duration <= 0:
             raise SnapshotError(
@@ -166,56 +121,54 @@ def record_video(
         end = duration if until is None else min(duration, until)
         times = frame_times(end, fps)
         slide = studio.compose("top", options)
-        with _writer(path, fps) as write:
+        with writer(path, fps) as write:
             for t in times:
-                write(_pixels(studio.frame(t)))
+                write(pixels(studio.frame(t)))
     return Recording(path, fps, times, end, slide.camera, width, height)
 
 
-def _pixels(png: bytes) -> npt.NDArray[np.uint8]:
-    from PIL import Image  # noqa: PLC0415 - pillow comes with the media extra
+def record_live_video(
+    planner_app: Any,
+    browser: Browser,
+    out: str | os.PathLike[str],
+    *,
+    width: int = 640,
+    height: int = 360,
+    fps: float = RECORD_FPS,
+    until: float | None = None,
+    options: SlideOptions = SlideOptions(),  # noqa: B008
+    timeout: float = 60.0,
+) -> Recording:
+    """Record the live DSB run of the app's scene (moving obstacles) into ``out``.
 
-    with Image.open(io.BytesIO(png)) as image:
-        return np.asarray(image.convert("RGB"))
-
-
-@contextlib.contextmanager
-def _writer(path: Path, fps: float) -> Iterator[Any]:
-    """Yield ``write(frame)``; the file appears whole at ``path`` at the end, or not at all."""
-    import imageio.v2 as iio  # noqa: PLC0415 - only a recording needs it
-
-    partial = path.with_name(f".{path.stem}.{os.getpid()}.partial{path.suffix}")
-    if path.suffix.lower() == ".mp4":
-        writer = iio.get_writer(
-            partial,
-            format="FFMPEG",  # type: ignore[arg-type]
-            mode="I",
-            fps=fps,
-            codec="libx264",
-            quality=_MP4_QUALITY,
-            pixelformat="yuv420p",
-            macro_block_size=2,
-            ffmpeg_log_level="error",
-            # One encoder thread: the same input gives the same bytes on every run.
-            output_params=["-threads", "1", "-movflags", "+faststart"],
-        )
-    else:
-        writer = iio.get_writer(
-            partial,
-            format="GIF",  # type: ignore[arg-type]
-            mode="I",
-            duration=1000.0 / fps,
-            loop=0,
-        )
-    try:
-        yield writer.append_data
-        writer.close()
-        partial.replace(path)
-    except BaseException:
-        with contextlib.suppress(Exception):
-            writer.close()
-        partial.unlink(missing_ok=True)
-        raise
+    Frame ``k`` is the run at ``t_k = k / fps``, from 0 to the end of the run (the goal
+    reached, or :func:`planners.bug.live.run_live`'s limit) or ``until``.
+    """
+    path = Path(out)
+    scene = planner_app.controller.scene
+    film = LiveFilm(scene, live_trace(scene, until))
+    end = film.trace.duration if until is None else min(film.trace.duration, until)
+    times = frame_times(end, fps)
+    base = base_slide(planner_app, film, times, (width, height), options)
+    with open_studio(
+        planner_app,
+        browser,
+        width=width,
+        height=height,
+        timeout=timeout,
+        first=FirstPicture("top", options),
+    ) as studio:
+        studio.wait_idle()
+        with live_drawing(planner_app) as tick:
+            studio.compose(options=options, slide=base)
+            with writer(path, fps) as write:
+                for k, t in enumerate(times):
+                    write(
+                        pixels(
+                            shoot_frame(studio, film.frame(t), base, options, (k, tick))
+                        )
+                    )
+    return Recording(path, fps, times, end, base.camera, width, height, live=film.trace)
 
 
 def _check(

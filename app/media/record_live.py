@@ -44,12 +44,14 @@ __all__ = [
     "LiveFilm",
     "LiveFrame",
     "LiveWalk",
+    "base_slide",
     "draw_app_again",
     "legend_plans",
+    "live_drawing",
     "live_layers",
     "live_picture",
     "live_trace",
-    "record_live_video",
+    "shoot_frame",
     "show_live",
 ]
 
@@ -57,19 +59,16 @@ import contextlib
 import dataclasses
 import functools
 import math
-import os
 from collections.abc import Iterator, Mapping
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from app.live import step_pose
-from app.media.browser import scene_bounds
-from app.media.pictures import FirstPicture, open_studio
-from app.media.record import RECORD_FPS, Recording, _pixels, _writer, frame_times
+from app.media.camera import picture_bounds
 from app.media.slides import DRAW_OVERLAY_JS, Slide, SlideOptions, layout, relabel
+from app.media.video import RECORD_FPS, frame_times
 from app.session.frames import RobotPose
 from planners.bug.live import (
     MAX_DURATION_S,
@@ -83,9 +82,6 @@ from planners.bug.live import (
 from planners.memo import Memo
 from planners.scene import Scene, scene_at
 from planners.space.expansion import ConfigurationSpace
-
-if TYPE_CHECKING:
-    from playwright.sync_api import Browser
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -261,8 +257,10 @@ class LiveFilm:
     def bounds(self, times: tuple[float, ...]) -> tuple[float, float, float, float]:
         """Return the floor area every frame at ``times`` shows (the moving obstacles' too)."""
         if self.scene.boundary is not None:
-            return scene_bounds(self.scene)
-        boxes = np.array([scene_bounds(scene_at(self.scene, t)) for t in (0.0, *times)])
+            return picture_bounds(self.scene)
+        boxes = np.array(
+            [picture_bounds(scene_at(self.scene, t)) for t in (0.0, *times)]
+        )
         return (
             float(boxes[:, 0].min()),
             float(boxes[:, 1].min()),
@@ -299,48 +297,6 @@ def show_live(planner_app: Any, frame: LiveFrame) -> None:
     planner_app.view.render_robot(frame.pose)
 
 
-def record_live_video(
-    planner_app: Any,
-    browser: Browser,
-    out: str | os.PathLike[str],
-    *,
-    width: int = 640,
-    height: int = 360,
-    fps: float = RECORD_FPS,
-    until: float | None = None,
-    options: SlideOptions = SlideOptions(),  # noqa: B008
-    timeout: float = 60.0,
-) -> Recording:
-    """Record the live DSB run of the app's scene (moving obstacles) into ``out``.
-
-    Frame ``k`` is the run at ``t_k = k / fps``, from 0 to the end of the run (the goal
-    reached, or :func:`planners.bug.live.run_live`'s limit) or ``until``.
-    """
-    path = Path(out)
-    scene = planner_app.controller.scene
-    film = LiveFilm(scene, live_trace(scene, until))
-    end = film.trace.duration if until is None else min(film.trace.duration, until)
-    times = frame_times(end, fps)
-    base = _base_slide(planner_app, film, times, (width, height), options)
-    with open_studio(
-        planner_app,
-        browser,
-        width=width,
-        height=height,
-        timeout=timeout,
-        first=FirstPicture("top", options),
-    ) as studio:
-        studio._wait_idle()
-        with _live_drawing(planner_app) as tick:
-            studio.compose(options=options, slide=base)
-            with _writer(path, fps) as write:
-                for k, t in enumerate(times):
-                    write(
-                        _pixels(_shoot(studio, film.frame(t), base, options, (k, tick)))
-                    )
-    return Recording(path, fps, times, end, base.camera, width, height, live=film.trace)
-
-
 def live_picture(
     studio: Any,
     t: float,
@@ -351,13 +307,13 @@ def live_picture(
 
     The frame at ``t`` of a recording that ends there (``--record --until T``): the
     obstacles where they are then, the robot, its sensing and the path driven so far,
-    laid out as that recording is (:func:`_base_slide`: legend and camera of the run
+    laid out as that recording is (:func:`base_slide`: legend and camera of the run
     until ``t``). Past the run's end (the goal reached, or
     :data:`planners.bug.live.MAX_DURATION_S`), its last frame. With the labels on, the
     picture says its time (``t = 4.5 s``). The app's own drawing is put back afterwards.
     """
     app = studio.app
-    studio._wait_idle()
+    studio.wait_idle()
     scene = app.controller.scene
     film = LiveFilm(scene, live_trace(scene, until=t))
     t = min(float(t), film.trace.duration)  # past the run's end: its last frame
@@ -366,14 +322,14 @@ def live_picture(
     if options.labels:
         options = dataclasses.replace(options, time_stamp=True)
     size = (studio.width, studio.height)
-    slide = _base_slide(app, film, times, size, options, view=view, last=frame)
-    with _live_drawing(app) as tick:
+    slide = base_slide(app, film, times, size, options, view=view, last=frame)
+    with live_drawing(app) as tick:
         studio.compose(options=options, slide=slide)
-        return _shoot(studio, frame, slide, options, (0, tick))
+        return shoot_frame(studio, frame, slide, options, (0, tick))
 
 
 @contextlib.contextmanager
-def _live_drawing(planner_app: Any) -> Iterator[Any]:
+def live_drawing(planner_app: Any) -> Iterator[Any]:
     """Yield the tick node live frames are shot by; then the app's own drawing again.
 
     The tick starts at -1: frame ``k`` moves it to ``k``, so even frame 0 waits for its
@@ -405,7 +361,7 @@ def legend_plans(film: LiveFilm, last: LiveFrame) -> dict[str, Any]:
     return {**last.plans, PLANNER: whole}
 
 
-def _base_slide(
+def base_slide(
     planner_app: Any,
     film: LiveFilm,
     times: tuple[float, ...],
@@ -434,7 +390,7 @@ def _base_slide(
     )
 
 
-def _shoot(
+def shoot_frame(
     studio: Any,
     frame: LiveFrame,
     base: Slide,

@@ -46,7 +46,7 @@ import shapely
 from shapely import Polygon
 
 import planners
-from app.media.browser import CameraPose, frame_camera, scene_bounds
+from app.media.camera import TOP_FOV, CameraPose, frame_camera, picture_bounds
 from app.media.labels import Box, LabelRequest, Placement, label_size, place_labels
 from app.media.slide_options import SlideOptions
 from app.ui.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
@@ -63,7 +63,6 @@ _MIN_FONT = 11.0
 _LEGEND_FONT = 0.8  # of the label font
 _TITLE_FONT = 1.2
 _TEXT_WIDTH = 0.62  # [em] per character of DejaVu Sans, an upper estimate
-_TOP_FOV = math.radians(20.0)  # as app.headless's top view
 _EVENT_CROSS = 0.12  # [m] half-size of an event's cross (app.ui.view draws it)
 _MARKER_MIN = 0.12  # [m] smallest start/goal marker radius (app.ui.view._marker_size)
 
@@ -221,12 +220,12 @@ def slide_camera(
     acx, acy = (area.x0 + area.x1) / 2, (area.y0 + area.y1) / 2
     cx = sx - (acx - width / 2) / scale
     cy = sy + (acy - height / 2) / scale
-    distance = (height / 2) / (scale * math.tan(_TOP_FOV / 2))
+    distance = (height / 2) / (scale * math.tan(TOP_FOV / 2))
     return CameraPose(
         position=(cx, cy, distance),
         look_at=(cx, cy, 0.0),
         up=(0.0, 1.0, 0.0),
-        fov=_TOP_FOV,
+        fov=TOP_FOV,
         near=distance / 10,
         far=distance * 10,
     )
@@ -359,7 +358,7 @@ def layout(
         The planners drawn.
     bounds
         The floor area to frame (xmin, ymin, xmax, ymax) [m]; None: the scene's
-        (:func:`app.media.browser.scene_bounds`). A video whose obstacles move frames the
+        (:func:`app.media.camera.picture_bounds`). A video whose obstacles move frames the
         area they cover over the whole run, so that every frame has the same camera.
 
     Returns
@@ -376,7 +375,7 @@ def layout(
         else ()
     )
     legend_font = font * _LEGEND_FONT
-    bounds = scene_bounds(scene) if bounds is None else bounds
+    bounds = picture_bounds(scene) if bounds is None else bounds
     full = Box(margin, top, width - margin, height - margin)
     legend_box, columns, area = _place_legend(
         rows, legend_font, bounds, full, margin=margin, view=view

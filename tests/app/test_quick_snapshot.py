@@ -21,13 +21,8 @@ import numpy as np
 from PIL import Image
 
 from app import start_app
-from app.media.browser import (
-    SLIDE_CSS,
-    attach_page,
-    free_port,
-    open_early,
-    run_with_browser,
-)
+from app.media.browser import SLIDE_CSS, attach_page, free_port, open_early
+from app.media.jobs import run_with_browser
 from app.media.pictures import FirstPicture, open_studio, shoot
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -118,7 +113,7 @@ def test_the_snapshot_command_does_not_import_the_app_before_the_browser() -> No
     # What `python -m app --snapshot` imports before it launches Chromium: no viser, no
     # planners (their import is what the browser's launch overlaps).
     code = (
-        "import sys, app.__main__, app.media.browser, app.media.slide_options\n"
+        "import sys, app.__main__, app.media.jobs, app.media.slide_options\n"
         "print(sorted(m for m in ('viser', 'planners', 'app.server', 'app.ui.view')"
         " if m in sys.modules))"
     )

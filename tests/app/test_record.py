@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 from app import start_app
-from app.media.record import frame_times, record, record_video
+from app.media.record import record, record_video
 from app.media.slides import SlideOptions, layout, project
+from app.media.video import frame_times
 from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from app.ui.style import BLACK, BLUE, DARK_PURPLE, GREEN, ORANGE, SKY, VERMILLION, tint
-from app.ui.view import _Labels, _Segments, lift_segments, merge_labels
+from app.ui.view import Labels, Segments, lift_segments, merge_labels
 from planners.explain import ROLES, Step, circle_segments
 
 if TYPE_CHECKING:
@@ -110,12 +110,12 @@ class ExplainView:
     def __init__(self, scene: viser.SceneApi) -> None:
         self._lock = threading.Lock()
         self._layers = {
-            role: _Segments(scene, f"/explain/{role}", look.color, look.width)
+            role: Segments(scene, f"/explain/{role}", look.color, look.width)
             for role, look in ROLE_LOOKS.items()
         }
         assert set(self._layers) == set(ROLES)
-        self._labels = _Labels(scene, "/explain/labels", scale=0.8)
-        self._caption = _Labels(
+        self._labels = Labels(scene, "/explain/labels", scale=0.8)
+        self._caption = Labels(
             scene, "/explain/caption", scale=CAPTION_SCALE, anchor="top-left"
         )
 

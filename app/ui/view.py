@@ -15,7 +15,9 @@ __all__ = [
     "MAX_NUMBERED_OBSTACLES",
     "MAX_VERTEX_HANDLES",
     "STALE_RGB",
+    "Labels",
     "PlannerView",
+    "Segments",
     "SensingPicture",
     "circle_segments",
     "clear_of_markers",
@@ -421,7 +423,7 @@ def _axis_quaternion(
 # --------------------------------------------------------------------------- the view
 
 
-class _Segments:
+class Segments:
     """One line-segment layer whose number of segments changes from frame to frame."""
 
     def __init__(
@@ -458,6 +460,7 @@ class _Segments:
         visible: bool = True,
         colors: npt.NDArray[np.uint8] | None = None,
     ) -> None:
+        """Draw ``segments`` ((N, 2, 3) [m]), in one colour or one per segment."""
         if len(segments) == 0:
             self.handle.visible = False
             return
@@ -571,10 +574,10 @@ class _Chunked(Generic[_LayerT]):
 
 def _chunked_outlines(
     scene: viser.SceneApi, prefix: str, color: tuple[int, int, int], z: float
-) -> _Chunked[_Segments]:
+) -> _Chunked[Segments]:
     """Polygons' outlines at height ``z`` [m], drawn in chunks (:class:`_Chunked`)."""
     return _Chunked(
-        functools.partial(_Segments, scene, color=color, thickness=WIDTHS["outline"]),
+        functools.partial(Segments, scene, color=color, thickness=WIDTHS["outline"]),
         prefix,
         functools.partial(rings_to_segments, z=z),
     )
@@ -592,7 +595,7 @@ def _same(old: object, new: object) -> bool:
         return False
 
 
-class _Labels:
+class Labels:
     """A pool of labels; only grows, hides what it does not need."""
 
     def __init__(
@@ -613,6 +616,7 @@ class _Labels:
     def set(
         self, items: Sequence[tuple[str, npt.ArrayLike]], visible: bool = True
     ) -> None:
+        """Show ``items`` (text, position) and hide the labels beyond them."""
         while len(self.handles) < len(items):
             self.handles.append(
                 self.scene.add_label(
@@ -670,10 +674,10 @@ class _GraphLayer:
         self.look = look
         # Graph edges are thin lines of constant pixel width: readable at any zoom, and
         # cheaper to draw than world-width ribbons (which matters in software WebGL).
-        self.edges = _Segments(
+        self.edges = Segments(
             scene, f"/{name}/edges", look.edges or look.path, look.edges_px, "screen"
         )
-        self.path = _Segments(scene, f"/{name}/path", look.path, look.path_width)
+        self.path = Segments(scene, f"/{name}/path", look.path, look.path_width)
         self.stale = False  # drawn grey (an older scene's result)
 
     def render(self, frame: Frame, changed: Callable[[str, Any], bool]) -> None:
@@ -721,13 +725,13 @@ class _TraceLayer:
     def __init__(self, scene: viser.SceneApi, name: str, look: PlannerLook) -> None:
         self.name = name
         self.look = look
-        self.path = _Segments(
+        self.path = Segments(
             scene, f"/{name}/path", look.path, look.path_width, per_segment=True
         )
-        self.marks = _Segments(
+        self.marks = Segments(
             scene, f"/{name}/marks", COLORS["marker_edge"], WIDTHS["outline"]
         )
-        self.labels = _Labels(scene, f"/{name}/labels", 1.0, "bottom-left")
+        self.labels = Labels(scene, f"/{name}/labels", 1.0, "bottom-left")
 
     def render(
         self,
@@ -854,7 +858,7 @@ class PlannerView:
         self.obstacle_edges = _chunked_outlines(
             s, "/obstacles/edges", COLORS["obstacle_edge"], HEIGHTS["obstacle"] + 0.002
         )
-        self.obstacle_labels = _Labels(s, "/obstacles/labels", 0.9, "center-center")
+        self.obstacle_labels = Labels(s, "/obstacles/labels", 0.9, "center-center")
         self.expanded_fill = _Chunked(
             functools.partial(
                 _Mesh,
@@ -871,13 +875,13 @@ class PlannerView:
         self.expanded_edges = _chunked_outlines(
             s, "/expanded/edges", COLORS["expanded_edge"], HEIGHTS["expanded_edge"]
         )
-        self.other_edges = _Segments(
+        self.other_edges = Segments(
             s, "/expanded/other", COLORS["other_expansion"], WIDTHS["outline"] * 0.8
         )
-        self.selection = _Segments(
+        self.selection = Segments(
             s, "/selection", COLORS["selection"], WIDTHS["selection"]
         )
-        self.draft = _Segments(s, "/draft", COLORS["draft"], WIDTHS["outline"] * 1.5)
+        self.draft = Segments(s, "/draft", COLORS["draft"], WIDTHS["outline"] * 1.5)
 
     def _add_markers(self) -> None:
         """Create the start and goal gizmos, each with its marker, rim and label.
@@ -934,17 +938,17 @@ class PlannerView:
         self.body_parts: list[viser.MeshHandle] = []
         self.wheel_spins: list[tuple[viser.FrameHandle, FloatArray]] = []
         self._robot_key: Any = None
-        self.sensing_circle = _Segments(
+        self.sensing_circle = Segments(
             s, "/sensing/range", COLORS["sensing"], WIDTHS["sensing"]
         )
-        self.sensing_graph = _Segments(
+        self.sensing_graph = Segments(
             s, "/sensing/tangents", COLORS["tangents"], WIDTHS["sensing"]
         )
-        self.sensing_seen = _Segments(
+        self.sensing_seen = Segments(
             s, "/sensing/seen", COLORS["sensed"], WIDTHS["sensing"] * 3
         )
         # The planner's choice r_next: r -> O_i -> g, black and bold.
-        self.sensing_chosen = _Segments(
+        self.sensing_chosen = Segments(
             s, "/sensing/chosen", COLORS["chosen"], WIDTHS["sensing"] * 2.4
         )
 

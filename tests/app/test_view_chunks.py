@@ -40,7 +40,7 @@ from tests.benchmarks.bench_student import student_layout
 
 
 class _Layer:
-    """A node's layer that records what it was given (as _Mesh/_Segments are used)."""
+    """A node's layer that records what it was given (as _Mesh/Segments are used)."""
 
     def __init__(self, name: str) -> None:
         self.name = name

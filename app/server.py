@@ -46,7 +46,7 @@ from app.session.files import ScenesFolder
 from app.ui.panels import Panels
 from app.ui.scoped import ScopedTarget
 from app.ui.text import one_line
-from app.ui.view import PlannerView, scene_bounds
+from app.ui.view import PlannerView, floor_bounds
 from planners.allocator import freeze_long_lived, keep_freed_memory
 from planners.kernels import warm_up
 from planners.scene import ScenarioError, Scene
@@ -504,7 +504,7 @@ def _frame_camera(server: viser.ViserServer, scene: Scene) -> None:
 
     The floor is framed left of centre: the control panel floats over the right side.
     """
-    x0, y0, x1, y1 = scene_bounds(scene)
+    x0, y0, x1, y1 = floor_bounds(scene)
     w, h = max(x1 - x0, 1.0), max(y1 - y0, 1.0)
     fov = math.radians(50.0)
     distance = max(1.2 * w, 1.55 * h)

@@ -118,8 +118,8 @@ def frame_camera(
     view
         ``"top"``: straight down, +x to the right and +y up in the picture, a narrow
         field of view (20 degrees) so it reads like a plan. ``"perspective"``: from above
-        the lower-left, 50 degrees above the floor; the box is fitted up to 0.5 m above
-        the floor so that obstacle and wall tops stay in the picture.
+        the lower-left, 50 degrees above the floor; the box on the floor is fitted to
+        the picture, with the margin (the tops of obstacles and walls are not measured).
 
     Returns
     -------

@@ -27,20 +27,21 @@ from app.media.browser import (
     apply_camera,
     check_chromium,
     chromium_path,
-    first_line,
     launch_browser,
     open_page,
 )
 from app.media.camera import frame_camera, picture_bounds
-from app.media.jobs import Threaded, check_args, fail, quiet_stdout
+from app.media.jobs import (
+    JobFailure,
+    Threaded,
+    check_args,
+    exit_code,
+    quiet_stdout,
+    start_quietly,
+    write_file,
+)
 from app.media.pictures import settle
 from planners.explain import METHODS
-
-
-class _Failure(Exception):
-    def __init__(self, message: str, code: int) -> None:
-        super().__init__(message)
-        self.message, self.code = message, code
 
 
 def parse_step(text: str | int) -> int | None:
@@ -83,8 +84,8 @@ def explain_snapshots(
     Returns the exit code: 0 written, 2 bad argument or scenario, 1 browser or app failed
     (one line on stderr, as :func:`app.media.jobs.snapshot`).
     """
-    try:
-        _run(
+    return exit_code(
+        lambda: _run(
             scenario,
             Path(out),
             method=method,
@@ -96,31 +97,24 @@ def explain_snapshots(
             view=view,
             timeout=timeout,
             chromium=chromium,
-        )
-    except _Failure as failure:
-        return fail(failure.message, failure.code)
-    except SnapshotError as error:
-        return fail(str(error), 1)
-    except KeyboardInterrupt:
-        return fail("interrupted", 130)
-    except Exception as error:  # a command-line tool: one line, no traceback
-        return fail(f"explain snapshot failed: {type(error).__name__}: {error}", 1)
-    return 0
+        ),
+        "explain snapshot failed",
+    )
 
 
 def _check(method: str, step: str | int, sensor_range: float | None) -> int | None:
     if method not in METHODS:
-        raise _Failure(
+        raise JobFailure(
             f"explain must be one of {', '.join(METHODS)}, got {method!r}", 2
         )
     if sensor_range is not None and not (
         sensor_range > 0 and not math.isnan(sensor_range)
     ):
-        raise _Failure(f"sensor range must be > 0 m, got {sensor_range!r}", 2)
+        raise JobFailure(f"sensor range must be > 0 m, got {sensor_range!r}", 2)
     try:
         return parse_step(step)
     except ValueError as error:
-        raise _Failure(str(error), 2) from None
+        raise JobFailure(str(error), 2) from None
 
 
 def _run(
@@ -140,24 +134,18 @@ def _run(
     number = _check(method, step, sensor_range)
     problem = check_args(width, height, view, None)
     if problem is not None:
-        raise _Failure(problem, 2)
+        raise JobFailure(problem, 2)
     chromium = chromium or chromium_path()
     try:
         check_chromium(chromium)
     except SnapshotError as error:
-        raise _Failure(str(error), 1) from None
+        raise JobFailure(str(error), 1) from None
     folder = out if number is None else out.parent
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        raise _Failure(f"cannot write {out}: {error.strerror or error}", 1) from None
-    from app import start_app  # noqa: PLC0415 - app/__init__ imports the server
-
-    try:
-        with quiet_stdout():
-            planner_app = start_app(scenario, host="127.0.0.1", port=0, print_url=False)
-    except (ValueError, LookupError, FileNotFoundError) as error:
-        raise _Failure(f"cannot load scenario: {first_line(error)}", 2) from None
+        raise JobFailure(f"cannot write {out}: {error.strerror or error}", 1) from None
+    planner_app = start_quietly(scenario)
     try:
         _prepare(planner_app, method, obstacle, sensor_range, timeout)
 
@@ -198,7 +186,7 @@ def _prepare(
     assert method in METHOD_TITLES
     planner_app.wait_idle(timeout)
     if not panel.explainer.wait_ready(timeout) or panel.explainer.explanation is None:
-        raise _Failure(
+        raise JobFailure(
             panel.explainer.error or "the explanation was not ready in time", 1
         )
 
@@ -218,7 +206,7 @@ def _pictures(
     explanation = explainer.explanation
     count = len(explanation.steps)
     if number is not None and number > count:
-        raise _Failure(
+        raise JobFailure(
             f"step {number} does not exist: {explanation.title} has {count} steps", 2
         )
     wanted = [number - 1] if number is not None else list(range(count))
@@ -241,10 +229,10 @@ def _pictures(
             shown.page.evaluate(RECOMPILE_MATERIALS_JS)
             png = settle(shown.page, deadline)
             target = out if number is not None else out / f"{n + 1:03d}.png"
-            _write(target, png)
+            write_file(target, png)
             lines.append(f"{n + 1:03d} {explanation.steps[n].text}")
         if number is None:
-            _write(out / "steps.txt", ("\n".join(lines) + "\n").encode())
+            write_file(out / "steps.txt", ("\n".join(lines) + "\n").encode())
 
 
 def step_bounds(
@@ -274,12 +262,3 @@ def step_bounds(
     x, y = (float(v) for v in focus.points[0])
     half = max(2.5 * float(sensor_range), 1.2)
     return (x - half, y - half, x + half, y + half)
-
-
-def _write(path: Path, data: bytes) -> None:
-    try:
-        partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
-        partial.write_bytes(data)
-        partial.replace(path)
-    except OSError as error:
-        raise _Failure(f"cannot write {path}: {error.strerror or error}", 1) from None

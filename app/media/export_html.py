@@ -24,7 +24,7 @@ the file (the test opens it from disk with the network cut off).
 
 from __future__ import annotations
 
-__all__ = ["export_html", "export_page", "legend_html"]
+__all__ = ["export_html", "export_page", "page_legend_html"]
 
 import math
 import os
@@ -33,15 +33,22 @@ from pathlib import Path
 from typing import Any
 
 import planners
-from app.media.browser import SnapshotError, first_line
-from app.media.jobs import JobFailure, fail, quiet_stdout, start_quietly
+from app.media.jobs import (
+    JobFailure,
+    exit_code,
+    fail,
+    quiet_stdout,
+    start_quietly,
+    write_file,
+)
+from app.media.pictures import wait_drawn
 from app.media.record import LIVE_FOLLOW, check_until
 from app.media.slides import legend_rows
 from app.media.video import MAX_FPS, RECORD_FPS, frame_times
 from app.ui.text import html_text
 
 
-def legend_html(
+def page_legend_html(
     planner_app: Any,
     title: str,
     plans: Mapping[str, Any] | None = None,
@@ -132,14 +139,14 @@ def export_page(
     if follow is not None:
         controller.playback.set_follow(follow)
     planner_app.set_robot_time(0.0)
-    _wait(planner_app)
+    wait_drawn(planner_app, 60.0)
     trajectory = controller.playback.trajectory
     duration = float(getattr(trajectory, "duration", 0.0)) if trajectory else 0.0
     end = duration if until is None else min(duration, until)
     serializer = planner_app.server.get_scene_serializer()
     for t in frame_times(end, fps) if duration > 0 else ():
         planner_app.set_robot_time(t)
-        _wait(planner_app)
+        wait_drawn(planner_app, 60.0)
         serializer.insert_sleep(1.0 / fps)
     return _with_legend(serializer.as_html(), planner_app, title)
 
@@ -165,7 +172,7 @@ def _live_page(
 
     controller = planner_app.controller
     planner_app.set_robot_time(0.0)  # the app's own robot stays still meanwhile
-    _wait(planner_app)
+    wait_drawn(planner_app, 60.0)
     film = LiveFilm(controller.scene, live_trace(controller.scene, until))
     end = film.trace.duration if until is None else min(film.trace.duration, until)
     times = frame_times(end, fps)
@@ -189,17 +196,14 @@ def _with_legend(
     plans: Mapping[str, Any] | None = None,
     layers: Mapping[str, bool] | None = None,
 ) -> str:
-    """Return ``page`` with the title and legend block (:func:`legend_html`) added."""
+    """Return ``page`` with the title and legend block (:func:`page_legend_html`) added."""
     name = planner_app.controller.scene.name or ""
-    block = legend_html(planner_app, name if title is None else title, plans, layers)
+    block = page_legend_html(
+        planner_app, name if title is None else title, plans, layers
+    )
     # The client's document has one </body>; the legend goes just before it.
     at = page.rindex("</body>")
     return page[:at] + block + page[at:]
-
-
-def _wait(planner_app: Any) -> None:
-    if planner_app.wait_idle(60.0) is False:
-        raise SnapshotError("the app did not finish planning and drawing in time")
 
 
 def _check(
@@ -229,27 +233,22 @@ def export_html(
     problem = _check(path, fps, follow, until)
     if problem is not None:
         return fail(problem, 2)
-    planner_app = None
-    try:
+
+    def job() -> None:
         planner_app = start_quietly(scenario)
-        page = export_page(
-            planner_app, fps=fps, follow=follow, until=until, title=title
-        )
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
-        partial.write_text(page, encoding="utf-8")
-        partial.replace(path)
-    except JobFailure as failure:
-        return fail(failure.message, failure.code)
-    except OSError as error:
-        return fail(f"cannot write {path}: {error.strerror or error}", 1)
-    except Exception as error:  # a command-line tool: no traceback
-        return fail(
-            f"failed: {type(error).__name__}: {first_line(error)}",
-            1,
-        )
-    finally:
-        if planner_app is not None:
+        try:
+            page = export_page(
+                planner_app, fps=fps, follow=follow, until=until, title=title
+            )
+        finally:
             with quiet_stdout():
                 planner_app.stop()
-    return 0
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise JobFailure(
+                f"cannot write {path}: {error.strerror or error}", 1
+            ) from None
+        write_file(path, page.encode("utf-8"))
+
+    return exit_code(job)

@@ -17,7 +17,9 @@ from __future__ import annotations
 __all__ = [
     "JobFailure",
     "Threaded",
+    "batch",
     "check_args",
+    "exit_code",
     "fail",
     "quiet_stdout",
     "run_job",
@@ -25,6 +27,7 @@ __all__ = [
     "snapshot",
     "snapshot_dir",
     "start_quietly",
+    "write_file",
 ]
 
 import contextlib
@@ -188,11 +191,25 @@ def run_job(
     """Run ``work(app, browser)`` as a command-line job: one-line errors, an exit code."""
     if problem is not None:
         return fail(problem, 2)
-    try:
+
+    def job() -> None:
         _prepare(path, chromium)
         run_with_browser(
             start or (lambda: start_quietly(scenario)), work, chromium=chromium
         )
+
+    return exit_code(job)
+
+
+def exit_code(job: Callable[[], object], failed: str = "failed") -> int:
+    """Run ``job()``; return the exit code, with every failure as one line on stderr.
+
+    0 when it returns; a :class:`JobFailure`'s own code; 1 when the browser fails
+    (:class:`app.media.browser.SnapshotError`) or anything else is raised (``failed``
+    starts its line); 130 when interrupted. Never a traceback.
+    """
+    try:
+        job()
     except JobFailure as failure:
         return fail(failure.message, failure.code)
     except SnapshotError as error:
@@ -200,11 +217,18 @@ def run_job(
     except KeyboardInterrupt:
         return fail("interrupted", 130)
     except Exception as error:  # a command-line tool: no traceback
-        return fail(
-            f"failed: {type(error).__name__}: {first_line(error)}",
-            1,
-        )
+        return fail(f"{failed}: {type(error).__name__}: {first_line(error)}", 1)
     return 0
+
+
+def write_file(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` whole or not at all; JobFailure (code 1) if it cannot."""
+    try:
+        partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
+        partial.write_bytes(data)
+        partial.replace(path)
+    except OSError as error:
+        raise JobFailure(f"cannot write {path}: {error.strerror or error}", 1) from None
 
 
 class JobFailure(Exception):
@@ -290,8 +314,8 @@ def snapshot(
         Exit code: 0 when the PNG is written, 2 for a bad scenario or argument, 1 when
         the browser or the app fails.
     """
-    try:
-        _take_snapshot(
+    return exit_code(
+        lambda: _take_snapshot(
             scenario,
             Path(out),
             width=width,
@@ -301,16 +325,9 @@ def snapshot(
             timeout=timeout,
             chromium=chromium,
             options=options,
-        )
-    except JobFailure as failure:
-        return fail(failure.message, failure.code)
-    except SnapshotError as error:
-        return fail(str(error), 1)
-    except KeyboardInterrupt:
-        return fail("interrupted", 130)
-    except Exception as error:  # a snapshot is a command-line tool: no traceback
-        return fail(f"snapshot failed: {type(error).__name__}: {first_line(error)}", 1)
-    return 0
+        ),
+        "snapshot failed",
+    )
 
 
 def _take_snapshot(
@@ -386,13 +403,39 @@ def _take_snapshot(
             page=early.get("page"),
         )
 
-    png = run_with_browser(start, take, chromium=chromium, prepare=prepare)
-    try:
-        partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
-        partial.write_bytes(png)
-        partial.replace(path)
-    except OSError as error:
-        raise JobFailure(f"cannot write {path}: {error.strerror or error}", 1) from None
+    write_file(path, run_with_browser(start, take, chromium=chromium, prepare=prepare))
+
+
+def batch(
+    planner_app: Any,
+    browser: Browser,
+    jobs: Sequence[tuple[str, str, Path]],
+    *,
+    width: int,
+    height: int,
+    options: SlideOptions = SlideOptions(),  # noqa: B008
+    timeout: float = 60.0,
+) -> list[Path]:
+    """Write one picture per ``(scenario, view, path)`` with one page; return the paths.
+
+    The app must show ``jobs[0]``'s scenario already; each other scenario is loaded into
+    it when its turn comes (in order, so consecutive views of one scenario share it).
+    """
+    from app.media.pictures import FirstPicture, open_studio  # noqa: PLC0415 - viser
+
+    written: list[Path] = []
+    first = FirstPicture(jobs[0][1] if jobs else "top", options)
+    with open_studio(
+        planner_app, browser, width=width, height=height, timeout=timeout, first=first
+    ) as shot:
+        current = jobs[0][0] if jobs else None
+        for scenario, view, path in jobs:
+            if scenario != current:
+                shot.load(scenario)
+                current = scenario
+            write_file(path, shot.picture(view, options))
+            written.append(path)
+    return written
 
 
 def snapshot_dir(
@@ -412,7 +455,6 @@ def snapshot_dir(
     scenario's key (``02_three_obstacles``) or file stem. One server, one browser and one
     page serve the whole batch. Returns the exit code (0: every file written).
     """
-    from app.media.pictures import batch  # noqa: PLC0415 - viser: not at import
     from app.server import resolve_scenario  # noqa: PLC0415
     from planners.scene import ScenarioError  # noqa: PLC0415
 

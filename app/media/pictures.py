@@ -21,16 +21,15 @@ from __future__ import annotations
 __all__ = [
     "FirstPicture",
     "Studio",
-    "batch",
     "open_studio",
     "settle",
     "shoot",
     "time_stamp",
+    "wait_drawn",
 ]
 
 import contextlib
 import dataclasses
-import os
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -233,9 +232,14 @@ class Studio:
         return page.screenshot(type=image_format, animations="disabled", caret="hide")  # type: ignore[arg-type]
 
     def wait_idle(self) -> None:
-        """Wait until the app has planned and drawn everything (SnapshotError if late)."""
-        if self.app.wait_idle(self.timeout) is False:
-            raise SnapshotError("the app did not finish planning and drawing in time")
+        """Wait until the app has planned and drawn everything (:func:`wait_drawn`)."""
+        wait_drawn(self.app, self.timeout)
+
+
+def wait_drawn(planner_app: Any, timeout: float) -> None:
+    """Wait until the app has planned and drawn everything; SnapshotError after ``timeout`` s."""
+    if planner_app.wait_idle(timeout) is False:
+        raise SnapshotError("the app did not finish planning and drawing in time")
 
 
 def _layout(
@@ -281,8 +285,7 @@ def _stage(
     all of this is changed after the page has loaded, only sooner.
     """
     planner_app.set_robot_time(first.robot_time)
-    if planner_app.wait_idle(timeout) is False:
-        raise SnapshotError("the app did not finish planning and drawing in time")
+    wait_drawn(planner_app, timeout)
     slide = _layout(planner_app, width, height, first.view, first.options)
     camera = planner_app.server.initial_camera
     camera.up = slide.camera.up
@@ -292,8 +295,7 @@ def _stage(
     camera.position = slide.camera.position
     camera.look_at = slide.camera.look_at
     planner_app.view.present(line_scale=slide.line_scale, labels=False)
-    if planner_app.wait_idle(timeout) is False:
-        raise SnapshotError("the app did not finish planning and drawing in time")
+    wait_drawn(planner_app, timeout)
     return slide.line_scale
 
 
@@ -406,36 +408,3 @@ def shoot(
             return shot.picture(view, options, robot_time)
         except PlaywrightError as error:
             raise SnapshotError(f"the browser failed: {first_line(error)}") from None
-
-
-def batch(
-    planner_app: Any,
-    browser: Browser,
-    jobs: Sequence[tuple[str, str, Path]],
-    *,
-    width: int,
-    height: int,
-    options: SlideOptions = SlideOptions(),  # noqa: B008
-    timeout: float = 60.0,
-) -> list[Path]:
-    """Write one picture per ``(scenario, view, path)`` with one page; return the paths.
-
-    The app must show ``jobs[0]``'s scenario already; each other scenario is loaded into
-    it when its turn comes (in order, so consecutive views of one scenario share it).
-    """
-    written: list[Path] = []
-    first = FirstPicture(jobs[0][1] if jobs else "top", options)
-    with open_studio(
-        planner_app, browser, width=width, height=height, timeout=timeout, first=first
-    ) as shot:
-        current = jobs[0][0] if jobs else None
-        for scenario, view, path in jobs:
-            if scenario != current:
-                shot.load(scenario)
-                current = scenario
-            png = shot.picture(view, options)
-            partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
-            partial.write_bytes(png)
-            partial.replace(path)
-            written.append(path)
-    return written

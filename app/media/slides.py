@@ -50,7 +50,7 @@ from app.media.camera import TOP_FOV, CameraPose, frame_camera, picture_bounds
 from app.media.labels import Box, LabelRequest, Placement, label_size, place_labels
 from app.media.slide_options import SlideOptions
 from app.ui.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
-from app.ui.view import event_labels
+from app.ui.view import EVENT_CROSS, event_labels, marker_size
 from planners.registry import PlannerSpec
 from planners.scene import Scene
 
@@ -63,8 +63,6 @@ _MIN_FONT = 11.0
 _LEGEND_FONT = 0.8  # of the label font
 _TITLE_FONT = 1.2
 _TEXT_WIDTH = 0.62  # [em] per character of DejaVu Sans, an upper estimate
-_EVENT_CROSS = 0.12  # [m] half-size of an event's cross (app.ui.view draws it)
-_MARKER_MIN = 0.12  # [m] smallest start/goal marker radius (app.ui.view._marker_size)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -594,7 +592,7 @@ def _label_requests(
     requests: list[LabelRequest] = []
     markers: list[Box] = []
     colors: dict[int, str] = {}
-    radius = max(float(scene.robot.radius), _MARKER_MIN)
+    radius = marker_size(float(scene.robot.radius))
     for name, xy in (("start", scene.start), ("goal", scene.goal)):
         disk = box_around(xy[0], xy[1], HEIGHTS["marker"], radius)
         markers.append(disk)
@@ -629,7 +627,7 @@ def _label_requests(
         color = hex_color(planner_look(name, registry).path)
         z = planner_look(name, registry).path_height
         for text, (x, y) in event_labels(result):
-            cross = box_around(x, y, z, _EVENT_CROSS)
+            cross = box_around(x, y, z, EVENT_CROSS)
             markers.append(cross)
             request = LabelRequest(
                 text, at(x, y, z), kind="event", clearance=cross.width / 2 + 2

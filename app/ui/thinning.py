@@ -21,7 +21,6 @@ __all__ = [
     "edges_counted",
     "edges_to_draw",
     "frame_note",
-    "path_nodes",
     "thinning_note",
 ]
 
@@ -71,24 +70,12 @@ class EdgeDrawing:
         return EdgeCount(len(self.segments), self.total)
 
 
-def path_nodes(arrays: Any, path: npt.ArrayLike) -> npt.NDArray[np.intp]:
-    """Return the graph's nodes the path passes through, with the start and goal.
+def _on_path(arrays: Any, path: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """Per node of the graph, whether the path passes through it (start, goal: yes).
 
     A path of a graph planner runs from node to node, so its corners are node positions
     exactly (the planner copies them); a corner that is not a node matches nothing.
-
-    Examples
-    --------
-    >>> from types import SimpleNamespace
-    >>> g = SimpleNamespace(points=np.array([[0.0, 0], [1, 0], [1, 1]]), start=0, goal=2)
-    >>> path_nodes(g, [[0.0, 0], [1, 0], [1, 1]]).tolist()
-    [0, 1, 2]
     """
-    return np.flatnonzero(_on_path(arrays, path))
-
-
-def _on_path(arrays: Any, path: npt.ArrayLike) -> npt.NDArray[np.bool_]:
-    """Per node of the graph, whether the path passes through it (start, goal: yes)."""
     points = np.asarray(arrays.points, dtype=np.float64).reshape(-1, 2)
     corners = np.asarray(path, dtype=np.float64).reshape(-1, 2)
     # Exact matches through sorting (x + iy as one number), not an n-by-m comparison: a

@@ -12,6 +12,7 @@ The functions at the top are pure (numpy and shapely only) and are tested as arr
 from __future__ import annotations
 
 __all__ = [
+    "EVENT_CROSS",
     "MAX_NUMBERED_OBSTACLES",
     "MAX_VERTEX_HANDLES",
     "STALE_RGB",
@@ -23,15 +24,16 @@ __all__ = [
     "clear_of_markers",
     "disk_mesh",
     "event_labels",
+    "floor_bounds",
     "lift",
     "lift_segments",
+    "marker_size",
     "merge_labels",
     "path_to_segments",
     "polygon_to_mesh",
     "polygons_of",
     "prism_mesh",
     "rings_to_segments",
-    "scene_bounds",
     "vertex_colors",
     "wall_mesh",
     "yaw_quaternion",
@@ -65,6 +67,8 @@ T = TypeVar("T")
 
 MAX_VERTEX_HANDLES = 600
 """A scene with more obstacle vertices than this shows no vertex gizmos in the edit tool."""
+EVENT_CROSS = 0.12
+"""Half-size [m] of the cross drawn at a trace planner's event (H, D, L, M)."""
 MAX_NUMBERED_OBSTACLES = 100
 """A scene with more obstacles than this shows no obstacle numbers: hundreds of labels
 (a maze, a CAD floor plan) would bury the scene. Pictures number the obstacles as big as
@@ -764,7 +768,7 @@ class _TraceLayer:
         if stale and colors is not None:  # an older scene's walk, kept while computing
             colors[:] = STALE_RGB
         self.path.set(segments, show, colors)
-        crosses = [_cross(at, 0.12, z + 0.004) for _, at in events]
+        crosses = [_cross(at, EVENT_CROSS, z + 0.004) for _, at in events]
         self.marks.set(
             np.concatenate(crosses) if crosses else _NO_SEGMENTS, show and bool(crosses)
         )
@@ -1028,14 +1032,14 @@ class PlannerView:
             graph.render(frame, self._changed)
         markers = (scene.start, scene.goal)
         for trace in self.traces.values():
-            trace.render(frame, markers, _marker_size(radius), self._changed)
+            trace.render(frame, markers, marker_size(radius), self._changed)
         self._render_markers(frame, radius)
         self._render_handles(frame)
         self._render_selection(frame)
 
     def _render_floor_and_obstacles(self, frame: Frame) -> None:
         scene = frame.scene
-        if self._changed("bounds", scene_bounds(scene)):
+        if self._changed("bounds", floor_bounds(scene)):
             x0, y0, x1, y1 = self._last["bounds"]
             self.grid.width, self.grid.height = x1 - x0, y1 - y0
             self.grid.position = ((x0 + x1) / 2, (y0 + y1) / 2, -0.001)
@@ -1081,7 +1085,7 @@ class PlannerView:
             )
 
     def _render_markers(self, frame: Frame, radius: float) -> None:
-        size = _marker_size(radius)
+        size = marker_size(radius)
         if self._changed("marker_size", size):
             for name in ("start", "goal"):
                 self.markers[name].scale = (size, size, 1.0)
@@ -1311,7 +1315,7 @@ class PlannerView:
 # --------------------------------------------------------------------------- DSB adapters
 
 
-def _marker_size(radius: float) -> float:
+def marker_size(radius: float) -> float:
     """Radius [m] of the start and goal markers: the robot's footprint, or a dot."""
     return max(radius, 0.12)
 
@@ -1470,8 +1474,12 @@ def _make_inner_point(polygon: Polygon) -> tuple[float, float]:
 _inner_point = _Kept(_make_inner_point)
 
 
-def scene_bounds(scene: Any) -> tuple[float, float, float, float]:
-    """Floor area to draw the grid on: the boundary, or everything in the scene plus a margin."""
+def floor_bounds(scene: Any) -> tuple[float, float, float, float]:
+    """Floor area to draw the grid on: the boundary, or everything in the scene plus a margin.
+
+    Whole metres, so the grid's lines fall on them; a picture's box is
+    :func:`app.media.camera.picture_bounds`.
+    """
     if scene.boundary is not None:
         x0, y0, x1, y1 = scene.boundary.bounds
         return (math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1))

@@ -431,7 +431,7 @@ def test_private_copies_plan_big_scenes_in_the_shared_pool(planner):
     ``copy_workers`` processes for its graphs, not one each; an edit of one copy gives
     its own computation up, and every copy ends with its own scene's plans."""
     room = planner.classroom
-    big = circle_scene()  # 10,004 vertices: planned in a worker (app.big)
+    big = circle_scene()  # 10,004 vertices: planned in a worker (app.session.big)
     with contextlib.ExitStack() as stack:
         students = [stack.enter_context(client(planner)) for _ in range(2)]
         for s in students:

@@ -2,7 +2,7 @@
 
 A module of its own, with no import beyond the standard library, so that the command
 line can name the options before it imports the app (``--snapshot`` launches the
-browser first, :func:`app.media.browser.run_with_browser`). :mod:`app.media.slides` re-exports it.
+browser first, :func:`app.media.jobs.run_with_browser`). :mod:`app.media.slides` re-exports it.
 """
 
 from __future__ import annotations

@@ -349,7 +349,7 @@ def layout(
         Picture size [px].
     view
         ``"top"`` (the scene fits beside the title and the legend) or ``"perspective"``
-        (the camera of :func:`app.media.browser.frame_camera`; title and legend over it).
+        (the camera of :func:`app.media.camera.frame_camera`; title and legend over it).
     options
         Legend, title and labels on or off.
     registry

@@ -20,10 +20,13 @@ MODULES = [
     "app.server",
     "app.ui.style",
     "app.ui.view",
+    "app.media.camera",
     "app.media.labels",
     "app.media.slides",
+    "app.media.video",
     "app.media.record",
     "app.media.record_live",
+    "app.media.explain_pictures",
 ]
 
 

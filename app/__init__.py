@@ -6,18 +6,25 @@ Start it with ``python -m app`` or from Python::
     planner = start_app("01_two_convex", port=8080)
     print(planner.url)
 
-Modules: :mod:`app.controller` (one session: a small facade, no viser) over
-:mod:`app.session` (scene, version, history and UI state under one lock),
-:mod:`app.history` (undo/redo, pure), :mod:`app.tools` (mouse tools and picking, pure),
-:mod:`app.scheduler` (planning lanes, coalescing, frames), :mod:`app.lanes` (the slow
-planners' process), :mod:`app.playback` (the robot's motion) and :mod:`app.frames` (what
-views draw); :mod:`app.view` (the 3-D scene), :mod:`app.panels` (the GUI panel),
-:mod:`app.robot` (kinematics glue), :mod:`app.server` (wiring), :mod:`app.headless`
-(snapshots through a browser) and, for a class, :mod:`app.classroom` (presenter mode,
-private copies) with :mod:`app.scoped`, :mod:`app.gate` and :mod:`app.pool`.
+Rooms, each a folder of a few modules that imports only the rooms below it:
+
+- :mod:`app.session`: one scene for one audience, without viser: the controller and its
+  parts (state, history, mouse tools, scheduler, worker processes, frames, playback,
+  the robot's kinematics glue, the scenes folder).
+- :mod:`app.ui`: what a browser sees: the 3-D view, the panel, colours, thinning, scoped
+  drawing, text shown as text.
+- :mod:`app.guard`: browsers are not trusted: the door, the fair callback pool, the edit
+  gate.
+- :mod:`app.explain`: Explain mode's panel and drawing.
+- :mod:`app.media`: pictures, videos and pages through a headless browser, and their
+  command-line jobs.
+
+On top: :mod:`app.server` (wiring: :func:`start_app`), :mod:`app.classroom` (presenter
+mode, private copies), :mod:`app.live` (the *Live DSB* robot) and :mod:`app.__main__`
+(the command line).
 
 The names below are imported on first use, so that a worker process that needs only
-:mod:`app.controller` does not load viser.
+:mod:`app.session.controller` does not load viser.
 """
 
 from __future__ import annotations
@@ -26,7 +33,6 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from app.controller import Controller, Frame, RobotPose, Selection
     from app.server import (
         DEFAULT_SCENARIO,
         PlannerApp,
@@ -34,6 +40,7 @@ if TYPE_CHECKING:
         resolve_scenario,
         start_app,
     )
+    from app.session.controller import Controller, Frame, RobotPose, Selection
 
 __all__ = [
     "DEFAULT_SCENARIO",
@@ -48,10 +55,10 @@ __all__ = [
 ]
 
 _WHERE = {
-    "Controller": "app.controller",
-    "Frame": "app.controller",
-    "RobotPose": "app.controller",
-    "Selection": "app.controller",
+    "Controller": "app.session.controller",
+    "Frame": "app.session.controller",
+    "RobotPose": "app.session.controller",
+    "Selection": "app.session.controller",
     "DEFAULT_SCENARIO": "app.server",
     "PlannerApp": "app.server",
     "list_scenarios": "app.server",

@@ -156,17 +156,17 @@ def _media(args: argparse.Namespace) -> int | None:
     if args.snapshot_dir is None and args.record is None and args.export_html is None:
         return None
     # Lazily: these need playwright (and imageio for videos), the server does not.
+    from app.media.slide_options import SlideOptions  # noqa: PLC0415
     from app.server import DEFAULT_SCENARIO  # noqa: PLC0415
-    from app.slide_options import SlideOptions  # noqa: PLC0415
 
     options = SlideOptions(legend=not args.no_legend, title=args.title)
     names = [n for n in (args.scenario or "").split(",") if n]
     if args.snapshot_dir is not None:
-        from app import pictures  # noqa: PLC0415
+        from app.media import jobs  # noqa: PLC0415
         from app.server import list_scenarios  # noqa: PLC0415
 
         views = (args.views or args.view).split(",")
-        return pictures.snapshot_dir(
+        return jobs.snapshot_dir(
             names or list(list_scenarios()),
             args.snapshot_dir,
             views=views,
@@ -176,7 +176,7 @@ def _media(args: argparse.Namespace) -> int | None:
         )
     scenario = args.scenario or DEFAULT_SCENARIO
     if args.record is not None:
-        from app import record  # noqa: PLC0415
+        from app.media import record  # noqa: PLC0415
 
         return record.record(
             scenario,
@@ -189,7 +189,7 @@ def _media(args: argparse.Namespace) -> int | None:
             options=dataclasses.replace(options, time_stamp=args.time_stamp),
         )
     if args.export_html is not None:
-        from app import export_html  # noqa: PLC0415
+        from app.media import export_html  # noqa: PLC0415
 
         return export_html.export_html(
             scenario,
@@ -202,7 +202,7 @@ def _media(args: argparse.Namespace) -> int | None:
 
 
 def _explain_arguments(parser: argparse.ArgumentParser) -> None:
-    # Explain mode's pictures: app.explain_headless.
+    # Explain mode's pictures: app.media.explain_pictures.
     parser.add_argument(
         "--explain",
         choices=("expansion", "vg", "svg", "dsb"),
@@ -232,14 +232,14 @@ def _explain_arguments(parser: argparse.ArgumentParser) -> None:
 def _snapshot(args: argparse.Namespace) -> int:
     """``--snapshot``: one slide picture; a bad scenario is one line and exit code 2.
 
-    Only the light modules are imported here: :func:`app.headless.snapshot` launches
+    Only the light modules are imported here: :func:`app.media.jobs.snapshot` launches
     Chromium first and imports the app (viser, the planners) while it starts.
     """
-    from app import headless  # noqa: PLC0415 - needs playwright; the server does not
-    from app.slide_options import SlideOptions  # noqa: PLC0415
+    from app.media import jobs  # noqa: PLC0415 - needs playwright; the server does not
+    from app.media.slide_options import SlideOptions  # noqa: PLC0415
 
     return int(
-        headless.snapshot(
+        jobs.snapshot(
             scenario=args.scenario,
             out=args.snapshot,
             width=args.width,
@@ -260,8 +260,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.snapshot is not None and args.explain is None:
         return _snapshot(args)
 
-    from app.files import FolderError  # noqa: PLC0415
     from app.server import DEFAULT_SCENARIO, resolve_scenario, start_app  # noqa: PLC0415
+    from app.session.files import FolderError  # noqa: PLC0415
     from planners.scene import ScenarioError  # noqa: PLC0415
 
     scenario = args.scenario or DEFAULT_SCENARIO
@@ -272,9 +272,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
     if args.snapshot is not None:
-        from app import explain_headless  # noqa: PLC0415 - needs playwright
+        from app.media import explain_pictures  # noqa: PLC0415 - needs playwright
 
-        return explain_headless.explain_snapshots(
+        return explain_pictures.explain_snapshots(
             scenario,
             args.snapshot,
             method=args.explain,

@@ -7,20 +7,20 @@ browser is a *seat* that
 
 - **watches** (the default): sees every edit and the robot live; its panel's controls
   are disabled, it has no gizmos, and any edit message it sends anyway is refused on the
-  server (:mod:`app.gate`);
+  server (:mod:`app.guard.gate`);
 - **edits together** while the presenter has opened the session to everyone (a lab);
 - works on **its own copy**: a session of its own (scene, planners, robot, undo history),
   seeded from the presenter's current scene, until it follows the presenter again.
 
-One session is shared: the presenter's :class:`app.controller.Controller`. It draws its
+One session is shared: the presenter's :class:`app.session.controller.Controller`. It draws its
 scene once for every browser under ``/shared`` (viser's broadcast scope, gizmos replaced
-by frames nobody can drag: :mod:`app.scoped`) and, through one :class:`Audience`, on the
+by frames nobody can drag: :mod:`app.ui.scoped`) and, through one :class:`Audience`, on the
 panels of the seats that follow it and on the *own views* of those that edit (a full 3-D
 view with live gizmos in the seat's client scope under ``/own``, which hides ``/shared``
 for that browser). A private copy is a second controller whose views are the seat's own
 view and panel, with an *Explain* folder of its own drawn in that browser's scope only
-(:class:`PrivateExplain`; no *Live DSB* for copies); its slow lane runs in a :class:`app.pool.WorkerPool` shared by every copy,
-and a big scene's graphs (:mod:`app.big`) in a second pool, also shared: a room of
+(:class:`PrivateExplain`; no *Live DSB* for copies); its slow lane runs in a :class:`app.session.pool.WorkerPool` shared by every copy,
+and a big scene's graphs (:mod:`app.session.big`) in a second pool, also shared: a room of
 students who all open a CAD floor plan starts at most ``copy_workers`` processes of each
 kind, not one per seat.
 
@@ -31,8 +31,8 @@ folders, and they share everything else:
 
 - **one scene**: each presenter's own view (``/own``, its client scope) draws the same
   session, and a gizmo held in one browser moves in the other as the drag goes (a view
-  leaves alone only the gizmos its own user holds: :class:`app.view.PlannerView`);
-- **one Explain**: a single :class:`app.explain_panel.ExplainPanel` (the method, the
+  leaves alone only the gizmos its own user holds: :class:`app.ui.view.PlannerView`);
+- **one Explain**: a single :class:`app.explain.panel.ExplainPanel` (the method, the
   step, the layers it hid, its drawing under ``/explain``); each presenter's folder
   shows that state and calls its commands, so a step taken on the laptop is the step on
   the projector. When the last presenter's folder goes, nobody could switch it off:
@@ -86,19 +86,19 @@ from typing import Any, cast
 
 import viser
 
-from app import robot as robot_model
-from app.big import SharedWorkers
-from app.controller import Controller, Frame, RobotPose
-from app.door import Bucket
-from app.explain_panel import ExplainPanel
-from app.files import ScenesFolder
-from app.frames import View
-from app.gate import GatedController, Refusals
-from app.panels import Panels
-from app.pool import WorkerPool
-from app.scheduler import big_plan, default_plan
-from app.scoped import ScopedTarget
-from app.view import PlannerView
+from app.explain.panel import ExplainPanel
+from app.guard.door import Bucket
+from app.guard.gate import GatedController, Refusals
+from app.session import robot as robot_model
+from app.session.big import SharedWorkers
+from app.session.controller import Controller, Frame, RobotPose
+from app.session.files import ScenesFolder
+from app.session.frames import View
+from app.session.pool import WorkerPool
+from app.session.scheduler import big_plan, default_plan
+from app.ui.panels import Panels
+from app.ui.scoped import ScopedTarget
+from app.ui.view import PlannerView
 from planners.registry import planners_of_kind
 
 logger = logging.getLogger(__name__)
@@ -108,7 +108,7 @@ PRESENTER_PATH = "/presenter/"
 
 SWITCHES = (4, 0.5)
 """How often a seat may make a copy or follow again (each builds or closes a whole
-session): 4 switches at once, then one every 2 s (a :class:`app.door.Bucket`)."""
+session): 4 switches at once, then one every 2 s (a :class:`app.guard.door.Bucket`)."""
 
 STUDENT_NEVER = frozenset({"save_to_folder"})
 """What a student's panel may never do, even on its own copy: write the lecturer's disk."""
@@ -468,7 +468,7 @@ class Classroom:
         self.big_pool = WorkerPool(
             big_plan(dict(controller.registry)), size=copy_workers
         )
-        """The workers every private copy shares for big scenes' graphs (app.big)."""
+        """The workers every private copy shares for big scenes' graphs (app.session.big)."""
         self.explain_turns = threading.Semaphore(max(1, copy_workers))
         """How many copies' explanations may compute at once (in this process)."""
         self._copies = itertools.count(1)  # numbers each copy's Explain root

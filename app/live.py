@@ -48,8 +48,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from app.frames import RobotPose
-from app.text import markdown_text
+from app.session.frames import RobotPose
+from app.ui.text import markdown_text
 from planners.bug.live import (
     LiveEvent,
     LiveOptions,
@@ -134,7 +134,7 @@ def step_pose(step: LiveStep, scene: Scene, memo: Memo | None = None) -> RobotPo
 
     Pose and wheel rates are the step's, r_next its aim; the sensing picture is the
     sensor's reading at the step's pose in ``scene`` (:func:`planners.bug.sensor.sense`).
-    A recording of moving obstacles (:mod:`app.record_live`) draws its frames so.
+    A recording of moving obstacles (:mod:`app.media.record_live`) draws its frames so.
     """
     return _robot_pose(step, scene, memo, playing=False)
 

@@ -29,7 +29,6 @@ from pathlib import Path
 import viser
 
 import planners
-from app import robot as robot_model
 from app.classroom import (
     Classroom,
     PresenterTools,
@@ -37,16 +36,17 @@ from app.classroom import (
     new_token,
     presenter_url,
 )
-from app.controller import Controller
-from app.door import Door, message_limit
-from app.explain_panel import ExplainPanel
-from app.fair import FairExecutor
-from app.files import ScenesFolder
+from app.explain.panel import ExplainPanel
+from app.guard.door import Door, message_limit
+from app.guard.fair import FairExecutor
 from app.live import LivePanels, LiveRun, MotionPaths, add_live_panel
-from app.panels import Panels
-from app.scoped import ScopedTarget
-from app.text import one_line
-from app.view import PlannerView, scene_bounds
+from app.session import robot as robot_model
+from app.session.controller import Controller
+from app.session.files import ScenesFolder
+from app.ui.panels import Panels
+from app.ui.scoped import ScopedTarget
+from app.ui.text import one_line
+from app.ui.view import PlannerView, floor_bounds
 from planners.allocator import freeze_long_lived, keep_freed_memory
 from planners.kernels import warm_up
 from planners.scene import ScenarioError, Scene
@@ -138,9 +138,9 @@ class PlannerApp:
     """The Explain panel: ``explain.choose("svg")``, ``explain.explainer.go(3)``;
     in a classroom, the one every presenter's browser shows."""
     door: Door | None = None
-    """What browsers may send (:mod:`app.door`)."""
+    """What browsers may send (:mod:`app.guard.door`)."""
     fair: FairExecutor | None = None
-    """The pool the browsers' callbacks run in, fairly (:mod:`app.fair`)."""
+    """The pool the browsers' callbacks run in, fairly (:mod:`app.guard.fair`)."""
 
     @property
     def presenter_url(self) -> str | None:
@@ -215,7 +215,7 @@ def start_app(
         Print the URL to open.
     scenes_dir
         A folder browsers may read and write scenario files in, by plain names
-        (:mod:`app.files`); None: browsers download and upload, nothing more.
+        (:mod:`app.session.files`); None: browsers download and upload, nothing more.
     presenter
         Presenter mode (:mod:`app.classroom`): only the browser with the presenter's URL
         edits, the others watch or work on their own copy. None: on when ``host`` is not
@@ -400,7 +400,7 @@ def _presenter_tools(
 
 
 def _guard(server: viser.ViserServer, *, everyone: bool) -> tuple[Door, FairExecutor]:
-    """Put the door (:mod:`app.door`) and the fair pool (:mod:`app.fair`) on ``server``.
+    """Put the door (:mod:`app.guard.door`) and the fair pool (:mod:`app.guard.fair`) on ``server``.
 
     Browsers that connected before (the server listens from its constructor on) are
     closed: they come back through the door.
@@ -504,7 +504,7 @@ def _frame_camera(server: viser.ViserServer, scene: Scene) -> None:
 
     The floor is framed left of centre: the control panel floats over the right side.
     """
-    x0, y0, x1, y1 = scene_bounds(scene)
+    x0, y0, x1, y1 = floor_bounds(scene)
     w, h = max(x1 - x0, 1.0), max(y1 - y0, 1.0)
     fov = math.radians(50.0)
     distance = max(1.2 * w, 1.55 * h)

@@ -14,7 +14,7 @@ If Chromium cannot start, every test that needs it *fails* with one clear messag
 install the browser): browser tests are never silently skipped, because a snapshot suite
 that quietly does nothing looks exactly like one that passes.
 
-For end-to-end tests that drive the page (clicks, drags), :func:`app.headless.open_page`
+For end-to-end tests that drive the page (clicks, drags), :func:`app.media.browser.open_page`
 (re-exported here) opens a running app in a fresh context and waits until its scene is
 loaded.
 """
@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from app.headless import AppPage, SnapshotError, launch_browser, open_page
+from app.media.browser import AppPage, SnapshotError, launch_browser, open_page
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser

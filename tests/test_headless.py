@@ -16,8 +16,11 @@ import pytest
 from PIL import Image
 
 import app
-from app import headless
-from app.headless import CameraPose, capture, frame_camera, scene_bounds, snapshot
+from app.media.browser import CHROMIUM_ENV
+from app.media.camera import CameraPose, frame_camera, picture_bounds
+from app.media.jobs import snapshot
+from app.media.pictures import open_studio
+from app.media.slide_options import SlideOptions
 from planners.scene import load_scene
 from tests.browser import use_browser
 from tests.conftest import ROOT, run_module
@@ -157,14 +160,12 @@ def test_cli_and_python_give_the_same_picture_and_stop_everything(
 
 def test_robot_time_and_perspective_change_the_picture(browser: Browser) -> None:
     planner_app = app.start_app(SCENARIO, print_url=False)
+    bare = SlideOptions(legend=False, title="", labels=False)  # the scene alone
     try:
-        at_start = pixels(capture(planner_app, browser, width=480, height=300))
-        later = pixels(
-            capture(planner_app, browser, width=480, height=300, robot_time=3.0)
-        )
-        tilted = pixels(
-            capture(planner_app, browser, width=480, height=300, view="perspective")
-        )
+        with open_studio(planner_app, browser, width=480, height=300) as studio:
+            at_start = pixels(studio.picture("top", bare))
+            later = pixels(studio.picture("top", bare, robot_time=3.0))
+            tilted = pixels(studio.picture("perspective", bare))
     finally:
         planner_app.stop()
     moved = np.abs(at_start.astype(int) - later).max(axis=2) > 16
@@ -204,7 +205,7 @@ def test_missing_chromium_is_one_line_with_a_hint(tmp_path: Path, capsys) -> Non
         NAME,
         "--snapshot",
         str(out),
-        env={headless.CHROMIUM_ENV: "/nonexistent/chromium"},
+        env={CHROMIUM_ENV: "/nonexistent/chromium"},
     )
     assert result.returncode != 0
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
@@ -258,7 +259,7 @@ def project(pose: CameraPose, points: np.ndarray, aspect: float) -> np.ndarray:
 def test_framing_shows_the_whole_scene_with_a_margin(
     view: str, width: int, height: int
 ) -> None:
-    bounds = scene_bounds(load_scene(SCENARIO))
+    bounds = picture_bounds(load_scene(SCENARIO))
     x0, y0, x1, y1 = bounds
     corners = np.array([[x, y, 0.0] for x in (x0, x1) for y in (y0, y1)])
     pose = frame_camera(bounds, width, height, view)
@@ -273,7 +274,7 @@ def test_framing_shows_the_whole_scene_with_a_margin(
         assert ndc[2, 0] > ndc[0, 0] and ndc[1, 1] > ndc[0, 1]
 
 
-def test_scene_bounds_include_the_robot_around_start_and_goal() -> None:
+def test_picture_bounds_include_the_robot_around_start_and_goal() -> None:
     scene = load_scene(
         {
             "format": 1,
@@ -283,7 +284,7 @@ def test_scene_bounds_include_the_robot_around_start_and_goal() -> None:
             "robot": {"radius": 0.5},
         }
     )
-    assert scene_bounds(scene) == (-0.5, -0.5, 4.5, 1.5)
+    assert picture_bounds(scene) == (-0.5, -0.5, 4.5, 1.5)
 
 
 def test_unwritable_output_fails_before_rendering(capsys) -> None:

@@ -1,14 +1,15 @@
-"""planners/ and kinematics/ are pure and layered.
+"""planners/ and kinematics/ are pure; they and app/ are layered.
 
-- Importing them pulls in no viser, app or plotting.
-- Their imports point down only: no cycle between modules and none between subpackages
+- Importing planners or kinematics pulls in no viser, app or plotting; the app's session
+  (the controller and its parts) pulls in no viser either.
+- Imports point down only: no cycle between modules and none between subpackages
   (docs/architecture.md). Imports inside functions count (they run too); imports under
   ``if TYPE_CHECKING:`` do not (they never run).
 - Each folder is a room one can hold in one's head: at most about a dozen modules.
 - Privacy is marked on modules, not on names: no module uses another module's private
   (``_x``) name, and a private module (``_x.py``) is imported only from its own folder.
 
-The checks are parametrized by package; app/ joins once it has no import cycles.
+The structural checks are parametrized by package: planners, kinematics and app.
 """
 
 from __future__ import annotations
@@ -23,12 +24,14 @@ import pytest
 
 from tests.conftest import ROOT
 
-PACKAGES = ["planners", "kinematics"]
+PURE = ["planners", "kinematics"]
+"""Packages that import no viser, no app and no plotting."""
+PACKAGES = [*PURE, "app"]
 MAX_MODULES = 12
 """Modules (``__init__.py`` not counted) a folder may hold."""
 
 
-@pytest.mark.parametrize("package", PACKAGES)
+@pytest.mark.parametrize("package", PURE)
 def test_pure_packages_do_not_import_viser(package):
     code = (
         f"import sys, {package}\n"
@@ -43,6 +46,24 @@ def test_pure_packages_do_not_import_viser(package):
         check=True,
     )
     assert out.stdout.strip() == "", f"{package} imported {out.stdout.strip()}"
+
+
+def test_the_apps_session_does_not_import_viser():
+    # A worker process needs the controller's parts only (app/__init__ imports lazily).
+    code = (
+        "import sys, app.session.controller, app.session.lanes, app.session.pool\n"
+        "bad = [m for m in ('viser', 'app.ui', 'app.media', 'playwright')"
+        " if m in sys.modules]\n"
+        "print(','.join(bad))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert out.stdout.strip() == "", f"app.session imported {out.stdout.strip()}"
 
 
 # --------------------------------------------------------------------------- the graph

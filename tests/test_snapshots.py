@@ -1,7 +1,7 @@
 """Screenshot tests: every shipped scenario, drawn by the app in headless Chromium.
 
 Each scenario is rendered top-down at 960 x 600 through the same path as
-``python -m app --snapshot`` (the slide picture of :mod:`app.pictures`: title, legend and
+``python -m app --snapshot`` (the slide picture of :mod:`app.media.pictures`: title, legend and
 labels sized for the picture) and compared with its golden PNG in ``tests/snapshots/``.
 Tolerance, refreshing and diffs: ``tests/snapshots/README.md``. Each scenario's labels, as
 the browser laid them out, are checked too: none overlaps another or a marker.
@@ -29,9 +29,9 @@ import pytest
 from PIL import Image, ImageDraw, ImageFont
 
 from app import start_app
-from app.labels import Box
-from app.pictures import open_studio
-from app.slides import Slide
+from app.media.labels import Box
+from app.media.pictures import open_studio
+from app.media.slides import Slide
 from planners.scene import Scene, load_scene, move_obstacle
 from tests.browser import use_browser
 

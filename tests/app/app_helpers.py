@@ -12,10 +12,10 @@ from typing import Any
 import numpy as np
 import viser
 
-from app import robot
-from app.controller import Controller, Frame, RobotPose
-from app.scoped import ScopedTarget
-from app.view import PlannerView
+from app.session import robot
+from app.session.controller import Controller, Frame, RobotPose
+from app.ui.scoped import ScopedTarget
+from app.ui.view import PlannerView
 from planners import Scene
 from tests.viser_client import ViserClient
 

@@ -8,7 +8,7 @@ from typing import Any
 import pytest
 
 import planners
-from app.controller import Controller
+from app.session.controller import Controller
 from tests.app.app_helpers import SCENARIO_DIR, FakeView, launch_chromium
 
 

@@ -3,7 +3,7 @@
 The circle of 10,000 vertices of ``tests/benchmarks/bench_big.py`` is uploaded into a
 running app (real viser server, 3-D view, panel, controller; a second "browser" is a
 websocket client). Its VG and SVG take seconds and its DSB more: computed in worker
-processes (:mod:`app.big`), while the panel says what is computed, the scene stays
+processes (:mod:`app.session.big`), while the panel says what is computed, the scene stays
 editable, and every edit gives the running computation up.
 """
 
@@ -21,10 +21,10 @@ import pytest
 
 import planners
 from app import start_app
-from app.big import BIG_SCENE_VERTICES, scene_vertices
-from app.frames import Frame
-from app.style import planner_look
-from app.view import STALE_RGB
+from app.session.big import BIG_SCENE_VERTICES, scene_vertices
+from app.session.frames import Frame
+from app.ui.style import planner_look
+from app.ui.view import STALE_RGB
 from tests.benchmarks.bench_big import circle_scene
 from tests.viser_client import ViserClient
 

@@ -27,8 +27,8 @@ from PIL import Image
 
 import planners
 from app import start_app
-from app.headless import open_page
-from app.thinning import edges_to_draw
+from app.media.browser import open_page
+from app.ui.thinning import edges_to_draw
 from tests.app.app_helpers import TopCamera, wait_until
 from tests.benchmarks.bench_student import drag_points, student_layout
 

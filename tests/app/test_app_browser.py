@@ -16,7 +16,7 @@ from numpy.testing import assert_allclose
 from shapely import LineString
 
 from app import start_app
-from app.controller import TOOLS
+from app.session.controller import TOOLS
 from tests.app.app_helpers import TopCamera, shown_mesh, wait_until
 
 WIDTH, HEIGHT = 1280, 800
@@ -24,7 +24,7 @@ WIDTH, HEIGHT = 1280, 800
 CAMERA = TopCamera(
     look_at=(7.0, 4.0), height=14.0, fov_deg=50.0, width=WIDTH, px_height=HEIGHT
 )
-GIZMO_SCALE = 0.9  # app.view: start/goal transform controls
+GIZMO_SCALE = 0.9  # app.ui.view: start/goal transform controls
 PLANE_OFFSET = 0.24 * GIZMO_SCALE  # where the XY-plane square of the gizmo sits [m]
 
 

@@ -22,7 +22,6 @@ import pytest
 
 import planners
 from app import start_app
-from app.big import SharedWorkers
 from app.classroom import (
     PRESENTER_PATH,
     banner_html,
@@ -30,9 +29,10 @@ from app.classroom import (
     is_presenter_path,
     presenter_url,
 )
-from app.explain_panel import METHOD_TITLES
-from app.gate import GatedController, Refusals
+from app.explain.panel import METHOD_TITLES
+from app.guard.gate import GatedController, Refusals
 from app.server import _is_loopback
+from app.session.big import SharedWorkers
 from tests.app.app_helpers import classroom_client as client
 from tests.app.app_helpers import has_label as _has
 from tests.app.app_helpers import wait_until
@@ -149,7 +149,7 @@ class _RecorderGroup:
 
 def _entry_points() -> list[tuple[str, str]]:
     """Every public method of the controller and its groups: each is an edit entry point."""
-    from app.controller import Controller, MouseTools, ScenarioFiles, SceneEdits
+    from app.session.controller import Controller, MouseTools, ScenarioFiles, SceneEdits
 
     points = [
         ("", n)
@@ -431,7 +431,7 @@ def test_private_copies_plan_big_scenes_in_the_shared_pool(planner):
     ``copy_workers`` processes for its graphs, not one each; an edit of one copy gives
     its own computation up, and every copy ends with its own scene's plans."""
     room = planner.classroom
-    big = circle_scene()  # 10,004 vertices: planned in a worker (app.big)
+    big = circle_scene()  # 10,004 vertices: planned in a worker (app.session.big)
     with contextlib.ExitStack() as stack:
         students = [stack.enter_context(client(planner)) for _ in range(2)]
         for s in students:

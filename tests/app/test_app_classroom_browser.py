@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from app import start_app
-from app.headless import open_page
+from app.media.browser import open_page
 from tests.app.app_helpers import TopCamera, wait_until
 from tests.browser import use_browser
 

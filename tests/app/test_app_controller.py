@@ -12,8 +12,8 @@ from numpy.testing import assert_allclose
 from shapely import LineString, Polygon
 
 import planners
-from app.controller import Controller, Selection, default_plan, pick
-from app.files import ScenesFolder
+from app.session.controller import Controller, Selection, default_plan, pick
+from app.session.files import ScenesFolder
 from tests.app.app_helpers import SCENARIO_DIR, FakeView, wait_until
 
 
@@ -485,7 +485,7 @@ def test_save_and_load_round_trip(make_controller, scene, tmp_path):
 
 
 def test_robot_time_and_playback(make_controller, scene):
-    from app import robot
+    from app.session import robot
 
     controller, view = make_controller(
         scene, trajectory=robot.trajectory, sample=robot.sample
@@ -514,7 +514,7 @@ def test_robot_time_and_playback(make_controller, scene):
 
 
 def test_follow_choice_changes_the_trajectory(make_controller):
-    from app import robot
+    from app.session import robot
 
     s = planners.load_scene(SCENARIO_DIR / "04_convex_nonconvex_b.json")
     controller, view = make_controller(
@@ -529,7 +529,7 @@ def test_follow_choice_changes_the_trajectory(make_controller):
 
 
 def test_an_edit_that_keeps_the_path_keeps_the_trajectory(make_controller, scene):
-    from app import robot
+    from app.session import robot
 
     controller, view = make_controller(
         scene, trajectory=robot.trajectory, sample=robot.sample
@@ -557,7 +557,7 @@ def test_an_edit_that_keeps_the_path_keeps_the_trajectory(make_controller, scene
 def test_the_paths_are_drawn_before_the_robot_trajectory_is_planned(
     make_controller, scene
 ):
-    from app import robot
+    from app.session import robot
 
     planning = threading.Event()
     release = threading.Event()
@@ -597,7 +597,7 @@ def _goal_b_while_goal_a_is_drawn(make_controller, scene, robot_lag_s):
     Returns the controller, its view and the goals the robot's trajectories were
     planned for, in order.
     """
-    from app import robot
+    from app.session import robot
 
     planned: list[tuple[float, float]] = []
 

@@ -18,9 +18,9 @@ import pytest
 from numpy.testing import assert_allclose
 
 import planners
-from app import robot
-from app.controller import Controller, Pending, default_plan
-from app.panels import results_markdown
+from app.session import robot
+from app.session.controller import Controller, Pending, default_plan
+from app.ui.panels import results_markdown
 from tests.app.app_helpers import SCENARIO_DIR, FakeView, wait_until
 
 
@@ -221,8 +221,8 @@ def test_real_dsb_run_is_drawn_by_mode_with_its_events(with_dsb, server_view):
     segments = np.asarray(view.traces["dsb"].path.handle.points)
     assert len(segments) == len(trace.path) - 1
     colors = np.asarray(view.traces["dsb"].path.handle.colors)
-    from app.style import COLORS
-    from app.view import vertex_colors
+    from app.ui.style import COLORS
+    from app.ui.view import vertex_colors
 
     for mode, color in zip(trace.modes, colors[:, 0], strict=True):
         want = vertex_colors(COLORS["dsb_seek" if mode == "seek" else "dsb_follow"])
@@ -272,7 +272,7 @@ def test_following_dsb_shows_what_the_robot_senses(with_dsb, server_view):
 def server_view():
     import viser
 
-    from app.view import PlannerView
+    from app.ui.view import PlannerView
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     view = PlannerView(server)

@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from app.robot import sample, trajectory, travelled_fraction
-from app.view import sensing_geometry
+from app.session.robot import sample, trajectory, travelled_fraction
+from app.ui.view import sensing_geometry
 from planners import PlanOptions, load_scene, plan_all
 from tests.conftest import SCENARIOS
 

@@ -18,13 +18,14 @@ from PIL import Image
 from shapely import Polygon
 
 import planners
-from app import explain_panel, start_app
-from app.big import BIG_SCENE_VERTICES
-from app.explain_headless import explain_snapshots, parse_step, step_bounds
-from app.explain_panel import HIDDEN_LAYERS, Explainer, flowchart_html, table_html
-from app.explain_view import ROLE_LOOKS, role_segments
-from app.frames import Frame
-from app.scheduler import Failed, Pending
+from app import start_app
+from app.explain import panel as explain_panel
+from app.explain.panel import HIDDEN_LAYERS, Explainer, flowchart_html, table_html
+from app.explain.view import ROLE_LOOKS, role_segments
+from app.media.explain_pictures import explain_snapshots, parse_step, step_bounds
+from app.session.big import BIG_SCENE_VERTICES
+from app.session.frames import Frame
+from app.session.scheduler import Failed, Pending
 from planners import Scene, load_scene, plan_all
 from planners.explain import ROLES, Abandoned
 from planners.visibility._graphs import build_border
@@ -164,7 +165,7 @@ def test_the_frames_own_plans_are_explained_without_planning_again(
     ex, drawn = explainer
     scene = load_scene(SCENARIO)
     plans = plan_all(scene, ("vg", "svg", "dsb"))
-    monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
+    monkeypatch.setattr("app.explain.panel.plan_all", _no_planning)
     ex.render(dataclasses.replace(_frame(scene, 1), plans=plans))
     ex.choose(method)
     assert ex.wait_ready(30)
@@ -205,7 +206,7 @@ def test_a_big_scene_is_explained_from_its_workers_plans_never_planned_here(
     they come, are explained."""
     ex, drawn = explainer
     scene = _big_ring()
-    monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
+    monkeypatch.setattr("app.explain.panel.plan_all", _no_planning)
     computing = dataclasses.replace(
         _frame(scene, 1),
         stale=True,
@@ -233,7 +234,7 @@ def test_a_big_scene_whose_planner_is_off_says_so_and_plans_nothing_here(
     ex, drawn = explainer
     scene = _big_ring()
     plans = plan_all(scene, ("vg", "dsb"))
-    monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
+    monkeypatch.setattr("app.explain.panel.plan_all", _no_planning)
     off = {k: v for k, v in plans.items() if k != "dsb"}
     ex.render(dataclasses.replace(_frame(scene, 1), plans=off))
     ex.choose("dsb")
@@ -266,7 +267,7 @@ def test_a_big_scene_that_failed_or_is_invalid_says_so(explainer, monkeypatch):
     """On a big scene: a failed planner's reason in one line, nothing planned here; an
     invalid scene's answer explained (nothing to build, and why)."""
     ex, drawn = explainer
-    monkeypatch.setattr("app.explain_panel.plan_all", _no_planning)
+    monkeypatch.setattr("app.explain.panel.plan_all", _no_planning)
     scene = _big_ring()
     failed = {"vg": Failed("vg", "boom")}
     frame = dataclasses.replace(
@@ -319,7 +320,7 @@ def test_a_failing_explanation_is_one_line_not_a_crash(explainer, monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("boom\nsecond line")
 
-    monkeypatch.setattr("app.explain_panel._explain", broken)
+    monkeypatch.setattr("app.explain.panel._explain", broken)
     ex.render(_frame(load_scene(SCENARIO), 1))
     ex.choose("svg")
     assert ex.wait_ready(30)

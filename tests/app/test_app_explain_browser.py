@@ -14,7 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from app import start_app
-from app.explain_panel import METHOD_TITLES
+from app.explain.panel import METHOD_TITLES
 from tests.app.app_helpers import wait_until
 from tests.app.test_app_browser import (
     CAMERA,

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import planners
-from app.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
+from app.session.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
 from tests.conftest import SCENARIOS
 
 BAD_NAMES = [
@@ -212,7 +212,7 @@ def test_a_bad_upload_keeps_the_scene(make_controller, content, words):
 def test_the_panel_has_no_server_path_field():
     import inspect
 
-    from app import panels
+    from app.ui import panels
 
     source = inspect.getsource(panels)
     assert 'add_text(\n                "File"' not in source

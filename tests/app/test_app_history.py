@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from app.history import MERGE_WINDOW_S, Entry, History
+from app.session.history import MERGE_WINDOW_S, Entry, History
 
 
 def edits(history: History, states: list[str], key=None, phased=False, dt=0.1):

@@ -16,8 +16,8 @@ from numpy.testing import assert_allclose
 from shapely import Polygon
 
 from app import start_app
-from app.controller import TOOLS
 from app.live import LivePanel
+from app.session.controller import TOOLS
 from planners.scene import Robot, Scene, load_scene
 from tests.app.app_helpers import TopCamera, wait_until
 from tests.app.test_app_browser import choose, click

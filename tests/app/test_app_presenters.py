@@ -22,7 +22,7 @@ from typing import Any
 import pytest
 
 from app import start_app
-from app.explain_panel import METHOD_TITLES
+from app.explain.panel import METHOD_TITLES
 from tests.app.app_helpers import classroom_client as client
 from tests.app.app_helpers import wait_until
 from tests.viser_client import ViserClient

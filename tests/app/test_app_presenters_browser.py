@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 
 from app import start_app
-from app.explain_panel import METHOD_TITLES
-from app.headless import open_page
+from app.explain.panel import METHOD_TITLES
+from app.media.browser import open_page
 from tests.app.app_helpers import wait_until
 from tests.app.test_app_browser import CAMERA, choose, settle
 from tests.app.test_app_explain_browser import browser_segments

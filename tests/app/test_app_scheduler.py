@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import planners
-from app.scheduler import Failed, Pending, SlowResults, lanes_for, merge_slow
-from app.scheduler import _Computed as Computed
-from app.scheduler import _PlanKey as PlanKey
+from app.session.scheduler import Failed, Pending, SlowResults, lanes_for, merge_slow
+from app.session.scheduler import _Computed as Computed
+from app.session.scheduler import _PlanKey as PlanKey
 from tests.app.app_helpers import SCENARIO_DIR, FakeView
 
 
@@ -113,7 +113,7 @@ def test_the_slow_lane_runs_injected_planners_in_its_worker_process(scene):
 
 
 def planners_controller(view, scene, registry):
-    from app.controller import Controller
+    from app.session.controller import Controller
 
     return Controller(view, scene, registry=registry)
 
@@ -210,7 +210,7 @@ def test_an_invalid_scene_needs_no_slow_result(scene):
 
 def test_frames_never_go_back_to_an_older_slow_result(scene):
     """Slow results arrive out of step with the edits: every frame shows the newest one."""
-    from app.controller import Controller
+    from app.session.controller import Controller
 
     gates = {k: threading.Event() for k in range(4)}
     calls: list[int] = []

@@ -193,7 +193,7 @@ def test_the_scenario_dropdown_names_an_own_scene_as_such():
     """A scene that is no shipped scenario (here given to start_app, as an upload or a
     folder file is) shows as "(your own scene)", never as the last scenario chosen;
     choosing that entry changes nothing, and a shipped one loads again."""
-    from app.panels import OWN_SCENE
+    from app.ui.panels import OWN_SCENE
 
     scene = planners.load_scene(SCENARIO_DIR / "08_narrow_gap.json")
     app = start_app(scene, port=0, print_url=False)

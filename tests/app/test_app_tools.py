@@ -8,8 +8,8 @@ import pytest
 from shapely import Polygon
 
 import planners
-from app import tools
-from app.tools import Outcome, Selection, UiState
+from app.session import tools
+from app.session.tools import Outcome, Selection, UiState
 
 
 @pytest.fixture

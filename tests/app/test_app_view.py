@@ -17,18 +17,18 @@ from numpy.testing import assert_allclose
 from shapely import Polygon
 
 import planners
-from app import robot
-from app.controller import LAYERS, Controller, Frame, Pending, RobotPose
-from app.panels import (
+from app.session import robot
+from app.session.controller import LAYERS, Controller, Frame, Pending, RobotPose
+from app.ui.panels import (
     floor_point,
     legend_html,
     results_markdown,
     status_markdown,
     wheel_rate_plot_data,
 )
-from app.scoped import ScopedTarget
-from app.style import planner_look
-from app.view import (
+from app.ui.scoped import ScopedTarget
+from app.ui.style import planner_look
+from app.ui.view import (
     PlannerView,
     circle_segments,
     event_labels,
@@ -357,7 +357,7 @@ def test_status_markdown_lists_message_and_problems(drawn):
 
 
 def test_labels_of_a_self_intersecting_obstacle_stay_on_it():
-    from app.view import _label_point
+    from app.ui.view import _label_point
 
     bowtie = Polygon([(2, 2), (3, 7), (4, 5.5), (2, 5.5)])
     x, y, _ = _label_point(bowtie, 0.4)
@@ -428,7 +428,7 @@ def test_the_legend_and_layers_list_every_registered_planner():
 def test_a_scene_of_very_many_obstacles_shows_no_numbers(server):
     """Up to MAX_NUMBERED_OBSTACLES obstacles are numbered; beyond, none is (a maze of
     hundreds of numbers would bury the scene), and an edit back below numbers them."""
-    from app.view import MAX_NUMBERED_OBSTACLES
+    from app.ui.view import MAX_NUMBERED_OBSTACLES
 
     server.scene.reset()
     view = PlannerView(server)
@@ -476,7 +476,7 @@ def test_kept_drawings_equal_fresh_ones(polygons, rnd):
     polygons afresh gives, over interleaved calls with equal polygons as new objects and
     with the same objects again (looked up by identity first, per argument); and a kept
     drawing cannot be changed by whoever received it."""
-    from app import view as v
+    from app.ui import view as v
 
     for _ in range(3):
         shuffled = [

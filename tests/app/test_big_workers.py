@@ -1,4 +1,4 @@
-"""Big scenes' jobs lease their worker (app.big): a job given up stops only its own call.
+"""Big scenes' jobs lease their worker (app.session.big): a job given up stops only its own call.
 
 A classroom's private copies share a pool of workers for big scenes
 (never one process per seat). A job interrupts the worker only while it holds it, so a
@@ -17,16 +17,16 @@ from typing import Any
 from shapely import Polygon
 
 import planners
-from app.big import (
+from app.session.big import (
     BIG_SCENE_VERTICES,
     BigJob,
     OwnWorker,
     SharedWorkers,
     scene_vertices,
 )
-from app.controller import Controller
-from app.lanes import Interrupted
-from app.pool import WorkerPool
+from app.session.controller import Controller
+from app.session.lanes import Interrupted
+from app.session.pool import WorkerPool
 from tests.app.app_helpers import FakeView, wait_until
 from tests.benchmarks.bench_big import circle_scene
 
@@ -64,7 +64,7 @@ class FakeWorker:
 
 class OnePool:
     """A pool of one worker: a lease waits until the holder hands it back or its job
-    is given up (the protocol of app.big.BigWorkers, as app.pool.WorkerPool keeps it)."""
+    is given up (the protocol of app.session.big.BigWorkers, as app.session.pool.WorkerPool keeps it)."""
 
     def __init__(self, worker: FakeWorker) -> None:
         self.worker = worker

@@ -1,4 +1,4 @@
-"""The self-contained page (app.export_html): opens from disk, offline, and plays the run.
+"""The self-contained page (app.media.export_html): opens from disk, offline, and plays the run.
 
 The page is opened as a ``file://`` URL in headless Chromium with every request other than
 ``file:``, ``data:`` and ``blob:`` refused, and no app server running.
@@ -20,12 +20,12 @@ import pytest
 from PIL import Image
 
 from app import start_app
-from app.export_html import export_html, export_page
-from app.jobs import JobFailure
-from app.record_live import live_trace
+from app.media.export_html import export_html, export_page
+from app.media.jobs import JobFailure
+from app.media.record_live import live_trace
 from app.server import resolve_scenario
-from app.style import HEIGHTS
-from app.view import prism_mesh
+from app.ui.style import HEIGHTS
+from app.ui.view import prism_mesh
 from planners.scene import load_scene, scene_at
 from tests.app.app_helpers import live_drawings
 from tests.browser import use_browser

@@ -1,4 +1,4 @@
-"""The fair callback pool (app.fair) and the door's checks (app.door), without a server.
+"""The fair callback pool (app.guard.fair) and the door's checks (app.guard.door), without a server.
 
 The pool is held to a plain reference: every task not dropped runs exactly once, a
 browser's tasks run in the order it sent them and one at a time, a priority browser is
@@ -16,8 +16,8 @@ import viser
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.door import Bucket, offers
-from app.fair import FairExecutor, client_of
+from app.guard.door import Bucket, offers
+from app.guard.fair import FairExecutor, client_of
 
 
 def _event(client_id):

@@ -23,7 +23,7 @@ from typing import Any, ClassVar
 import pytest
 
 from app import start_app
-from app.headless import open_page
+from app.media.browser import open_page
 from app.server import SCENARIO_DIR
 from tests.app.app_helpers import classroom_client, wait_until
 from tests.browser import use_browser

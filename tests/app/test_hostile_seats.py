@@ -25,8 +25,8 @@ from websockets.sync.client import connect
 
 from app import start_app
 from app.classroom import PRESENTER_PATH
-from app.door import MAX_MESSAGE_BYTES, UPLOAD_PART_BYTES
-from app.files import MAX_UPLOAD_BYTES
+from app.guard.door import MAX_MESSAGE_BYTES, UPLOAD_PART_BYTES
+from app.session.files import MAX_UPLOAD_BYTES
 from tests.app.app_helpers import classroom_client as seat
 from tests.app.app_helpers import has_label, wait_until
 from tests.viser_client import ViserClient

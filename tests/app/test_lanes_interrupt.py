@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 from app import server
-from app.lanes import Interrupted, ProcessLane
+from app.session.lanes import Interrupted, ProcessLane
 
 
 def slow_echo(value: Any, memo: Any = None, seconds: float = 0.0) -> Any:

@@ -1,9 +1,9 @@
 """The quick ``--snapshot`` path: the browser first, the page before the app.
 
 ``python -m app --snapshot`` launches Chromium before it imports the app, opens the page
-on the app's port while the app still plans (:func:`app.headless.open_early`), and puts
+on the app's port while the app still plans (:func:`app.media.browser.open_early`), and puts
 the first picture's camera and looks in place before the page loads the scene
-(:func:`app.pictures.open_studio`). These tests check that each shortcut gives the same
+(:func:`app.media.pictures.open_studio`). These tests check that each shortcut gives the same
 picture as the plain way, and that the light modules stay light. The speed itself is
 measured by tests/benchmarks/bench_pictures.py, never asserted here.
 """
@@ -21,8 +21,9 @@ import numpy as np
 from PIL import Image
 
 from app import start_app
-from app.headless import SLIDE_CSS, attach_page, free_port, open_early, run_with_browser
-from app.pictures import FirstPicture, open_studio, shoot
+from app.media.browser import SLIDE_CSS, attach_page, free_port, open_early
+from app.media.jobs import run_with_browser
+from app.media.pictures import FirstPicture, open_studio, shoot
 
 ROOT = Path(__file__).resolve().parents[2]
 NAME = "02_three_obstacles"
@@ -112,8 +113,8 @@ def test_the_snapshot_command_does_not_import_the_app_before_the_browser() -> No
     # What `python -m app --snapshot` imports before it launches Chromium: no viser, no
     # planners (their import is what the browser's launch overlaps).
     code = (
-        "import sys, app.__main__, app.headless, app.slide_options\n"
-        "print(sorted(m for m in ('viser', 'planners', 'app.server', 'app.view')"
+        "import sys, app.__main__, app.media.jobs, app.media.slide_options\n"
+        "print(sorted(m for m in ('viser', 'planners', 'app.server', 'app.ui.view')"
         " if m in sys.modules))"
     )
     result = subprocess.run(

@@ -1,4 +1,4 @@
-"""Videos of the robot's run (app.record): frame count, motion along the path, repeatability.
+"""Videos of the robot's run (app.media.record): frame count, motion along the path, repeatability.
 
 Recordings are kept small (480 x 300, 5 frames per second, the first 4 s of the run) so
 the tests stay quick; the code path is the one of ``--record`` at any size.
@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 from app import start_app
-from app.record import frame_times, record, record_video
-from app.slides import SlideOptions, layout, project
+from app.media.record import record, record_video
+from app.media.slides import SlideOptions, layout, project
+from app.media.video import frame_times
 from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]

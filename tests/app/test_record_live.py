@@ -1,4 +1,4 @@
-"""Recordings of scenarios with moving obstacles (app.record_live): the live run, frame by frame.
+"""Recordings of scenarios with moving obstacles (app.media.record_live): the live run, frame by frame.
 
 The frame data (:class:`LiveFilm`) is checked against :func:`planners.scene.scene_at`,
 :func:`planners.bug.live.live_space` and the trace itself (a slow reference interpolates the
@@ -23,14 +23,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from app import start_app
-from app.jobs import JobFailure
-from app.pictures import shoot
-from app.record import LIVE_FOLLOW, record, record_video
-from app.record_live import FIGURE_EVENTS, LiveFilm, live_trace, show_live
+from app.media.jobs import JobFailure
+from app.media.pictures import shoot
+from app.media.record import LIVE_FOLLOW, record, record_video
+from app.media.record_live import FIGURE_EVENTS, LiveFilm, live_trace, show_live
+from app.media.slides import SlideOptions, layout, project, relabel
 from app.server import resolve_scenario
-from app.slides import SlideOptions, layout, project, relabel
-from app.style import COLORS, HEIGHTS
-from app.view import prism_mesh
+from app.ui.style import COLORS, HEIGHTS
+from app.ui.view import prism_mesh
 from planners.bug.live import LiveOptions, live_space
 from planners.scene import Scene, load_scene, scene_at
 from planners.scene.motion import Motion

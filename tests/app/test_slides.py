@@ -1,4 +1,4 @@
-"""Slide pictures (app.slides, app.pictures): legible labels at projector and paper sizes.
+"""Slide pictures (app.media.slides, app.media.pictures): legible labels at projector and paper sizes.
 
 The browser tests draw 02_three_obstacles at 1920 x 1080 (a projector) and 800 x 500 (a
 two-column paper figure) and measure the labels' text in the picture's pixels; the layout
@@ -21,10 +21,11 @@ from PIL import Image
 
 import planners
 from app import live, start_app
-from app.headless import frame_camera, scene_bounds
-from app.labels import Box
-from app.pictures import batch, open_studio, run_with_browser
-from app.slides import (
+from app.media.camera import frame_camera, picture_bounds
+from app.media.jobs import batch, run_with_browser
+from app.media.labels import Box
+from app.media.pictures import open_studio
+from app.media.slides import (
     MOVING_ROUTE,
     SlideOptions,
     font_px,
@@ -181,7 +182,7 @@ def test_every_shipped_scenario_gets_all_its_labels_without_overlaps(
     events = sum(len(getattr(plans[n], "events", ())) for n in ("dsb", "bug2"))
     assert len(boxes) == events + len(scene.obstacles) + 2
     # The scene stays clear of the title and the legend.
-    x0, y0, x1, y1 = scene_bounds(scene)
+    x0, y0, x1, y1 = picture_bounds(scene)
     corners = project(slide.camera, width, height, [[x0, y0, 0], [x1, y1, 0]])
     scene_box = Box(
         min(corners[:, 0]), min(corners[:, 1]), max(corners[:, 0]), max(corners[:, 1])

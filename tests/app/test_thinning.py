@@ -1,4 +1,4 @@
-"""Thinning of big graph layers (app.thinning): a drawing choice, never a planner's decision."""
+"""Thinning of big graph layers (app.ui.thinning): a drawing choice, never a planner's decision."""
 
 from __future__ import annotations
 
@@ -9,12 +9,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import planners
-from app.thinning import (
+from app.ui.thinning import (
     THIN_ABOVE,
     edges_counted,
     edges_to_draw,
     frame_note,
-    path_nodes,
 )
 from tests.app.app_helpers import view_and_controller
 from tests.benchmarks.bench_student import student_layout
@@ -93,10 +92,17 @@ def test_all_edges_draws_the_whole_graph(result):
     assert not drawn.thinned
 
 
-def test_path_nodes_of_an_unreachable_goal_are_start_and_goal():
-    points = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
-    arrays = SimpleNamespace(points=points, start=2, goal=0)
-    assert path_nodes(arrays, np.zeros((0, 2))).tolist() == [0, 2]
+def test_the_path_nodes_of_an_unreachable_goal_are_start_and_goal():
+    # No path: the edges drawn are those at the start (node 2) and the goal (node 0).
+    points = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]])
+    i, j = np.array([0, 1, 2]), np.array([1, 3, 3])
+    arrays = SimpleNamespace(points=points, start=2, goal=0, i=i, j=j)
+    result = SimpleNamespace(arrays=arrays, path=np.zeros((0, 2)))
+    drawn = edges_to_draw(result, all_edges=False, limit=0)
+    assert _as_pairs(drawn.segments) == [
+        ((0.0, 0.0), (1.0, 0.0)),
+        ((2.0, 0.0), (3.0, 0.0)),
+    ]
 
 
 def test_a_student_layout_is_thinned_to_the_planners_edges_at_the_path():

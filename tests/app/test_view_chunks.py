@@ -22,10 +22,10 @@ from hypothesis import strategies as st
 from shapely import Polygon
 
 import planners
-from app.controller import Controller
-from app.scoped import ScopedTarget
-from app.style import HEIGHTS
-from app.view import (
+from app.session.controller import Controller
+from app.ui.scoped import ScopedTarget
+from app.ui.style import HEIGHTS
+from app.ui.view import (
     PlannerView,
     _Chunked,
     chunk_size,
@@ -40,7 +40,7 @@ from tests.benchmarks.bench_student import student_layout
 
 
 class _Layer:
-    """A node's layer that records what it was given (as _Mesh/_Segments are used)."""
+    """A node's layer that records what it was given (as _Mesh/Segments are used)."""
 
     def __init__(self, name: str) -> None:
         self.name = name

@@ -50,8 +50,8 @@ from clock import StealMeter  # noqa: E402  (tests/benchmarks/clock.py)
 
 import planners  # noqa: E402
 from app import start_app  # noqa: E402
-from app.controller import Frame, Pending  # noqa: E402
 from app.server import list_scenarios  # noqa: E402
+from app.session.controller import Frame, Pending  # noqa: E402
 
 FAST_BUDGET_MS = 16.0
 FULL_BUDGET_MS = 50.0

@@ -6,19 +6,16 @@ Each measurement is a fresh ``python -m app`` process (import, server, browser, 
 picture, stop), as a lecturer runs it:
 
 - ``snapshot``: one ``--snapshot`` at 1920 x 1080 (the slide picture);
-- ``plain``: the same picture through the pre-issue-16 path (``app.headless.capture``:
-  browser launched after the app, page opened at full size, three identical PNGs) for
-  comparison, in-process but with the same steps;
 - ``batch N``: ``--snapshot-dir`` over the N shipped scenarios at 1920 x 1080, and the
   cost per extra picture, (batch - snapshot) / (N - 1);
 - ``record``: ``--record`` of 4 s of the run at 10 fps, 640 x 360 (41 frames), per frame;
 - ``live``: ``--record`` of 4 s of the moving-obstacle scenario 09 at 10 fps, 640 x 360
-  (41 frames of the live run, :mod:`app.record_live`), and its cost per frame beyond
+  (41 frames of the live run, :mod:`app.media.record_live`), and its cost per frame beyond
   ``record``'s;
 - ``export``: ``--export-html`` of the whole run at 15 fps.
 
-``--only snapshot,plain`` runs a subset. Runs interleave (snapshot, plain, snapshot,
-plain, ...) so that load from other processes on a shared machine falls on both alike. It
+``--only snapshot,batch`` runs a subset. Runs interleave (snapshot, batch, ..., snapshot,
+batch, ...) so that load from other processes on a shared machine falls on all alike. It
 prints medians; it asserts nothing.
 """
 
@@ -36,20 +33,6 @@ ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = "02_three_obstacles"
 MOVING = "09_sliding_door"
 
-PLAIN = """
-import sys
-from app import start_app
-from app.headless import capture, launch_browser, _Threaded, _quiet_stdout
-with _quiet_stdout():
-    app = start_app(sys.argv[1], port=0, print_url=False)
-def take():
-    with launch_browser() as browser:
-        return capture(app, browser, width=1920, height=1080)
-open(sys.argv[2], "wb").write(_Threaded(take, "snapshot-browser").result())
-with _quiet_stdout():
-    app.stop()
-"""
-
 
 def timed(args: list[str]) -> float:
     start = time.perf_counter()
@@ -63,7 +46,7 @@ def main() -> None:
     parser.add_argument(
         "--only",
         default=None,
-        help="comma-separated subset: snapshot,plain,batch,record,live,export",
+        help="comma-separated subset: snapshot,batch,record,live,export",
     )
     parsed = parser.parse_args()
     repeats = parsed.repeats
@@ -77,7 +60,6 @@ def main() -> None:
             for name, args in (
                 ("snapshot", [py, "-m", "app", "--scenario", SCENARIO, "--snapshot",
                               str(out / "s.png"), "--width", "1920", "--height", "1080"]),
-                ("plain", [py, "-c", PLAIN, SCENARIO, str(out / "p.png")]),
                 (f"batch {len(scenarios)}", [py, "-m", "app", "--snapshot-dir",
                                              str(out / "dir"), "--width", "1920",
                                              "--height", "1080"]),

@@ -1,0 +1,466 @@
+"""What a browser may send the server: the app decides, before viser reads a byte of it.
+
+viser acts on every message its client can send, from any browser: it opens a public
+share tunnel on ``ShareUrlRequest``, relays ``GuiFormDirtyMessage`` (with a uuid of any
+size) to every browser and keeps it, sets a dropdown to a value that is none of its
+options, buffers an upload whatever size it declares, and accepts 50 MB frames. The
+:class:`Door` stands between each websocket and viser's dispatch and lets through only
+what the planner's page sends in normal use:
+
+- **an allow-list of message types** (:data:`ALLOWED`): the camera, widget values, the
+  gizmos, a click on the floor, an upload. Anything else is dropped unread;
+- **widget values the widget offers**: a dropdown's value is one of its options, a
+  button group's one of its buttons, a slider's a finite number in its range, a
+  checkbox's a bool, a text at most :data:`MAX_TEXT` characters; only ``value`` is set;
+- **uploads checked before they are buffered**: declared size at most
+  :data:`app.session.files.MAX_UPLOAD_BYTES`, parts within it, one upload at a time per browser;
+  a refused upload is told to its browser;
+- **a frame size limit** (:data:`MAX_MESSAGE_BYTES`) set on the websocket server itself
+  (:func:`message_limit`), so an oversized frame closes its sender before it is read;
+- **a rate per browser** for browsers without priority (a classroom's seats): a token
+  bucket per kind of message; what is over is dropped.
+
+What one browser sends is kept per connection and forgotten when it leaves. Refusals
+are counted by reason (:attr:`Door.refused`). This reads viser 1.1.1's internals (the
+websocket server's live connections, the GUI handles by uuid), as
+:func:`app.classroom.connection_path` does.
+
+Data flow::
+
+    browser B's websocket frame -> Door.admit(B, raw)
+      no  -> dropped (counted)
+      yes -> viser decodes and dispatches it -> callbacks (app.guard.fair)
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ALLOWED",
+    "MAX_MESSAGE_BYTES",
+    "MAX_TEXT",
+    "Bucket",
+    "Door",
+    "Rates",
+    "message_limit",
+]
+
+import collections
+import contextlib
+import dataclasses
+import functools
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import msgspec
+import viser
+import websockets.asyncio.server
+
+from app.session.files import MAX_UPLOAD_BYTES
+
+logger = logging.getLogger(__name__)
+
+ALLOWED = frozenset(
+    {
+        "ViewerCameraMessage",
+        "GuiUpdateMessage",
+        "TransformControlsUpdateMessage",
+        "TransformControlsDragStartMessage",
+        "TransformControlsDragEndMessage",
+        "ScenePointerMessage",
+        "FileTransferStartUpload",
+        "FileTransferPart",
+    }
+)
+"""Message types a browser may send (what the planner's page uses); all others drop."""
+
+MAX_MESSAGE_BYTES = 1 << 20
+"""Largest websocket frame a browser may send (an upload's part is 512 KiB)."""
+
+MAX_TEXT = 200
+"""Longest value of a text field."""
+
+UPLOAD_PART_BYTES = 512 * 1024
+"""Size of an upload's parts as viser's page cuts them."""
+
+_UPLOADS = frozenset({"FileTransferStartUpload", "FileTransferPart"})
+
+
+class _Head(msgspec.Struct):
+    type: str
+
+
+_HEAD = msgspec.msgpack.Decoder(_Head)
+
+
+@dataclasses.dataclass(frozen=True)
+class Rates:
+    """Messages a second a browser without priority may send, and the burst it may save."""
+
+    camera: float = 60.0
+    """Camera moves a second (the page sends one per rendered frame while orbiting)."""
+    other: float = 60.0
+    """Widget values, gizmo moves and clicks a second (a drag sends up to 60)."""
+    burst_seconds: float = 2.0
+    """How many seconds' worth of messages a quiet browser may send at once."""
+
+
+@dataclasses.dataclass
+class Bucket:
+    """A token bucket: ``rate`` tokens a second, at most ``size`` saved, full at first.
+
+    Examples
+    --------
+    >>> bucket = Bucket(rate=1.0, size=2.0, at=0.0)
+    >>> [bucket.take(0.0), bucket.take(0.0), bucket.take(0.0), bucket.take(1.0)]
+    [True, True, False, True]
+    """
+
+    rate: float
+    size: float
+    at: float
+    level: float = math.inf
+
+    def take(self, now: float) -> bool:
+        """Take one token at time ``now`` [s]; False (nothing taken) if none is left."""
+        self.level = min(self.size, self.level + (now - self.at) * self.rate)
+        self.at = now
+        if self.level < 1.0:
+            return False
+        self.level -= 1.0
+        return True
+
+
+@dataclasses.dataclass
+class _Upload:
+    parts: int
+    declared: int
+    seen: set[int] = dataclasses.field(default_factory=set)
+    received: int = 0
+
+
+@dataclasses.dataclass
+class _Guest:
+    """What the door keeps about one connection."""
+
+    priority: bool
+    buckets: dict[str, Bucket]
+    upload: tuple[str, _Upload] | None = None
+
+
+class Door:
+    """Admit or drop each message a browser sends (see the module's docstring).
+
+    Parameters
+    ----------
+    server
+        The viser server (its websocket server must be running).
+    priority
+        Whether a browser (by client id) is exempt from the rate limit; asked once, when
+        it connects, and again by :meth:`reprioritise`. Default: every browser.
+    rates
+        The rate limit of the others.
+    tell
+        Called as ``tell(client_id, words)`` when a browser's action is refused in a
+        way its user should hear about (an upload too large).
+    """
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        priority: Callable[[int], bool] = lambda client_id: True,
+        rates: Rates = Rates(),
+        tell: Callable[[int, str], None] | None = None,
+    ) -> None:
+        self._server = server
+        self._priority = priority
+        self._rates = rates
+        self._tell = tell
+        self._lock = threading.Lock()
+        self._guests: dict[int, _Guest] = {}
+        self.refused: collections.Counter[str] = collections.Counter()
+        """Messages dropped, by reason (``type``, ``value``, ``rate``, ``upload`` ...)."""
+        websock = server._websock_server
+        websock.on_client_connect(self._arrive)
+        websock.on_client_disconnect(self._leave)
+
+    # ------------------------------------------------------------------ public
+
+    def is_priority(self, client_id: Any) -> bool:
+        """Whether ``client_id``'s messages and callbacks go first (None: the server)."""
+        if client_id is None:
+            return True
+        guest = self._guests.get(client_id)
+        return guest is None or guest.priority
+
+    def set_priority(self, priority: Callable[[int], bool]) -> None:
+        """Decide priority with ``priority`` from now on, for every browser connected too."""
+        self._priority = priority
+        with self._lock:
+            connected = list(self._guests)
+        for client_id in connected:
+            self.reprioritise(client_id)
+
+    def knows(self, client_id: int) -> bool:
+        """Whether ``client_id``'s messages pass through the door."""
+        return client_id in self._guests
+
+    def reprioritise(self, client_id: int) -> None:
+        """Ask :paramref:`priority` again for a connected browser (its role changed)."""
+        with self._lock:
+            guest = self._guests.get(client_id)
+            if guest is not None:
+                guest.priority = bool(self._priority(client_id))
+
+    def guests(self) -> int:
+        """Return how many connections the door keeps state for."""
+        with self._lock:
+            return len(self._guests)
+
+    def admit(self, client_id: int, raw: Any) -> bool:
+        """Whether browser ``client_id``'s frame ``raw`` may reach viser."""
+        reason = self._refusal(client_id, raw)
+        if reason is None:
+            return True
+        with self._lock:
+            self.refused[reason] += 1
+        return False
+
+    # ------------------------------------------------------------------ connections
+
+    async def _arrive(self, connection: Any) -> None:
+        client_id = connection.client_id
+        now = time.monotonic()
+        rates = self._rates
+        buckets = {
+            kind: Bucket(rate, rate * rates.burst_seconds, now)
+            for kind, rate in (("camera", rates.camera), ("other", rates.other))
+        }
+        with self._lock:
+            self._guests[client_id] = _Guest(False, buckets)
+        self.reprioritise(client_id)
+        socket = self._server._websock_server._live_connections.get(client_id)
+        if socket is not None:
+            socket.recv = self._guarded(client_id, socket.recv)
+
+    async def _leave(self, connection: Any) -> None:
+        with self._lock:
+            self._guests.pop(connection.client_id, None)
+
+    def _guarded(self, client_id: int, recv: Callable[..., Any]) -> Callable[..., Any]:
+        @functools.wraps(recv)
+        async def guarded(*args: Any, **kwargs: Any) -> Any:
+            while True:
+                raw = await recv(*args, **kwargs)
+                if self.admit(client_id, raw):
+                    return raw
+
+        return guarded
+
+    # ------------------------------------------------------------------ the checks
+
+    def _refusal(self, client_id: int, raw: Any) -> str | None:  # noqa: PLR0911
+        """Return why ``raw`` is refused, or None."""
+        guest = self._guests.get(client_id)
+        if guest is None:
+            return "unknown"
+        if not isinstance(raw, bytes):
+            return "text"
+        if len(raw) > MAX_MESSAGE_BYTES:
+            return "size"
+        try:
+            kind = _HEAD.decode(raw).type
+        except (msgspec.DecodeError, msgspec.ValidationError):
+            return "malformed"
+        if kind not in ALLOWED:
+            return "type"
+        if kind not in _UPLOADS and not guest.priority:
+            bucket = guest.buckets[
+                "camera" if kind == "ViewerCameraMessage" else "other"
+            ]
+            with self._lock:
+                if not bucket.take(time.monotonic()):
+                    return "rate"
+        if kind == "GuiUpdateMessage":
+            return self._value_refusal(client_id, raw)
+        if kind == "FileTransferStartUpload":
+            return self._start_refusal(client_id, guest, raw)
+        if kind == "FileTransferPart":
+            return self._part_refusal(guest, raw)
+        return None
+
+    def _value_refusal(self, client_id: int, raw: bytes) -> str | None:
+        message = _decode(raw)
+        if message is None or set(message) != {"type", "uuid", "updates"}:
+            return "malformed"
+        updates = message["updates"]
+        if not isinstance(updates, dict) or set(updates) != {"value"}:
+            return "value"
+        handle = self._handle(client_id, message["uuid"])
+        if handle is None:
+            return "widget"
+        return None if offers(handle, updates["value"]) else "value"
+
+    def _start_refusal(  # noqa: PLR0911 - one check after another
+        self, client_id: int, guest: _Guest, raw: bytes
+    ) -> str | None:
+        message = _decode(raw)
+        if message is None:
+            return "malformed"
+        size, parts = message.get("size_bytes"), message.get("part_count")
+        name = message.get("filename")
+        transfer = message.get("transfer_uuid")
+        fields_ok = (
+            _is_int(size)
+            and _is_int(parts)
+            and isinstance(name, str)
+            and len(name) <= 255
+            and isinstance(transfer, str)
+            and len(transfer) <= 64
+        )
+        if not fields_ok:
+            return "malformed"
+        handle = self._handle(client_id, message.get("source_component_uuid"))
+        if not isinstance(handle, viser.GuiUploadButtonHandle):
+            return "widget"
+        if size > MAX_UPLOAD_BYTES:
+            self._say(
+                client_id,
+                f"Not uploaded: {name[:60]} has {size:,} bytes, more than the "
+                f"{MAX_UPLOAD_BYTES:,} a scenario file may have.",
+            )
+            return "upload"
+        if parts != math.ceil(size / UPLOAD_PART_BYTES):
+            return "upload"
+        with self._lock:
+            if guest.upload is not None:
+                return "upload"  # one at a time
+            if parts > 0:
+                guest.upload = (transfer, _Upload(parts, size))
+        return None
+
+    def _part_refusal(self, guest: _Guest, raw: bytes) -> str | None:
+        message = _decode(raw)
+        if message is None:
+            return "malformed"
+        index, content = message.get("part_index"), message.get("content")
+        with self._lock:
+            upload = guest.upload
+            if upload is None or message.get("transfer_uuid") != upload[0]:
+                return "upload"
+            state = upload[1]
+            if (
+                not _is_int(index)
+                or not 0 <= index < state.parts
+                or index in state.seen
+            ):
+                return "upload"
+            if not isinstance(content, bytes) or len(content) > UPLOAD_PART_BYTES:
+                return "upload"
+            if state.received + len(content) > state.declared:
+                guest.upload = None
+                return "upload"
+            state.seen.add(index)
+            state.received += len(content)
+            if len(state.seen) == state.parts:
+                guest.upload = None
+        return None
+
+    def _handle(self, client_id: int, uuid: Any) -> Any:
+        """Return the input widget ``uuid`` of the server's panel or of this browser's."""
+        if not isinstance(uuid, str):
+            return None
+        handle = self._server.gui._gui_input_handle_from_uuid.get(uuid)
+        if handle is None:
+            client = self._server._connected_clients.get(client_id)
+            if client is None:
+                return None
+            handle = client.gui._gui_input_handle_from_uuid.get(uuid)
+        if handle is None or handle._impl.removed:
+            return None
+        return handle
+
+    def _say(self, client_id: int, words: str) -> None:
+        if self._tell is None:
+            return
+        try:
+            self._tell(client_id, words)
+        except Exception:
+            logger.exception("could not tell a browser why its action was refused")
+
+
+def offers(handle: Any, value: Any) -> bool:  # noqa: PLR0911
+    """Whether widget ``handle`` could send ``value`` (what its page lets a user choose).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> offers(SimpleNamespace(options=("a", "b")), "c")
+    False
+    """
+    if isinstance(handle, viser.GuiButtonHandle):
+        return value is True
+    if isinstance(handle, (viser.GuiButtonGroupHandle, viser.GuiDropdownHandle)):
+        return isinstance(value, str) and value in tuple(handle.options)
+    if isinstance(handle, viser.GuiCheckboxHandle):
+        return isinstance(value, bool)
+    if isinstance(handle, (viser.GuiSliderHandle, viser.GuiNumberHandle)):
+        return _in_range(value, handle.min, handle.max)
+    if isinstance(handle, viser.GuiTextHandle):
+        return isinstance(value, str) and len(value) <= MAX_TEXT
+    options = getattr(handle, "options", None)
+    if options is not None:  # a stand-in with options (the doctest)
+        return value in tuple(options)
+    return False
+
+
+def _in_range(value: Any, low: Any, high: Any) -> bool:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    if not math.isfinite(value):
+        return False
+    slack = 1e-9 * max(1.0, abs(value))
+    return (low is None or value >= low - slack) and (
+        high is None or value <= high + slack
+    )
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _decode(raw: bytes) -> dict[str, Any] | None:
+    try:
+        message = msgspec.msgpack.decode(raw)
+    except msgspec.DecodeError:
+        return None
+    return message if isinstance(message, dict) else None
+
+
+_serve_lock = threading.Lock()
+
+
+@contextlib.contextmanager
+def message_limit(max_bytes: int = MAX_MESSAGE_BYTES) -> Iterator[None]:
+    """Start viser servers inside this block with a websocket frame limit of ``max_bytes``.
+
+    viser 1.1.1 opens its websocket server with a fixed 50 MB limit; the limit is
+    applied when a frame is read, so a larger frame closes its sender (code 1009)
+    before it is buffered. ``ViserServer`` opens the server before its constructor
+    returns: the patch is in force only for that call (and one at a time).
+    """
+    with _serve_lock:
+        serve = websockets.asyncio.server.serve
+
+        def limited(*args: Any, **kwargs: Any) -> Any:
+            kwargs["max_size"] = max_bytes
+            return serve(*args, **kwargs)
+
+        websockets.asyncio.server.serve = limited  # type: ignore[assignment]
+        try:
+            yield
+        finally:
+            websockets.asyncio.server.serve = serve  # type: ignore[assignment]

@@ -1,0 +1,135 @@
+"""Bounded pools of worker processes shared by the students' private copies.
+
+Each session of the presenter's kind has worker processes of its own: one for TangentBug
+(:mod:`app.session.lanes`), one for a big scene's graphs (:mod:`app.session.big`, started on first use).
+A classroom may hold dozens of private copies; processes of their own would grow without
+bound (about 60 MB and a start-up of a second or so each, and a big scene's planning some
+hundreds of MB more). The copies share two pools instead, one for each kind of work: at
+most ``size`` processes each, started on first use, each answering one call at a time; a
+call waits for a free worker. A worker's :class:`planners.Memo` then sees scenes of
+several sessions in turn: that only costs reuse, never correctness (the planners are
+pure and the memo is keyed on the values it caches).
+
+Data flow::
+
+    private session's slow lane (its scheduler thread)
+      -> pool(scene, which)         # wait for a free worker (the idle ones)
+           worker(scene, which=...) # one ProcessLane: pickles out, result back
+      -> the worker goes back to the idle ones
+    private session's big scene (a BigJob's thread)
+      -> with pool.lease(abandoned) as worker: worker(scene, ...)  # interrupted if given up
+         given up while it waits: pool.wake() -> the lease ends at once (Interrupted)
+"""
+
+from __future__ import annotations
+
+__all__ = ["WorkerPool"]
+
+import contextlib
+import threading
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from app.session.lanes import Interrupted, ProcessLane
+
+
+class WorkerPool:
+    """At most ``size`` :class:`app.session.lanes.ProcessLane` workers computing ``fn``, shared.
+
+    Parameters
+    ----------
+    fn
+        A picklable function ``fn(scene, memo=..., which=...)`` (as for a
+        :class:`ProcessLane`).
+    size
+        Most processes ever running at once (at least 1).
+    """
+
+    def __init__(self, fn: Callable[..., Any], size: int = 1) -> None:
+        self._fn = fn
+        self.size = max(1, int(size))
+        """Most worker processes at once."""
+        # Guarded by the condition: the idle workers, every worker, closed or not.
+        self._ready = threading.Condition()
+        self._idle: list[ProcessLane] = []
+        self._all: list[ProcessLane] = []
+        self._waiting = 0
+        self._closed = False
+
+    def __call__(self, scene: Any, which: tuple[str, ...]) -> Any:
+        """Compute ``fn(scene, which=which)`` on a free worker (waiting for one)."""
+        with self.lease() as worker:
+            return worker(scene, which=which)
+
+    @contextlib.contextmanager
+    def lease(
+        self, abandoned: Callable[[], bool] | None = None
+    ) -> Iterator[ProcessLane]:
+        """Hold a free worker (waiting for one) for the caller alone until the block ends.
+
+        The caller may :meth:`app.session.lanes.ProcessLane.interrupt` it while it holds it (a
+        big scene's job given up, :mod:`app.session.big`): its process is replaced by a fresh
+        one at once, and the worker goes back to the pool as usual.
+
+        ``abandoned`` (optional) tells whether the caller has given up: one that gives up
+        while it waits calls :meth:`wake`, and the lease raises
+        :class:`app.session.lanes.Interrupted` at once instead of waiting for a worker only to
+        hand it back (a student dragging a big scene gives a job up per edit).
+        """
+        worker = self._take(abandoned or _never)
+        try:
+            yield worker
+        finally:
+            with self._ready:
+                self._idle.append(worker)
+                self._ready.notify_all()
+
+    def wake(self) -> None:
+        """Have the leases that wait ask their ``abandoned`` again."""
+        with self._ready:
+            self._ready.notify_all()
+
+    def _take(self, abandoned: Callable[[], bool]) -> ProcessLane:
+        with self._ready:
+            while True:
+                if self._closed:
+                    raise RuntimeError("the worker pool is closed")
+                if abandoned():
+                    raise Interrupted("given up while waiting for a worker")
+                if self._idle:
+                    return self._idle.pop()
+                if len(self._all) < self.size:
+                    worker = ProcessLane(self._fn)
+                    self._all.append(worker)
+                    return worker
+                self._waiting += 1
+                try:
+                    self._ready.wait()
+                finally:
+                    self._waiting -= 1
+
+    @property
+    def waiting(self) -> int:
+        """Leases waiting for a free worker right now."""
+        with self._ready:
+            return self._waiting
+
+    @property
+    def processes(self) -> int:
+        """Worker processes started so far (never more than :attr:`size`)."""
+        with self._ready:
+            return len(self._all)
+
+    def close(self) -> None:
+        """Stop every worker: a call in progress and a lease that waits end with errors."""
+        with self._ready:
+            self._closed = True
+            workers, self._all = self._all, []
+            self._ready.notify_all()
+        for worker in workers:
+            worker.close()
+
+
+def _never() -> bool:
+    """Nobody gives this lease up."""
+    return False

@@ -4,6 +4,8 @@ PY        := $(VENV)/bin/python
 STAMP     := $(VENV)/.installed
 PEERS     ?= .venv-peers
 ARGS      ?=
+# Test workers (pytest-xdist): one per core; JOBS=0 runs the tests in this process.
+JOBS      ?= auto
 
 .PHONY: run test bench chromium snapshots lint clean
 
@@ -11,7 +13,7 @@ run: $(STAMP)          ## set up and start the interactive planner
 	$(PY) -m app $(ARGS)
 
 test: $(STAMP) chromium  ## set up (venv + Chromium) and run the whole test suite
-	$(PY) -m pytest -q $(ARGS)
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile $(ARGS)
 
 snapshots: $(STAMP) chromium  ## re-render the golden PNGs after an intended visual change
 	UPDATE_SNAPSHOTS=1 $(PY) -m pytest -q tests/test_snapshots.py

@@ -532,6 +532,10 @@ class Classroom:
             client, self._titles, self.controller.registry, self._folder
         )
         with self._lock:
+            if presenter and not is_presenter_path(path, self.token):
+                # The secret was replaced while this seat was built: it presents no more.
+                close_connection(self.server, client.client_id, "link replaced")
+                return
             self._seats[client.client_id] = seat
             self._follow(seat)
         # The banner and buttons go above the panel (smaller order), built once the seat
@@ -687,13 +691,21 @@ class Classroom:
             self.refusals.add()
             return None
         with self._lock:
-            self.token = new_token()
+            old, self.token = self.token, new_token()
             others = [
                 s.client_id
                 for s in self._seats.values()
                 if s.presenter and s is not seat
             ]
-        for other in others:
+        # Every connection opened with the old secret, seated or still connecting.
+        connections = self.server._websock_server._live_connections
+        others += [
+            cid
+            for cid in list(connections)
+            if cid != client_id
+            and is_presenter_path(connection_path(self.server, cid), old)
+        ]
+        for other in set(others):
             close_connection(self.server, other, "the presenter's link was replaced")
         if self._on_token is not None:
             self._on_token(self.token)

@@ -181,6 +181,8 @@ class PlannerApp:
         if self.classroom is not None:
             self.classroom.close()
         self.controller.close()
+        if self.door is not None:
+            self.door.close()
         self.server.stop()
 
 
@@ -265,7 +267,14 @@ def start_app(
         _configure(server, scene)
         if presenter:
             app = _wire_classroom(
-                server, scene, key, scenarios, host, folder=folder, workers=copy_workers
+                server,
+                scene,
+                key,
+                scenarios,
+                host,
+                folder=folder,
+                workers=copy_workers,
+                door=door,
             )
             door.set_priority(app.classroom.is_presenter_connection)
         else:
@@ -341,6 +350,7 @@ def _wire_classroom(
     *,
     folder: ScenesFolder | None,
     workers: int,
+    door: Door,
 ) -> PlannerApp:
     """Wire the presenter's session: one shared view; panels per browser (app.classroom)."""
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
@@ -371,7 +381,7 @@ def _wire_classroom(
         copy_workers=workers,
         tools=functools.partial(_presenter_tools, explain, LivePanels(live)),
         broadcast_roots=("/explain", "/live"),
-        on_token=functools.partial(_say_new_token, server, host),
+        on_token=functools.partial(_new_token, server, door, host),
     )
     return PlannerApp(
         server=server,
@@ -458,8 +468,9 @@ def _say_where(app: PlannerApp, host: str) -> None:
         )
 
 
-def _say_new_token(server: viser.ViserServer, host: str, token: str) -> None:
-    """Print the presenter's new URL after the presenter asked for a new link."""
+def _new_token(server: viser.ViserServer, door: Door, host: str, token: str) -> None:
+    """After a new presenter link: every browser's priority again, the new URL printed."""
+    door.reprioritise_all()
     shared = host in ("0.0.0.0", "::", "")
     page = f"http://127.0.0.1:{server.get_port()}/" if shared else None
     if page is None:

@@ -114,6 +114,11 @@ class ViserClient:
         with self._send_lock:
             self._ws.send(data)
 
+    def send_raw(self, data: bytes) -> None:
+        """Send bytes as they are (a frame no page would send)."""
+        with self._send_lock:
+            self._ws.send(data)
+
     def set_gui(self, uuid: str, value: Any) -> None:
         """Send what a widget sends when its value changes (a click for a button)."""
         self.send(

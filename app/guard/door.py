@@ -18,7 +18,10 @@ what the planner's page sends in normal use:
 - **a frame size limit** (:data:`MAX_MESSAGE_BYTES`) set on the websocket server itself
   (:func:`message_limit`), so an oversized frame closes its sender before it is read;
 - **a rate per browser** for browsers without priority (a classroom's seats): a token
-  bucket per kind of message; what is over is dropped.
+  bucket per kind of message (camera moves, uploads, the rest); what is over is dropped.
+
+The door reads a message's type first, then the few messages it checks whole as typed
+records (:class:`msgspec.Struct`): a field of the wrong shape is refused as it is read.
 
 What one browser sends is kept per connection and forgotten when it leaves. Refusals
 are counted by reason (:attr:`Door.refused`). This reads viser 1.1.1's internals (the
@@ -80,20 +83,56 @@ ALLOWED = frozenset(
 MAX_MESSAGE_BYTES = 1 << 20
 """Largest websocket frame a browser may send (an upload's part is 512 KiB)."""
 
+STUCK_BYTES = 256 * 1024
+"""Bytes waiting to be sent to a browser above which it counts as not reading."""
+
 MAX_TEXT = 200
 """Longest value of a text field."""
 
 UPLOAD_PART_BYTES = 512 * 1024
 """Size of an upload's parts as viser's page cuts them."""
 
-_UPLOADS = frozenset({"FileTransferStartUpload", "FileTransferPart"})
+_BUCKET = {"ViewerCameraMessage": "camera", "FileTransferStartUpload": "upload"}
+"""Which of a browser's buckets a message takes from (all others: ``other``)."""
 
 
 class _Head(msgspec.Struct):
     type: str
 
 
+# The messages the door reads whole, as typed records: msgspec checks each field's type
+# as it reads, so a field of the wrong shape (a million nested arrays where bytes should
+# be) is refused at its first byte instead of being built into Python objects first.
+class _Update(msgspec.Struct, forbid_unknown_fields=True):
+    type: str
+    uuid: str
+    updates: dict[str, msgspec.Raw]
+
+
+class _Start(msgspec.Struct, forbid_unknown_fields=True):
+    type: str
+    source_component_uuid: str
+    transfer_uuid: str
+    filename: str
+    mime_type: str
+    part_count: int
+    size_bytes: int
+
+
+class _Part(msgspec.Struct, forbid_unknown_fields=True):
+    type: str
+    source_component_uuid: str | None
+    transfer_uuid: str
+    part_index: int
+    content: bytes
+
+
 _HEAD = msgspec.msgpack.Decoder(_Head)
+_UPDATE = msgspec.msgpack.Decoder(_Update)
+_START = msgspec.msgpack.Decoder(_Start)
+_PART = msgspec.msgpack.Decoder(_Part)
+_VALUE = msgspec.msgpack.Decoder(bool | int | float | str)
+_UNREADABLE = (msgspec.DecodeError, msgspec.ValidationError, RecursionError, ValueError)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,6 +145,10 @@ class Rates:
     """Widget values, gizmo moves and clicks a second (a drag sends up to 60)."""
     burst_seconds: float = 2.0
     """How many seconds' worth of messages a quiet browser may send at once."""
+    uploads: float = 0.25
+    """Uploads a second (each is read, checked and planned in the server)."""
+    upload_burst: float = 3.0
+    """Uploads a quiet browser may start at once."""
 
 
 @dataclasses.dataclass
@@ -149,6 +192,10 @@ class _Guest:
     priority: bool
     buckets: dict[str, Bucket]
     upload: tuple[str, _Upload] | None = None
+    since: float = 0.0
+    """When it connected (``time.monotonic``)."""
+    stuck_since: float | None = None
+    """Since when the bytes waiting to be sent to it have not drained."""
 
 
 class Door:
@@ -186,19 +233,37 @@ class Door:
         websock = server._websock_server
         websock.on_client_connect(self._arrive)
         websock.on_client_disconnect(self._leave)
+        self.silent_seconds = 20.0
+        """A connection that has not become a browser (no camera message) by then is
+        closed."""
+        self.stuck_seconds = 20.0
+        """A browser that has not read what was sent to it for this long is closed: what
+        the server queues for it would otherwise grow without bound."""
+        self.closed: collections.Counter[str] = collections.Counter()
+        """Connections the watchdog closed, by reason (``silent``, ``stuck``)."""
+        self._stop = threading.Event()
+        self._watchdog = threading.Thread(target=self._watch, name="door", daemon=True)
+        self._watchdog.start()
 
     # ------------------------------------------------------------------ public
 
     def is_priority(self, client_id: Any) -> bool:
-        """Whether ``client_id``'s messages and callbacks go first (None: the server)."""
+        """Whether ``client_id``'s messages and callbacks go first (None: the server).
+
+        A browser that left has none: what it queued before it left runs after the others.
+        """
         if client_id is None:
             return True
         guest = self._guests.get(client_id)
-        return guest is None or guest.priority
+        return guest is not None and guest.priority
 
     def set_priority(self, priority: Callable[[int], bool]) -> None:
         """Decide priority with ``priority`` from now on, for every browser connected too."""
         self._priority = priority
+        self.reprioritise_all()
+
+    def reprioritise_all(self) -> None:
+        """Ask :paramref:`priority` again for every connected browser."""
         with self._lock:
             connected = list(self._guests)
         for client_id in connected:
@@ -214,6 +279,11 @@ class Door:
             guest = self._guests.get(client_id)
             if guest is not None:
                 guest.priority = bool(self._priority(client_id))
+
+    def close(self) -> None:
+        """Stop the watchdog."""
+        self._stop.set()
+        self._watchdog.join(timeout=5.0)
 
     def guests(self) -> int:
         """Return how many connections the door keeps state for."""
@@ -239,8 +309,9 @@ class Door:
             kind: Bucket(rate, rate * rates.burst_seconds, now)
             for kind, rate in (("camera", rates.camera), ("other", rates.other))
         }
+        buckets["upload"] = Bucket(rates.uploads, rates.upload_burst, now)
         with self._lock:
-            self._guests[client_id] = _Guest(False, buckets)
+            self._guests[client_id] = _Guest(False, buckets, since=now)
         self.reprioritise(client_id)
         socket = self._server._websock_server._live_connections.get(client_id)
         if socket is not None:
@@ -249,6 +320,37 @@ class Door:
     async def _leave(self, connection: Any) -> None:
         with self._lock:
             self._guests.pop(connection.client_id, None)
+
+    def _watch(self, period: float = 1.0) -> None:
+        """Close connections that never became a browser, and browsers that do not read."""
+        websock = self._server._websock_server
+        while not self._stop.wait(period):
+            loop = getattr(websock, "_background_event_loop", None)
+            if loop is None or loop.is_closed():
+                return
+            now = time.monotonic()
+            for client_id, socket in list(websock._live_connections.items()):
+                reason = self._overdue(client_id, socket, now)
+                transport = getattr(socket, "transport", None)
+                if reason is not None and transport is not None:
+                    self.closed[reason] += 1
+                    loop.call_soon_threadsafe(transport.abort)
+
+    def _overdue(self, client_id: int, socket: Any, now: float) -> str | None:
+        guest = self._guests.get(client_id)
+        if guest is None:
+            return None
+        connected = client_id in self._server._connected_clients
+        if not connected and now - guest.since > self.silent_seconds:
+            return "silent"
+        transport = getattr(socket, "transport", None)
+        waiting = transport.get_write_buffer_size() if transport is not None else 0
+        if waiting < STUCK_BYTES:
+            guest.stuck_since = None
+            return None
+        if guest.stuck_since is None:
+            guest.stuck_since = now
+        return "stuck" if now - guest.stuck_since > self.stuck_seconds else None
 
     def _guarded(self, client_id: int, recv: Callable[..., Any]) -> Callable[..., Any]:
         @functools.wraps(recv)
@@ -273,57 +375,43 @@ class Door:
             return "size"
         try:
             kind = _HEAD.decode(raw).type
-        except (msgspec.DecodeError, msgspec.ValidationError):
+        except _UNREADABLE:
             return "malformed"
         if kind not in ALLOWED:
             return "type"
-        if kind not in _UPLOADS and not guest.priority:
-            bucket = guest.buckets[
-                "camera" if kind == "ViewerCameraMessage" else "other"
-            ]
+        if kind != "FileTransferPart" and not guest.priority:
+            bucket = guest.buckets[_BUCKET.get(kind, "other")]
             with self._lock:
                 if not bucket.take(time.monotonic()):
                     return "rate"
-        if kind == "GuiUpdateMessage":
-            return self._value_refusal(client_id, raw)
-        if kind == "FileTransferStartUpload":
-            return self._start_refusal(client_id, guest, raw)
-        if kind == "FileTransferPart":
-            return self._part_refusal(guest, raw)
+        try:
+            if kind == "GuiUpdateMessage":
+                return self._value_refusal(client_id, _UPDATE.decode(raw))
+            if kind == "FileTransferStartUpload":
+                return self._start_refusal(client_id, guest, _START.decode(raw))
+            if kind == "FileTransferPart":
+                return self._part_refusal(guest, _PART.decode(raw))
+        except _UNREADABLE:
+            return "malformed"
         return None
 
-    def _value_refusal(self, client_id: int, raw: bytes) -> str | None:
-        message = _decode(raw)
-        if message is None or set(message) != {"type", "uuid", "updates"}:
-            return "malformed"
-        updates = message["updates"]
-        if not isinstance(updates, dict) or set(updates) != {"value"}:
+    def _value_refusal(self, client_id: int, message: _Update) -> str | None:
+        if set(message.updates) != {"value"}:
             return "value"
-        handle = self._handle(client_id, message["uuid"])
+        handle = self._handle(client_id, message.uuid)
         if handle is None:
             return "widget"
-        return None if offers(handle, updates["value"]) else "value"
+        value = _VALUE.decode(message.updates["value"])
+        return None if offers(handle, value) else "value"
 
-    def _start_refusal(  # noqa: PLR0911 - one check after another
-        self, client_id: int, guest: _Guest, raw: bytes
+    def _start_refusal(
+        self, client_id: int, guest: _Guest, message: _Start
     ) -> str | None:
-        message = _decode(raw)
-        if message is None:
+        size, parts = message.size_bytes, message.part_count
+        name, transfer = message.filename, message.transfer_uuid
+        if size < 0 or parts < 0 or len(name) > 255 or len(transfer) > 64:
             return "malformed"
-        size, parts = message.get("size_bytes"), message.get("part_count")
-        name = message.get("filename")
-        transfer = message.get("transfer_uuid")
-        fields_ok = (
-            _is_int(size)
-            and _is_int(parts)
-            and isinstance(name, str)
-            and len(name) <= 255
-            and isinstance(transfer, str)
-            and len(transfer) <= 64
-        )
-        if not fields_ok:
-            return "malformed"
-        handle = self._handle(client_id, message.get("source_component_uuid"))
+        handle = self._handle(client_id, message.source_component_uuid)
         if not isinstance(handle, viser.GuiUploadButtonHandle):
             return "widget"
         if size > MAX_UPLOAD_BYTES:
@@ -342,23 +430,16 @@ class Door:
                 guest.upload = (transfer, _Upload(parts, size))
         return None
 
-    def _part_refusal(self, guest: _Guest, raw: bytes) -> str | None:
-        message = _decode(raw)
-        if message is None:
-            return "malformed"
-        index, content = message.get("part_index"), message.get("content")
+    def _part_refusal(self, guest: _Guest, message: _Part) -> str | None:
+        index, content = message.part_index, message.content
         with self._lock:
             upload = guest.upload
-            if upload is None or message.get("transfer_uuid") != upload[0]:
+            if upload is None or message.transfer_uuid != upload[0]:
                 return "upload"
             state = upload[1]
-            if (
-                not _is_int(index)
-                or not 0 <= index < state.parts
-                or index in state.seen
-            ):
+            if not 0 <= index < state.parts or index in state.seen:
                 return "upload"
-            if not isinstance(content, bytes) or len(content) > UPLOAD_PART_BYTES:
+            if len(content) > UPLOAD_PART_BYTES:
                 return "upload"
             if state.received + len(content) > state.declared:
                 guest.upload = None
@@ -426,18 +507,6 @@ def _in_range(value: Any, low: Any, high: Any) -> bool:
     return (low is None or value >= low - slack) and (
         high is None or value <= high + slack
     )
-
-
-def _is_int(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
-
-
-def _decode(raw: bytes) -> dict[str, Any] | None:
-    try:
-        message = msgspec.msgpack.decode(raw)
-    except msgspec.DecodeError:
-        return None
-    return message if isinstance(message, dict) else None
 
 
 _serve_lock = threading.Lock()

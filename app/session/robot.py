@@ -85,10 +85,30 @@ def trajectory(scene: Scene, path: npt.ArrayLike) -> kinematics.Trajectory:
         limits = centre_limits(params, wheels)
     # With wheel limits, long turns in place are costly: the differential robot may
     # reverse instead (stop mode).
-    options = kinematics.TrajectoryOptions(reverse=limits is not None)
-    return kinematics.plan_trajectory(
-        np.asarray(path, dtype=np.float64), params, limits=limits, options=options
+    points = np.asarray(path, dtype=np.float64)
+    options = kinematics.TrajectoryOptions(
+        reverse=limits is not None, dt=sample_period(points)
     )
+    return kinematics.plan_trajectory(points, params, limits=limits, options=options)
+
+
+LONG_PATH_M = 500.0
+"""Paths longer than this [m] are sampled more sparsely, so that a scene with its goal
+kilometres away (a hostile upload) cannot fill the server's memory with samples."""
+
+
+def sample_period(path: npt.NDArray[np.float64], dt: float = 0.05) -> float:
+    """Return the trajectory's sample period: ``dt``, stretched past :data:`LONG_PATH_M`.
+
+    Examples
+    --------
+    >>> sample_period(np.array([[0.0, 0.0], [100.0, 0.0]]))
+    0.05
+    >>> sample_period(np.array([[0.0, 0.0], [1e5, 0.0]]))
+    10.0
+    """
+    length = float(np.sum(np.hypot(*np.diff(path, axis=0).T))) if len(path) > 1 else 0.0
+    return dt * max(1.0, length / LONG_PATH_M)
 
 
 def sample(

@@ -55,8 +55,17 @@ def one_line(text: object) -> str:
     return "".join(c for c in joined if c.isprintable() or c == "\t")
 
 
+LINE_CHARS = 500
+"""Most characters of a one-line text a panel shows (the rest is cut, marked '...')."""
+BLOCK_CHARS = 4000
+"""Most characters of a text of several lines a panel shows: a browser takes seconds
+to lay out a paragraph of a hundred thousand characters, and every follower's does."""
+
+
 def markdown_text(text: object, *, lines: bool = False) -> str:
     """Return ``text`` escaped to show literally inside markdown (and its raw HTML).
+
+    The text is cut at :data:`LINE_CHARS` (one line) or :data:`BLOCK_CHARS` (``lines``).
 
     Parameters
     ----------
@@ -64,15 +73,28 @@ def markdown_text(text: object, *, lines: bool = False) -> str:
         Any text from outside (it is made a ``str`` first).
     lines
         Keep line breaks (as markdown hard breaks); otherwise the text is one line.
+
+    Examples
+    --------
+    >>> len(markdown_text("a" * 10_000))
+    503
     """
-    parts = str(text).splitlines() if lines else [one_line(text)]
+    text = _cut(str(text), BLOCK_CHARS if lines else LINE_CHARS)
+    parts = text.splitlines() if lines else [one_line(text)]
     escaped = (_escape_line(one_line(part)) for part in parts)
     return "  \n".join(escaped)
 
 
 def html_text(text: object) -> str:
-    """Return ``text`` escaped to show literally inside HTML (quotes included)."""
-    return html.escape(str(text), quote=True)
+    """Return ``text`` escaped to show literally inside HTML (quotes included).
+
+    The text is cut at :data:`BLOCK_CHARS`.
+    """
+    return html.escape(_cut(str(text), BLOCK_CHARS), quote=True)
+
+
+def _cut(text: str, most: int) -> str:
+    return text if len(text) <= most else text[:most] + "..."
 
 
 def _escape_line(line: str) -> str:

@@ -25,7 +25,7 @@ from websockets.sync.client import connect
 
 from app import start_app
 from app.classroom import PRESENTER_PATH
-from app.guard.door import MAX_MESSAGE_BYTES, UPLOAD_PART_BYTES
+from app.guard.door import MAX_MESSAGE_BYTES, STUCK_BYTES, UPLOAD_PART_BYTES
 from app.session.files import MAX_UPLOAD_BYTES
 from tests.app.app_helpers import classroom_client as seat
 from tests.app.app_helpers import has_label, wait_until
@@ -399,3 +399,109 @@ def test_banners_count_the_class_after_many_leave_together(planner):
             return next((h for h in pres.html() if "Presenter</div>" in h), "")
 
         assert pres.wait_for(lambda: "0 following" in banner(), 20), banner()
+
+
+# --------------------------------------------------------------------------- the watchdog
+
+
+def test_a_connection_that_never_becomes_a_browser_is_closed(planner):
+    """Sockets opened and left silent (no camera message) do not stay for ever."""
+    door = planner.door
+    door.silent_seconds = 1.0
+    try:
+        before = door.closed["silent"]
+        sockets = [
+            connect(
+                f"ws://127.0.0.1:{planner.port}/",
+                subprotocols=[f"viser-v{viser.__version__}"],  # type: ignore[list-item]
+            )
+            for _ in range(5)
+        ]
+        assert wait_until(lambda: door.closed["silent"] >= before + 5, 20)
+        for ws in sockets:
+            with pytest.raises(ConnectionClosed):
+                while True:
+                    ws.recv(timeout=10)
+    finally:
+        door.silent_seconds = 20.0
+
+
+class _Socket:
+    """A connection whose transport holds ``waiting`` bytes not yet sent."""
+
+    def __init__(self, waiting: int) -> None:
+        self.transport = self
+        self.waiting = waiting
+
+    def get_write_buffer_size(self) -> int:
+        return self.waiting
+
+
+def test_a_browser_that_does_not_read_is_closed_after_a_while(planner):
+    """What the server queues for a browser that never reads would grow without bound."""
+    door = planner.door
+    with seat(planner) as student:
+        cid = student.client_id
+        socket = _Socket(STUCK_BYTES)
+        assert door._overdue(cid, socket, 0.0) is None  # stuck from now on
+        assert door._overdue(cid, socket, door.stuck_seconds - 1) is None
+        assert door._overdue(cid, socket, door.stuck_seconds + 1) == "stuck"
+        socket.waiting = 0  # it read: the clock starts again
+        assert door._overdue(cid, socket, door.stuck_seconds + 2) is None
+        socket.waiting = STUCK_BYTES
+        assert door._overdue(cid, socket, door.stuck_seconds + 3) is None
+
+
+def test_a_message_of_the_wrong_shape_is_refused_as_it_is_read(planner):
+    """A part whose content is a million nested arrays is not built into objects: the
+    typed reading refuses it as malformed at its first array (read whole, it would be
+    refused later, as a part of no upload, after a second of the event loop's time)."""
+    door = planner.door
+    with seat(planner, presenter=True) as pres:
+        before = door.refused["malformed"]
+        count = (1 << 20) - 64
+        frame = (
+            b"\x83"
+            + msgspec.msgpack.encode("type")
+            + msgspec.msgpack.encode("FileTransferPart")
+            + msgspec.msgpack.encode("transfer_uuid")
+            + msgspec.msgpack.encode("t")
+            + msgspec.msgpack.encode("content")
+            + b"\xdd"
+            + count.to_bytes(4, "big")
+            + b"\x90" * count
+        )[:MAX_MESSAGE_BYTES]
+        for _ in range(5):
+            pres.send_raw(frame)
+        assert wait_until(lambda: door.refused["malformed"] >= before + 5, 20)
+        # The presenter is still served at once.
+        pres.set_gui(pres.uuid("Radius [m]"), 0.45)
+        assert wait_until(lambda: planner.controller.scene.robot.radius == 0.45, 20)
+
+
+def test_a_new_presenter_link_closes_connections_still_opening_with_the_old_one(
+    planner,
+):
+    room = planner.classroom
+    with seat(planner, presenter=True) as laptop:
+        old = room.token
+        ws = connect(
+            f"ws://127.0.0.1:{planner.port}{PRESENTER_PATH}{old}",
+            subprotocols=[f"viser-v{viser.__version__}"],  # type: ignore[list-item]
+        )
+        assert wait_until(
+            lambda: len(planner.server._websock_server._live_connections) >= 2, 10
+        )
+        assert room.rotate_token(laptop.client_id) is not None
+        with pytest.raises(ConnectionClosed):
+            while True:
+                ws.recv(timeout=10)
+
+
+def test_a_browser_that_left_has_no_priority(planner):
+    door = planner.door
+    with seat(planner, presenter=True) as pres:
+        cid = pres.client_id
+        assert door.is_priority(cid)
+    assert wait_until(lambda: not door.knows(cid), 20)
+    assert not door.is_priority(cid) and door.is_priority(None)

@@ -880,11 +880,7 @@ class Classroom:
 
 def _lock(panels: Panels, *, editable: bool, presenter: bool) -> None:
     """Enable a panel's controls as its seat may use them (saving: the presenter only)."""
-    panels.lock(not editable)
-    if not presenter:
-        for handle in (panels.folder_name, panels.folder_save):
-            if handle is not None and not handle.disabled:
-                handle.disabled = True
+    panels.lock(not editable, saving=presenter)
 
 
 def _panels(seat: Seat) -> Panels:

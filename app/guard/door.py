@@ -335,6 +335,23 @@ class Door:
                 if reason is not None and transport is not None:
                     self.closed[reason] += 1
                     loop.call_soon_threadsafe(transport.abort)
+            loop.call_soon_threadsafe(self._drop_refused_uploads)
+
+    def _drop_refused_uploads(self) -> None:
+        """Forget viser's state of every upload the door stopped (on the event loop).
+
+        viser keeps an upload's name and parts from its first message until its last; one
+        whose parts the door refused would stay until its browser leaves.
+        """
+        clients = dict(self._server._connected_clients)
+        apis = [self._server.gui, *(client.gui for client in clients.values())]
+        for gui in apis:
+            states = gui._current_file_upload_states
+            for transfer, state in list(states.items()):
+                guest = self._guests.get(state.get("client_id"))
+                current = guest.upload[0] if guest and guest.upload else None
+                if transfer != current:
+                    states.pop(transfer, None)
 
     def _overdue(self, client_id: int, socket: Any, now: float) -> str | None:
         guest = self._guests.get(client_id)

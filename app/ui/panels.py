@@ -320,16 +320,19 @@ class Panels:
             *self.layers.values(),
         ]
 
-    def lock(self, locked: bool) -> None:
+    def lock(self, locked: bool, *, saving: bool = True) -> None:
         """Disable every control that changes the session (a watcher's panel), or enable it.
 
         Button groups cannot be disabled in viser: they are hidden instead. The server
         refuses a locked panel's edits anyway (:mod:`app.guard.gate`); this only shows it.
+        Without ``saving`` the scenes folder's save stays disabled (a student's panel):
+        it is never enabled, not even for a moment.
         """
         self.locked = locked
+        never = () if saving else (self.folder_name, self.folder_save)
         for handle in self.controls():
             if not isinstance(handle, viser.GuiButtonGroupHandle):
-                _set(handle, "disabled", locked)
+                _set(handle, "disabled", locked or handle in never)
         _set(self.history, "visible", not locked)
         _set(self.playback, "visible", not locked)
         tool = self._shown_tool

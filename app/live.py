@@ -399,8 +399,8 @@ class LiveRun:
         new = live_step(state, now, self._options, self._memo)
         record = record_step(new, scene, now, state.t)
         with self._cond:
-            if self._state is not state:
-                return  # reset meanwhile
+            if self._state is not state or not self._running:
+                return  # reset or stopped meanwhile: stopped means stopped
             self._state = new
             self._steps.append(record)
             self._events.extend(new.events)

@@ -167,6 +167,13 @@ class TopCamera:
 # --------------------------------------------------------------------------- classrooms
 
 
+def reset_classroom(app: Any) -> None:
+    """Put a classroom app back on its first scene, closed to students."""
+    app.classroom.set_open(False)
+    app.controller.files.load_scenario("01_two_convex")
+    assert app.wait_idle(30)
+
+
 @contextlib.contextmanager
 def classroom_client(app: Any, presenter: bool = False) -> Iterator[ViserClient]:
     """A connected client whose seat and panel are built."""

@@ -35,7 +35,7 @@ from app.server import _is_loopback
 from app.session.big import SharedWorkers
 from tests.app.app_helpers import classroom_client as client
 from tests.app.app_helpers import has_label as _has
-from tests.app.app_helpers import wait_until
+from tests.app.app_helpers import reset_classroom, wait_until
 from tests.benchmarks.bench_big import circle_scene
 from tests.viser_client import ViserClient
 
@@ -54,9 +54,7 @@ def planner(classroom_app: Any) -> Iterator[Any]:
     """The module's classroom app, back on its first scene, closed, with no browsers."""
     app = classroom_app
     yield app
-    app.classroom.set_open(False)
-    app.controller.files.load_scenario("01_two_convex")
-    assert app.wait_idle(30)
+    reset_classroom(app)
 
 
 def _state(app: Any) -> tuple[Any, int]:

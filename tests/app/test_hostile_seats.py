@@ -28,7 +28,7 @@ from app.classroom import PRESENTER_PATH
 from app.guard.door import MAX_MESSAGE_BYTES, STUCK_BYTES, UPLOAD_PART_BYTES
 from app.session.files import MAX_UPLOAD_BYTES
 from tests.app.app_helpers import classroom_client as seat
-from tests.app.app_helpers import has_label, wait_until
+from tests.app.app_helpers import has_label, reset_classroom, wait_until
 from tests.viser_client import ViserClient
 
 PAYLOADS = (
@@ -58,9 +58,7 @@ def planner(classroom_app: Any) -> Iterator[Any]:
     """The module's classroom, back on its first scene, closed to students."""
     app = classroom_app
     yield app
-    app.classroom.set_open(False)
-    app.controller.files.load_scenario("01_two_convex")
-    assert app.wait_idle(30)
+    reset_classroom(app)
 
 
 def upload(c: ViserClient, name: str, data: bytes, declared: int | None = None) -> str:

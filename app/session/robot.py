@@ -1,6 +1,7 @@
 """Glue between the scene's robot and :mod:`kinematics`: trajectories, samples, meshes.
 
-The controller calls :func:`trajectory` when a path changes and :func:`sample` for every
+The controller calls :func:`trajectory` (:mod:`planners.drive`'s, so that an exported
+trajectory is the one the app animates) when a path changes and :func:`sample` for every
 animation frame; the view calls :func:`robot_model` when the robot changes. Nothing here
 imports viser.
 """
@@ -13,12 +14,12 @@ __all__ = [
     "robot_model",
     "robot_params",
     "sample",
+    "sample_period",
     "trajectory",
 ]
 
 import dataclasses
 import functools
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -27,7 +28,7 @@ import numpy.typing as npt
 
 import kinematics
 from kinematics import RobotParams
-from kinematics.wheel_limits import WheelLimits, centre_limits
+from planners.drive import robot_params, sample_period, trajectory
 from planners.scene import Robot, Scene
 
 FloatArray = npt.NDArray[np.float64]
@@ -49,66 +50,6 @@ class RobotModel:
     """Scale of the body pieces in x and y (1 at the reference radius)."""
     wheels: tuple[tuple[FloatArray, FloatArray, tuple[MeshPiece, ...]], ...]
     """(hub (3,), axle (3,), pieces in the wheel-local frame) for each driven wheel."""
-
-
-def robot_params(robot: Robot) -> RobotParams:
-    """Convert the scene's robot to :class:`kinematics.RobotParams`."""
-    return RobotParams(
-        kind=robot.kind,  # type: ignore[arg-type]
-        wheel_radius=robot.wheel_radius,
-        wheel_distance=robot.wheel_distance,
-        radius=robot.radius,
-    )
-
-
-def trajectory(scene: Scene, path: npt.ArrayLike) -> kinematics.Trajectory:
-    """Plan the timed motion of the scene's robot along ``path`` (section 9.7).
-
-    Examples
-    --------
-    >>> import planners
-    >>> s = planners.load_scene({"format": 1, "obstacles": [], "start": [0, 0], "goal": [1, 0]})
-    >>> float(round(trajectory(s, [[0, 0], [1, 0]]).pose[-1, 0], 9))
-    1.0
-    """
-    params = robot_params(scene.robot)
-    limits = None
-    if (
-        scene.robot.max_wheel_rate is not None
-        or scene.robot.max_wheel_acceleration is not None
-    ):
-        # Section 9.7.3: the centre's limits are derived so every wheel keeps within its own.
-        wheels = WheelLimits(
-            max_rate=scene.robot.max_wheel_rate or math.inf,
-            max_acceleration=scene.robot.max_wheel_acceleration or math.inf,
-        )
-        limits = centre_limits(params, wheels)
-    # With wheel limits, long turns in place are costly: the differential robot may
-    # reverse instead (stop mode).
-    points = np.asarray(path, dtype=np.float64)
-    options = kinematics.TrajectoryOptions(
-        reverse=limits is not None, dt=sample_period(points)
-    )
-    return kinematics.plan_trajectory(points, params, limits=limits, options=options)
-
-
-LONG_PATH_M = 500.0
-"""Paths longer than this [m] are sampled more sparsely, so that a scene with its goal
-kilometres away (a hostile upload) cannot fill the server's memory with samples."""
-
-
-def sample_period(path: npt.NDArray[np.float64], dt: float = 0.05) -> float:
-    """Return the trajectory's sample period: ``dt``, stretched past :data:`LONG_PATH_M`.
-
-    Examples
-    --------
-    >>> sample_period(np.array([[0.0, 0.0], [100.0, 0.0]]))
-    0.05
-    >>> sample_period(np.array([[0.0, 0.0], [1e5, 0.0]]))
-    10.0
-    """
-    length = float(np.sum(np.hypot(*np.diff(path, axis=0).T))) if len(path) > 1 else 0.0
-    return dt * max(1.0, length / LONG_PATH_M)
 
 
 def sample(

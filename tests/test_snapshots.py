@@ -1,8 +1,9 @@
 """Screenshot tests: every shipped scenario, drawn by the app in headless Chromium.
 
-Each scenario is rendered top-down at 960 x 600 through the same path as
-``python -m app --snapshot`` (the slide picture of :mod:`app.media.pictures`: title, legend and
-labels sized for the picture) and compared with its golden PNG in ``tests/snapshots/``.
+Each scenario is rendered top-down at 960 x 600 as the slide picture of
+:mod:`app.media.pictures` (title, legend and labels sized for the picture), one scenario
+after the other in one app and one page, as a batch of ``--snapshot`` pictures does, and
+compared with its golden PNG in ``tests/snapshots/``.
 Tolerance, refreshing and diffs: ``tests/snapshots/README.md``. Each scenario's labels, as
 the browser laid them out, are checked too: none overlaps another or a marker.
 
@@ -30,9 +31,9 @@ from PIL import Image, ImageDraw, ImageFont
 
 from app import start_app
 from app.media.labels import Box
-from app.media.pictures import open_studio
+from app.media.pictures import Studio, open_studio
 from app.media.slides import Slide
-from planners.scene import Scene, load_scene, move_obstacle
+from planners.scene import Scene, load_scene, move_obstacle, save_scene
 from tests.browser import use_browser
 
 if TYPE_CHECKING:
@@ -189,22 +190,35 @@ class Rendered:
     slide: Slide
 
 
-def render_slide(browser, scenario: str | Path | Scene) -> Rendered:
-    """Start the app on ``scenario``, take the golden-sized slide picture, stop it."""
-    planner_app = start_app(scenario, print_url=False)
+@pytest.fixture(scope="module")
+def studio(browser: Browser) -> Iterator[Studio]:
+    """One app in one golden-sized page for the module: each test loads its scenario.
+
+    The same path as a batch of ``--snapshot`` pictures (one page, a scenario after the
+    other); a fresh app per picture is what the command line's own tests check.
+    """
+    planner_app = start_app(SCENARIOS[0], print_url=False)
     try:
-        with open_studio(planner_app, browser, width=WIDTH, height=HEIGHT) as studio:
-            png = studio.picture()
-            labels = studio.shown.page.evaluate(LABEL_BOXES_JS)
-            assert studio.slide is not None
-            return Rendered(png, labels, studio.slide)
+        with open_studio(planner_app, browser, width=WIDTH, height=HEIGHT) as shown:
+            yield shown
     finally:
         planner_app.stop()
 
 
-def render(browser, scenario: str | Path | Scene) -> bytes:
-    """The golden-sized slide picture of ``scenario``."""
-    return render_slide(browser, scenario).png
+def render_slide(studio: Studio, scenario: Path) -> Rendered:
+    """Show ``scenario`` in the shared studio and take its golden-sized slide picture."""
+    studio.load(scenario)
+    png = studio.picture()
+    labels = studio.shown.page.evaluate(LABEL_BOXES_JS)
+    assert studio.slide is not None
+    return Rendered(png, labels, studio.slide)
+
+
+def render(studio: Studio, scenario: Path | Scene, folder: Path) -> bytes:
+    """The golden-sized slide picture of ``scenario`` (a file, or a scene saved in ``folder``)."""
+    if isinstance(scenario, Scene):
+        scenario = save_scene(scenario, folder / "scene.json")
+    return render_slide(studio, scenario).png
 
 
 def check_labels(rendered: Rendered, width: int, height: int) -> None:
@@ -236,8 +250,8 @@ def test_every_scenario_is_covered() -> None:
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=[p.stem for p in SCENARIOS])
-def test_scenario_snapshot(browser: Browser, path: Path) -> None:
-    rendered = render_slide(browser, path)
+def test_scenario_snapshot(studio: Studio, path: Path) -> None:
+    rendered = render_slide(studio, path)
     check_labels(rendered, WIDTH, HEIGHT)
     check_snapshot(path.stem, rendered.png)
 
@@ -247,22 +261,22 @@ def test_scenario_snapshot(browser: Browser, path: Path) -> None:
 
 
 def test_unchanged_scene_passes_twice_in_a_row(
-    browser: Browser, tmp_path: Path
+    studio: Studio, tmp_path: Path
 ) -> None:
     path = SCENARIOS[0]
     for _ in range(2):
         comparison = check_snapshot(
-            path.stem, render(browser, path), failures=tmp_path, update=False
+            path.stem, render(studio, path, tmp_path), failures=tmp_path, update=False
         )
         assert comparison is not None and comparison.ok
 
 
-def test_moved_obstacle_fails_the_comparison(browser: Browser, tmp_path: Path) -> None:
+def test_moved_obstacle_fails_the_comparison(studio: Studio, tmp_path: Path) -> None:
     path = SCENARIOS[0]
     moved = move_obstacle(load_scene(path), 0, (0.8, 0.6))
     with pytest.raises(pytest.fail.Exception, match="the picture changed"):
         check_snapshot(
-            path.stem, render(browser, moved), failures=tmp_path, update=False
+            path.stem, render(studio, moved, tmp_path), failures=tmp_path, update=False
         )
     diff = Image.open(tmp_path / f"{path.stem}.diff.png").convert("RGB")
     assert diff.size == (3 * WIDTH, HEIGHT + LABEL_HEIGHT)

@@ -1,7 +1,16 @@
-"""Command line: ``python -m planners plan FILE [FILE ...] [--planners vg,svg,dsb] [--sensor-range R]``.
+"""Command line: ``python -m planners plan`` and ``python -m planners import-map``.
 
-With one file, prints one JSON object (docs/api.md, "Command line"); with several, one JSON object per line
-in input order. An unreadable or invalid file: exit 2 with one line on stderr.
+``plan FILE [FILE ...] [--planners vg,svg,dsb] [--sensor-range R]``: with one file, prints
+one JSON object (docs/api.md, "Command line"); with several, one JSON object per line in
+input order.
+
+``import-map MAP.yaml [--start X Y] [--goal X Y] [--robot-radius R] [--tolerance T]
+[--unknown occupied|free] -o SCENE.json``: writes the scenario of a ROS map_server map
+(docs/maps.md). The scenario names the map in its ``map`` key only when it is written
+into the map's folder (the key is a file name, never a path); elsewhere the key is left
+out and stderr says so.
+
+An unreadable or invalid file: exit 2 with one line on stderr.
 """
 
 from __future__ import annotations
@@ -11,12 +20,19 @@ import json
 import math
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import NoReturn
 
 from planners.allocator import keep_freed_memory
 from planners.api import plan_all, result_to_json
 from planners.registry import REGISTRY, PlanOptions, default_planners
-from planners.scene import ScenarioError, load_scene
+from planners.scene import (
+    ScenarioError,
+    is_map_name,
+    load_scene,
+    save_scene,
+    scene_from_dict,
+)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -46,11 +62,30 @@ def _sensor_range(text: str) -> float:
     return value
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the exit code."""
-    keep_freed_memory()
+def _length(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a number >= 0, got {text!r}")
+    return value
+
+
+def _coordinate(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
+    return value
+
+
+def _parser() -> argparse.ArgumentParser:
     parser = _Parser(
-        prog="python -m planners", description="Plan paths for scenario files."
+        prog="python -m planners",
+        description="Plan paths for scenario files; import occupancy maps.",
     )
     sub = parser.add_subparsers(dest="command", required=True)
     plan = sub.add_parser("plan", help="plan every file and print JSON")
@@ -71,8 +106,55 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="R",
         help="DSB sensor range [m] (inf: unlimited); default: the scenario's",
     )
-    args = parser.parse_args(argv)
+    _import_parser(sub)
+    return parser
 
+
+def _import_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    cmd = sub.add_parser(
+        "import-map",
+        help="write the scenario of a ROS map_server map (YAML + image)",
+        description="Trace the free space around the start on a map_server map and"
+        " write it as a scenario (docs/maps.md).",
+    )
+    cmd.add_argument("map", metavar="MAP.yaml")
+    for name, what in (("start", "start"), ("goal", "goal")):
+        cmd.add_argument(
+            f"--{name}",
+            nargs=2,
+            type=_coordinate,
+            metavar=("X", "Y"),
+            help=f"the {what} in the map's world [m]; default: chosen on the map"
+            " (both are, unless both are given)",
+        )
+    cmd.add_argument(
+        "--robot-radius", type=_length, default=0.3, metavar="R", help="[m], default 0.3"
+    )
+    cmd.add_argument(
+        "--tolerance",
+        type=_length,
+        default=None,
+        metavar="T",
+        help="how far [m] borders may move into free space when simplified;"
+        " default one cell, 0 for the cells' exact border",
+    )
+    cmd.add_argument(
+        "--unknown",
+        choices=("occupied", "free"),
+        default="occupied",
+        help="how unknown cells count (default occupied)",
+    )
+    cmd.add_argument(
+        "-o", "--output", required=True, metavar="SCENE.json", help="the scenario file"
+    )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit code."""
+    keep_freed_memory()
+    args = _parser().parse_args(argv)
+    if args.command == "import-map":
+        return _import_map(args)
     scenes = []
     for path in args.files:
         try:
@@ -89,6 +171,62 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         print(json.dumps(out))
     return 0
+
+
+def _import_map(args: argparse.Namespace) -> int:
+    """``import-map``: read, trace, write; one line on stderr and 2 on a problem."""
+    from planners import maps  # noqa: PLC0415 - PyYAML, Pillow and the trace's loops
+
+    yaml_path, output = Path(args.map), Path(args.output)
+    if (args.start is None) != (args.goal is None):
+        print("error: give both --start and --goal, or neither", file=sys.stderr)
+        return 2
+    map_file = _map_key(yaml_path, output)
+    try:
+        occupancy_map = maps.read_map(yaml_path)
+        start, goal = args.start, args.goal
+        if start is None:
+            start, goal = maps.default_endpoints(
+                occupancy_map,
+                args.robot_radius,
+                tolerance=args.tolerance,
+                unknown=args.unknown,
+            )
+        data = maps.scene_from_map(
+            occupancy_map,
+            start,
+            goal,
+            robot_radius=args.robot_radius,
+            tolerance=args.tolerance,
+            unknown=args.unknown,
+            map_file=map_file,
+        )
+        save_scene(scene_from_dict(data, str(output)), output)
+    except ScenarioError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    if not map_file:
+        print(
+            f"note: {output} does not lie beside {yaml_path.name}, or that name is not"
+            " a plain file name: the scenario names no map (the app then draws none)",
+            file=sys.stderr,
+        )
+    vertices = sum(len(o) for o in data["obstacles"])
+    print(
+        f"wrote {output}: a boundary of {len(data['boundary'])} vertices and"
+        f" {len(data['obstacles'])} obstacles of {vertices} vertices;"
+        f" start {data['start']}, goal {data['goal']}"
+    )
+    return 0
+
+
+def _map_key(yaml_path: Path, output: Path) -> str:
+    """The scenario's ``map``: the YAML's file name when the scenario lies beside it."""
+    try:
+        beside = yaml_path.resolve().parent == output.resolve().parent
+    except (OSError, RuntimeError):  # a loop of links
+        return ""
+    return yaml_path.name if beside and is_map_name(yaml_path.name) else ""
 
 
 if __name__ == "__main__":

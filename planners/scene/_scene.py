@@ -19,6 +19,7 @@ __all__ = [
     "delete_obstacle",
     "delete_vertex",
     "insert_vertex",
+    "is_map_name",
     "load_scene",
     "move_goal",
     "move_obstacle",
@@ -348,10 +349,21 @@ def _positive(source: str, field: str, value: Any) -> float:
     return number
 
 
+def is_map_name(name: str) -> bool:
+    """Whether ``name`` may be a scenario's ``map``: a plain YAML file name, never a path.
+
+    Examples
+    --------
+    >>> is_map_name("lab 2.yaml"), is_map_name("../lab.yaml"), is_map_name("lab.pgm")
+    (True, False, False)
+    """
+    return bool(_MAP_NAME.fullmatch(name)) and not _DEVICES.fullmatch(name)
+
+
 def _map_name(source: str, value: Any) -> str:
     """Check the optional ``map``: a plain YAML file name, never a path."""
     name = _text(source, "map", value)
-    if not _MAP_NAME.fullmatch(name) or _DEVICES.fullmatch(name):
+    if not is_map_name(name):
         raise ScenarioError(
             source,
             "map",

@@ -1,11 +1,17 @@
-"""Command line: ``python -m planners plan ...`` and ``python -m planners export ...``.
+"""Command line: ``python -m planners plan``, ``export`` and ``import-map``.
 
 ``plan FILE [FILE ...] [--planners vg,svg,dsb] [--sensor-range R]``: with one file, prints
 one JSON object (docs/api.md, "Command line"); with several, one JSON object per line in
 input order.
 
-``export FILE --planner NAME -o OUT.csv|OUT.json [--table path|trajectory] [--dt DT]``:
+``export FILE [--planner NAME] -o OUT.csv|OUT.json [--table path|trajectory] [--dt DT]``:
 writes the planner's path and the robot's trajectory along it (:mod:`planners.export`).
+
+``import-map MAP.yaml [--start X Y] [--goal X Y] [--robot-radius R] [--tolerance T]
+[--unknown occupied|free] -o SCENE.json``: writes the scenario of a ROS map_server map
+(docs/maps.md). The scenario names the map in its ``map`` key only when it is written
+into the map's folder (the key is a file name, never a path); elsewhere the key is left
+out and stderr says so.
 
 An unreadable or invalid file, or a planner without a path: exit 2 with one line on
 stderr.
@@ -26,7 +32,13 @@ from planners.allocator import keep_freed_memory
 from planners.api import plan_all, result_to_json
 from planners.drive import trajectory
 from planners.registry import REGISTRY, PlanOptions, default_planners
-from planners.scene import ScenarioError, load_scene
+from planners.scene import (
+    ScenarioError,
+    is_map_name,
+    load_scene,
+    save_scene,
+    scene_from_dict,
+)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -56,6 +68,55 @@ def _sensor_range(text: str) -> float:
     return value
 
 
+def _length(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a number >= 0, got {text!r}")
+    return value
+
+
+def _coordinate(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
+    return value
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="python -m planners",
+        description="Plan paths for scenario files; import occupancy maps.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    plan = sub.add_parser("plan", help="plan every file and print JSON")
+    plan.add_argument("files", nargs="+", metavar="FILE")
+    plan.add_argument(
+        "--planners",
+        type=_planner_list,
+        default=default_planners(),
+        help="comma-separated planners (default: "
+        + ",".join(default_planners())
+        + "): "
+        + "; ".join(f"{n} = {spec.title}" for n, spec in REGISTRY.items()),
+    )
+    plan.add_argument(
+        "--sensor-range",
+        type=_sensor_range,
+        default=None,
+        metavar="R",
+        help="DSB sensor range [m] (inf: unlimited); default: the scenario's",
+    )
+    _export_parser(sub)
+    _import_parser(sub)
+    return parser
+
+
 def _positive(text: str) -> float:
     try:
         value = float(text)
@@ -66,7 +127,7 @@ def _positive(text: str) -> float:
     return value
 
 
-def _add_export(sub: Any) -> None:
+def _export_parser(sub: Any) -> None:
     cmd = sub.add_parser(
         "export",
         help="write a planner's path and the robot's trajectory as CSV or JSON",
@@ -101,6 +162,7 @@ def _add_export(sub: Any) -> None:
 
 
 def _export(args: argparse.Namespace) -> int:
+    """``export``: plan one planner, write its path and trajectory; 2 on a problem."""
     suffix = Path(args.output).suffix.lower()
     if suffix not in (".csv", ".json"):
         print(f"error: {args.output}: (file): write .csv or .json", file=sys.stderr)
@@ -110,10 +172,8 @@ def _export(args: argparse.Namespace) -> int:
     except ScenarioError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
-    result = plan_all(
-        scene, [args.planner], PlanOptions(sensor_range=args.sensor_range)
-    )
-    result = result[args.planner]
+    options = PlanOptions(sensor_range=args.sensor_range)
+    result = plan_all(scene, [args.planner], options)[args.planner]
     path = result.path
     if len(path) < 2:
         reason = getattr(result, "reason", "") or "no path"
@@ -133,36 +193,57 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _import_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    cmd = sub.add_parser(
+        "import-map",
+        help="write the scenario of a ROS map_server map (YAML + image)",
+        description="Trace the free space around the start on a map_server map and"
+        " write it as a scenario (docs/maps.md).",
+    )
+    cmd.add_argument("map", metavar="MAP.yaml")
+    for name, what in (("start", "start"), ("goal", "goal")):
+        cmd.add_argument(
+            f"--{name}",
+            nargs=2,
+            type=_coordinate,
+            metavar=("X", "Y"),
+            help=f"the {what} in the map's world [m]; default: chosen on the map"
+            " (both are, unless both are given)",
+        )
+    cmd.add_argument(
+        "--robot-radius",
+        type=_length,
+        default=0.3,
+        metavar="R",
+        help="[m], default 0.3",
+    )
+    cmd.add_argument(
+        "--tolerance",
+        type=_length,
+        default=None,
+        metavar="T",
+        help="how far [m] borders may move into free space when simplified;"
+        " default one cell, 0 for the cells' exact border",
+    )
+    cmd.add_argument(
+        "--unknown",
+        choices=("occupied", "free"),
+        default="occupied",
+        help="how unknown cells count (default occupied)",
+    )
+    cmd.add_argument(
+        "-o", "--output", required=True, metavar="SCENE.json", help="the scenario file"
+    )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit code."""
     keep_freed_memory()
-    parser = _Parser(
-        prog="python -m planners", description="Plan paths for scenario files."
-    )
-    sub = parser.add_subparsers(dest="command", required=True)
-    plan = sub.add_parser("plan", help="plan every file and print JSON")
-    plan.add_argument("files", nargs="+", metavar="FILE")
-    plan.add_argument(
-        "--planners",
-        type=_planner_list,
-        default=default_planners(),
-        help="comma-separated planners (default: "
-        + ",".join(default_planners())
-        + "): "
-        + "; ".join(f"{n} = {spec.title}" for n, spec in REGISTRY.items()),
-    )
-    plan.add_argument(
-        "--sensor-range",
-        type=_sensor_range,
-        default=None,
-        metavar="R",
-        help="DSB sensor range [m] (inf: unlimited); default: the scenario's",
-    )
-    _add_export(sub)
-    args = parser.parse_args(argv)
+    args = _parser().parse_args(argv)
+    if args.command == "import-map":
+        return _import_map(args)
     if args.command == "export":
         return _export(args)
-
     scenes = []
     for path in args.files:
         try:
@@ -179,6 +260,62 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         print(json.dumps(out))
     return 0
+
+
+def _import_map(args: argparse.Namespace) -> int:
+    """``import-map``: read, trace, write; one line on stderr and 2 on a problem."""
+    from planners import maps  # noqa: PLC0415 - PyYAML, Pillow and the trace's loops
+
+    yaml_path, output = Path(args.map), Path(args.output)
+    if (args.start is None) != (args.goal is None):
+        print("error: give both --start and --goal, or neither", file=sys.stderr)
+        return 2
+    map_file = _map_key(yaml_path, output)
+    try:
+        occupancy_map = maps.read_map(yaml_path)
+        start, goal = args.start, args.goal
+        if start is None:
+            start, goal = maps.default_endpoints(
+                occupancy_map,
+                args.robot_radius,
+                tolerance=args.tolerance,
+                unknown=args.unknown,
+            )
+        data = maps.scene_from_map(
+            occupancy_map,
+            start,
+            goal,
+            robot_radius=args.robot_radius,
+            tolerance=args.tolerance,
+            unknown=args.unknown,
+            map_file=map_file,
+        )
+        save_scene(scene_from_dict(data, str(output)), output)
+    except ScenarioError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    if not map_file:
+        print(
+            f"note: {output} does not lie beside {yaml_path.name}, or that name is not"
+            " a plain file name: the scenario names no map (the app then draws none)",
+            file=sys.stderr,
+        )
+    vertices = sum(len(o) for o in data["obstacles"])
+    print(
+        f"wrote {output}: a boundary of {len(data['boundary'])} vertices and"
+        f" {len(data['obstacles'])} obstacles of {vertices} vertices;"
+        f" start {data['start']}, goal {data['goal']}"
+    )
+    return 0
+
+
+def _map_key(yaml_path: Path, output: Path) -> str:
+    """Return the scenario's ``map``: the YAML's file name when the scenario lies beside it."""
+    try:
+        beside = yaml_path.resolve().parent == output.resolve().parent
+    except (OSError, RuntimeError):  # a loop of links
+        return ""
+    return yaml_path.name if beside and is_map_name(yaml_path.name) else ""
 
 
 if __name__ == "__main__":

@@ -80,6 +80,7 @@ FULL = {
             "pause": 2.0,
         }
     ],
+    "map": "corridor.yaml",
 }
 
 
@@ -256,6 +257,24 @@ CORPUS: dict[str, str] = {
     "motion mode unknown": _text(_with(FULL, ("motions", 0, "mode"), "pingpong")),
     "motion pause negative": _text(_with(FULL, ("motions", 0, "pause"), -1)),
     "motion pause null": _text(_with(FULL, ("motions", 0, "pause"), None)),
+    # The map's file name.
+    "map .yml": _text(_with(MINIMAL, ("map",), "Lab 2_b-v1.0.yml")),
+    "map .YAML": _text(_with(MINIMAL, ("map",), "LAB.YAML")),
+    "map of 64 characters": _text(_with(MINIMAL, ("map",), "m" * 59 + ".yaml")),
+    "map of 65 characters": _text(_with(MINIMAL, ("map",), "m" * 60 + ".yaml")),
+    "map empty": _text(_with(MINIMAL, ("map",), "")),
+    "map null": _text(_with(MINIMAL, ("map",), None)),
+    "map a number": _text(_with(MINIMAL, ("map",), 3)),
+    "map not YAML": _text(_with(MINIMAL, ("map",), "room.pgm")),
+    "map in a folder": _text(_with(MINIMAL, ("map",), "maps/room.yaml")),
+    "map with a backslash": _text(_with(MINIMAL, ("map",), "maps\\room.yaml")),
+    "map absolute": _text(_with(MINIMAL, ("map",), "/etc/room.yaml")),
+    "map with a drive": _text(_with(MINIMAL, ("map",), "C:room.yaml")),
+    "map up a folder": _text(_with(MINIMAL, ("map",), "..yaml")),
+    "map with two dots": _text(_with(MINIMAL, ("map",), "a..b.yaml")),
+    "map hidden": _text(_with(MINIMAL, ("map",), ".room.yaml")),
+    "map a device": _text(_with(MINIMAL, ("map",), "NUL.yaml")),
+    "map with a newline": _text(_with(MINIMAL, ("map",), "room.yaml\n")),
 }
 
 # The corpus's documented exceptions: the schema accepts these, the loader refuses them.
@@ -456,6 +475,11 @@ _FIELD = {
     ),
     "sensor_range": _NUMBER,
     "motions": st.one_of(st.lists(_MOTION, max_size=3), _ANY_JSON),
+    "map": st.one_of(
+        st.sampled_from(["room.yaml", "a b.yml", "../room.yaml", "room.yaml\n"]),
+        st.text(max_size=8).map(lambda t: t + ".yaml"),
+        _ANY_JSON,
+    ),
     "extra": _ANY_JSON,
 }
 

@@ -19,6 +19,7 @@ __all__ = [
     "delete_obstacle",
     "delete_vertex",
     "insert_vertex",
+    "is_map_name",
     "load_scene",
     "move_goal",
     "move_obstacle",
@@ -37,6 +38,7 @@ import dataclasses
 import json
 import math
 import os
+import re
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -117,6 +119,10 @@ class Scene:
     motions: tuple[Motion, ...] = ()
     """Moving obstacles (:mod:`planners.scene.motion`), at most one per obstacle, by obstacle
     index; ``obstacles`` is the scene at time 0."""
+    map: str = ""
+    """File name of the occupancy map (a map_server YAML file beside the scenario file) the
+    scene was imported from, for drawing it under the obstacles; ``""`` for none. The
+    planners ignore it."""
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickle the fields only, not what :func:`scene_problems` kept on the scene.
@@ -148,6 +154,7 @@ _TOP_KEYS = frozenset(
         "expansion",
         "sensor_range",
         "motions",
+        "map",
     }
 )
 _REQUIRED_KEYS = ("format", "obstacles", "start", "goal")
@@ -162,6 +169,10 @@ _ROBOT_KEYS = frozenset(
     }
 )
 _MOTION_KEYS = frozenset({"obstacle", "waypoints", "speed", "mode", "pause"})
+# A map's file name: one plain component (as the app's scenes folder names files) ending
+# in .yaml or .yml, so that it can only ever name a file beside the scenario's.
+_MAP_NAME = re.compile(r"(?!.*\.\.)[A-Za-z0-9][A-Za-z0-9 _.\-]{0,58}\.[yY][aA]?[mM][lL]")
+_DEVICES = re.compile(r"(con|prn|aux|nul|com[0-9]|lpt[0-9])(\..*)?", re.IGNORECASE)
 
 
 def _number(source: str, field: str, value: Any) -> float:
@@ -281,6 +292,7 @@ def scene_from_dict(data: Any, source: str = "<scenario>") -> Scene:
         name=name,
         description=description,
         motions=_motions(source, data.get("motions", []), len(obstacles)),
+        map=_map_name(source, data["map"]) if "map" in data else "",
     )
 
 
@@ -335,6 +347,30 @@ def _positive(source: str, field: str, value: Any) -> float:
     if number <= 0:
         raise ScenarioError(source, field, f"must be positive, got {number!r}")
     return number
+
+
+def is_map_name(name: str) -> bool:
+    """Whether ``name`` may be a scenario's ``map``: a plain YAML file name, never a path.
+
+    Examples
+    --------
+    >>> is_map_name("lab 2.yaml"), is_map_name("../lab.yaml"), is_map_name("lab.pgm")
+    (True, False, False)
+    """
+    return bool(_MAP_NAME.fullmatch(name)) and not _DEVICES.fullmatch(name)
+
+
+def _map_name(source: str, value: Any) -> str:
+    """Check the optional ``map``: a plain YAML file name, never a path."""
+    name = _text(source, "map", value)
+    if not is_map_name(name):
+        raise ScenarioError(
+            source,
+            "map",
+            "expected a plain file name ending in .yaml or .yml (at most 64 letters,"
+            f" digits, spaces, _ - and ., no folders), got {_describe(value)}",
+        )
+    return name
 
 
 def _robot(source: str, data: Any) -> Robot:
@@ -541,6 +577,8 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
             }
             for m in scene.motions
         ]
+    if scene.map:  # only when there is one: scenes drawn by hand are written as before
+        data["map"] = scene.map
     return data
 
 

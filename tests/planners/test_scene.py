@@ -216,6 +216,23 @@ def test_scene_to_dict_is_the_file_format():
     }
 
 
+def test_the_map_name_is_kept_and_written_only_when_there_is_one(tmp_path):
+    scene = load_scene({**GOOD, "map": "lab 2.yaml"})
+    assert scene.map == "lab 2.yaml"
+    assert scene_to_dict(scene)["map"] == "lab 2.yaml"
+    assert load_scene(save_scene(scene, tmp_path / "lab.json")) == scene
+    assert "map" not in scene_to_dict(load_scene(GOOD))
+
+
+@pytest.mark.parametrize(
+    "name", ["../lab.yaml", "maps/lab.yaml", "C:\\lab.yaml", "/lab.yaml", "lab.pgm", ""]
+)
+def test_a_map_name_is_never_a_path(name):
+    with pytest.raises(ScenarioError) as info:
+        load_scene({**GOOD, "map": name})
+    assert info.value.field == "map" and "plain file name" in info.value.problem
+
+
 def test_scene_value_semantics():
     a = Scene(obstacles=(Polygon([(0, 0), (1, 0), (0, 1)]),), start=(2, 2), goal=(3, 3))
     b = Scene(obstacles=(Polygon([(0, 0), (1, 0), (0, 1)]),), start=(2, 2), goal=(3, 3))

@@ -616,6 +616,7 @@ class Classroom:
             scenarios=self._scenarios,
             scenario=snapshot.scenario if snapshot is not None else "",
             folder=self._folder,
+            floor_map=snapshot.floor_map if snapshot is not None else None,
             slow_process=self.pool,
             big_workers=SharedWorkers(self.big_pool),
         )

@@ -10,6 +10,7 @@ __all__ = [
     "SCENARIO_DIR",
     "PlannerApp",
     "list_scenarios",
+    "open_scenario",
     "resolve_scenario",
     "start_app",
 ]
@@ -23,8 +24,10 @@ import math
 import os
 import re
 import socket
+import sys
 import threading
 from pathlib import Path
+from typing import Any
 
 import viser
 
@@ -42,11 +45,12 @@ from app.guard.fair import FairExecutor
 from app.live import LivePanels, LiveRun, MotionPaths, add_live_panel
 from app.session import robot as robot_model
 from app.session.controller import Controller
-from app.session.files import ScenesFolder
+from app.session.files import ScenesFolder, is_map_file, map_scene
 from app.ui.panels import Panels
 from app.ui.scoped import ScopedTarget
 from app.ui.text import one_line
 from app.ui.view import PlannerView, floor_bounds
+from planners import maps
 from planners.allocator import freeze_long_lived, keep_freed_memory
 from planners.kernels import warm_up
 from planners.scene import ScenarioError, Scene
@@ -62,6 +66,34 @@ def list_scenarios(folder: Path = SCENARIO_DIR) -> dict[str, Path]:
     if not folder.is_dir():
         return {}
     return {p.stem: p for p in sorted(folder.glob("*.json"))}
+
+
+def open_scenario(path: Path) -> tuple[Scene, Any]:
+    """Read a scenario file, or a map's YAML file, named on the command line.
+
+    Returns the scene and the occupancy map to lay on the floor (None when there is
+    none). A map's YAML file opens as the app's panel opens it
+    (:func:`app.session.files.map_scene`); a scenario naming a map finds it beside
+    itself. A map that cannot be read is said on stderr, and the scene opens without it.
+
+    Raises
+    ------
+    ScenarioError
+        If the scenario, or the map opened as one, cannot be read.
+    """
+    if is_map_file(path.name):
+        floor_map = maps.read_map(path)
+        return map_scene(
+            floor_map, Scene((), (0.0, 0.0), (0.0, 0.0)), path.name
+        ), floor_map
+    scene = planners.load_scene(path)
+    if not scene.map:
+        return scene, None
+    try:
+        return scene, maps.read_map(path.parent / scene.map)
+    except ScenarioError as error:
+        print(f"note: {path}: its map is not shown: {error}", file=sys.stderr)
+        return scene, None
 
 
 def resolve_scenario(
@@ -84,7 +116,12 @@ def resolve_scenario(
     text = str(name)
     path = Path(text).expanduser()
     scenarios = list_scenarios(folder)
-    if path.suffix == ".json" or os.sep in text or "/" in text:
+    if (
+        path.suffix == ".json"
+        or is_map_file(path.name)
+        or os.sep in text
+        or "/" in text
+    ):
         if path.is_file():
             key = path.stem if scenarios.get(path.stem) == path.resolve() else ""
             return key, path
@@ -249,11 +286,12 @@ def start_app(
         if scenes_dir is not None
         else None
     )
+    floor_map = None
     if isinstance(scenario, Scene):
         scene, key = scenario, ""
     else:
         key, path = resolve_scenario(DEFAULT_SCENARIO if scenario is None else scenario)
-        scene = planners.load_scene(path)
+        scene, floor_map = open_scenario(path)
 
     if presenter is None:
         presenter = not _is_loopback(host)
@@ -275,10 +313,13 @@ def start_app(
                 folder=folder,
                 workers=copy_workers,
                 door=door,
+                floor_map=floor_map,
             )
             door.set_priority(app.classroom.is_presenter_connection)
         else:
-            app = _wire(server, scene, key, scenarios, host, folder=folder)
+            app = _wire(
+                server, scene, key, scenarios, host, folder=folder, floor_map=floor_map
+            )
         app.door, app.fair = door, fair
         if not app.wait_idle(60.0):
             raise RuntimeError("the first frame was not drawn within 60 s")
@@ -302,6 +343,7 @@ def _wire(
     host: str,
     *,
     folder: ScenesFolder | None = None,
+    floor_map: Any = None,
 ) -> PlannerApp:
     """Wire one session on ``server``: the panel, the 3-D view and their controller."""
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
@@ -321,6 +363,7 @@ def _wire(
         scenarios=scenarios,
         scenario=key,
         folder=folder,
+        floor_map=floor_map,
     )
     controller_box.append(controller)
     panels.attach(controller)
@@ -351,6 +394,7 @@ def _wire_classroom(
     folder: ScenesFolder | None,
     workers: int,
     door: Door,
+    floor_map: Any = None,
 ) -> PlannerApp:
     """Wire the presenter's session: one shared view; panels per browser (app.classroom)."""
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
@@ -365,6 +409,7 @@ def _wire_classroom(
         scenarios=scenarios,
         scenario=key,
         folder=folder,
+        floor_map=floor_map,
     )
     live = LiveRun(lambda: controller.scene, server, [controller.views])
     controller.add_view(MotionPaths(server))

@@ -97,6 +97,9 @@ class ViserClient:
         """Messages received so far, by type."""
         self.notes: list[dict[str, Any]] = []
         """The notifications shown (their props: title, body...)."""
+        self.downloads: dict[str, bytes] = {}
+        """File name -> content of every file the server sent to download, once whole."""
+        self._transfers: dict[str, dict[str, Any]] = {}
         self.closed = False
         """True once the connection is closed."""
         self.client_id = -1
@@ -283,10 +286,29 @@ class ViserClient:
         self.kinds[kind] += 1
         if kind == "NotificationShowMessage":
             self.notes.append(dict(message.get("props", {})))
+        elif kind in ("FileTransferStartDownload", "FileTransferPart"):
+            self._apply_download(kind, message)
         elif kind.startswith("Gui") and "uuid" in message:
             self._apply_gui(kind, message)
         elif "name" in message:
             self._apply_scene(kind, message)
+
+    def _apply_download(self, kind: str, message: dict[str, Any]) -> None:
+        # viser's message buffer may send a part before its start: keep both until whole.
+        transfer = self._transfers.setdefault(
+            str(message["transfer_uuid"]), {"name": None, "count": -1, "parts": {}}
+        )
+        if kind == "FileTransferStartDownload":
+            transfer["name"], transfer["count"] = (
+                message["filename"],
+                message["part_count"],
+            )
+        else:
+            transfer["parts"][message["part_index"]] = bytes(message["content"])
+        parts = transfer["parts"]
+        if len(parts) == transfer["count"]:
+            self.downloads[transfer["name"]] = b"".join(parts[k] for k in sorted(parts))
+            del self._transfers[str(message["transfer_uuid"])]
 
     def _apply_gui(self, kind: str, message: dict[str, Any]) -> None:
         uuid = message["uuid"]
@@ -322,3 +344,4 @@ class ViserClient:
             node["visible"] = bool(message.get("visible", True))
         elif "props" in message:
             node["type"] = kind
+            node["props"] = dict(message["props"])

@@ -23,7 +23,16 @@ from collections.abc import Callable
 from typing import Any
 
 READ_ONLY = frozenset(
-    {"scene", "version", "frame", "plans", "message", "registry", "slow_planners"}
+    {
+        "scene",
+        "version",
+        "frame",
+        "plans",
+        "message",
+        "registry",
+        "slow_planners",
+        "motion_file",
+    }
 )
 """Controller attributes any browser may read."""
 

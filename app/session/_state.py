@@ -27,6 +27,7 @@ import threading
 import time
 from collections.abc import Callable, Hashable
 from types import MappingProxyType
+from typing import Any
 
 from app.session import tools
 from app.session.history import Entry, History
@@ -49,6 +50,8 @@ class Snapshot:
     """The scene."""
     scenario: str
     """Key of the scenario the scene came from ('' when loaded from elsewhere)."""
+    floor_map: Any
+    """The occupancy map the scene was imported from (:mod:`planners.maps`), or None."""
     ui: UiState
     """The shared UI state."""
     can_undo: bool
@@ -66,6 +69,8 @@ class SessionState:
         The scene to start with.
     scenario
         Key of the scenario it came from ('' if none).
+    floor_map
+        The occupancy map it was imported from (:mod:`planners.maps`), or None.
     ui
         The UI state to start with (its ``enabled`` planners, mostly).
     clock
@@ -78,12 +83,14 @@ class SessionState:
         scenario: str = "",
         ui: UiState | None = None,
         clock: Callable[[], float] = time.monotonic,
+        floor_map: Any = None,
     ) -> None:
         self.lock = threading.Condition()
         """The session's one lock; wait on it for a change, notified on every change."""
         self._scene = scene
         self._version = 0
         self._scenario = scenario
+        self._floor_map = floor_map
         self._history = History()
         self._ui = ui if ui is not None else UiState()
         self._ui_version = 0
@@ -116,6 +123,7 @@ class SessionState:
             ui_version=self._ui_version,
             scene=self._scene,
             scenario=self._scenario,
+            floor_map=self._floor_map,
             ui=self._ui,
             can_undo=self._history.can_undo,
             can_redo=self._history.can_redo,
@@ -151,12 +159,22 @@ class SessionState:
         self._ui = outcome.ui
         self.touch_locked()
 
-    def replace(self, scene: Scene, scenario: str, message: str | None) -> None:
-        """Replace the whole scene as one undo step (undo restores the old scenario too)."""
+    def replace(
+        self,
+        scene: Scene,
+        scenario: str,
+        message: str | None,
+        floor_map: Any = None,
+    ) -> None:
+        """Replace the whole scene as one undo step (undo restores the old scenario too).
+
+        ``floor_map``: the occupancy map the scene was imported from, or None.
+        """
         with self.lock:
             self._history = self._history.closed()
             self._commit_locked(scene, None, phased=False)
             self._scenario = scenario
+            self._floor_map = floor_map
             self._ui = dataclasses.replace(
                 self._ui, selection=None, draft=(), message=message
             )
@@ -165,7 +183,7 @@ class SessionState:
     def step_history(self, redo: bool = False) -> None:
         """Undo (or redo) one step; say so when there is nothing to undo (redo)."""
         with self.lock:
-            current = Entry(self._scene, self._scenario)
+            current = Entry(self._scene, self._scenario, self._floor_map)
             moved = (self._history.redo if redo else self._history.undo)(current)
             if moved is None:
                 self._history = self._history.closed()
@@ -175,6 +193,7 @@ class SessionState:
             else:
                 self._history, entry = moved
                 self._scene, self._scenario = entry.scene, entry.scenario
+                self._floor_map = entry.floor_map
                 self._version += 1
                 self._ui = dataclasses.replace(
                     self._ui,
@@ -194,7 +213,7 @@ class SessionState:
     ) -> None:
         if new == self._scene:
             return  # nothing changed: no undo step, no new version
-        before = Entry(self._scene, self._scenario)
+        before = Entry(self._scene, self._scenario, self._floor_map)
         self._history = self._history.record(before, gesture, self._clock(), phased)
         self._scene = new
         self._version += 1

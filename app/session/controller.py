@@ -39,6 +39,7 @@ from __future__ import annotations
 
 __all__ = [
     "LAYERS",
+    "MOTION_FILES",
     "TOOLS",
     "Controller",
     "Frame",
@@ -66,7 +67,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import planners
-from app.session import tools
+from app.session import files, tools
 from app.session._state import SessionState
 from app.session.big import BigWorkers
 from app.session.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
@@ -74,9 +75,13 @@ from app.session.frames import Frame, RobotPose, View, Views
 from app.session.playback import Playback, SampleFn, TrajectoryFn
 from app.session.scheduler import Pending, PlanFn, Scheduler, default_plan, lanes_for
 from app.session.tools import LAYERS, TOOLS, Handle, Selection, UiState, pick
+from planners import export
 from planners import scene as edits
 from planners.registry import PlannerSpec
 from planners.scene import ScenarioError, Scene
+
+MOTION_FILES = ("path .csv", "motion .csv", "path and motion .json")
+"""What :meth:`Controller.motion_file` writes, as the panel offers it."""
 
 
 class Controller:
@@ -143,6 +148,7 @@ class Controller:
         scenario: str = "",
         fps: float = 30.0,
         folder: ScenesFolder | None = None,
+        floor_map: Any = None,
     ) -> None:
         self._registry = registry
         defaults = planners.registry.default_planners(registry)
@@ -151,7 +157,7 @@ class Controller:
             enabled=frozenset(defaults),
             follow=defaults[0] if defaults else next(iter(registry), ""),
         )
-        self._state = SessionState(scene, scenario, ui)
+        self._state = SessionState(scene, scenario, ui, floor_map=floor_map)
         self._views = Views(views)
         fast, slow = lanes_for(
             registry,
@@ -187,6 +193,29 @@ class Controller:
     def frame(self) -> Frame | None:
         """The last frame drawn (None before the first)."""
         return self._scheduler.frame
+
+    def motion_file(self, kind: str) -> tuple[str, bytes] | None:
+        """Return (file name, bytes) of the robot's motion for a browser to download.
+
+        ``kind``: one of :data:`MOTION_FILES`: the followed planner's path as CSV, the
+        trajectory the robot is animated along as CSV (pose and wheel rates every
+        ``dt``, :mod:`planners.export`), or both as JSON. None when the robot has no path
+        to follow. It changes nothing: any browser may ask (a watcher too).
+        """
+        frame = self.frame
+        result = frame.plans.get(frame.follow) if frame is not None else None
+        path = getattr(result, "path", None)
+        if frame is None or path is None or len(path) < 2 or frame.trajectory is None:
+            return None
+        stem = re.sub(r"[^A-Za-z0-9_-]+", "_", frame.scene.name).strip("_")[:40]
+        stem = f"{stem or 'scene'}_{frame.follow}"
+        if kind == "path .csv":
+            return f"{stem}_path.csv", export.path_csv(path).encode()
+        if kind == "motion .csv":
+            text = export.trajectory_csv(frame.trajectory)
+            return f"{stem}_motion.csv", text.encode()
+        text = export.export_json(frame.scene, frame.follow, path, frame.trajectory)
+        return f"{stem}.json", text.encode()
 
     @property
     def plans(self) -> Mapping[str, Any]:
@@ -455,20 +484,31 @@ class ScenarioFiles:
         self._state.replace(scene, key, None)
 
     def load_text(self, text: str | bytes, source: str = "uploaded file") -> None:
-        """Load a scenario from an upload's text; errors go to the panel, never to disk."""
+        """Load an upload: a scenario's text, or a zip of a map (:func:`app.session.files.zip_scene`).
+
+        Errors go to the panel, never to disk. A scenario naming a map shows no map: an
+        upload never names a file of the server's disk.
+        """
         source = _upload_name(source)
         if len(text) > MAX_UPLOAD_BYTES:
             self._state.say(
                 f"Not loaded, the scene is kept: {source}: {len(text):,} bytes, more "
-                f"than the {MAX_UPLOAD_BYTES:,} a scenario file may have"
+                f"than the {MAX_UPLOAD_BYTES:,} an upload may have"
             )
             return
+        data = text.encode("utf-8") if isinstance(text, str) else text
+        floor_map = None
         try:
-            scene = edits.scene_from_text(text, source)
+            if data.startswith(b"PK") or source.lower().endswith(".zip"):
+                scene, floor_map = files.zip_scene(
+                    files.read_zip(data, source), self._state.scene, source
+                )
+            else:
+                scene = edits.scene_from_text(data, source)
         except ScenarioError as error:
             self._state.say(f"Not loaded, the scene is kept: {error}")
             return
-        self._state.replace(scene, "", f"Loaded {source}.")
+        self._state.replace(scene, "", f"Loaded {source}.", floor_map)
 
     def download(self) -> tuple[str, bytes] | None:
         """Return (file name, JSON bytes) of the scene for the browser to download.
@@ -490,12 +530,28 @@ class ScenarioFiles:
         if self.folder is None:
             self._state.say("No scenes folder: start the app with --scenes-dir DIR.")
             return
+        note = ""
         try:
-            scene = self.folder.read(name)
+            if files.is_map_file(name):
+                floor_map = self.folder.read_map(name)
+                scene = files.map_scene(floor_map, self._state.scene, plain_name(name))
+            else:
+                scene = self.folder.read(name)
+                floor_map, note = self._folder_map(scene)
         except (FolderError, ScenarioError) as error:
             self._state.say(f"Not loaded, the scene is kept: {error}")
             return
-        self._state.replace(scene, "", f"Loaded {plain_name(name)} from the folder.")
+        message = f"Loaded {plain_name(name)} from the folder.{note}"
+        self._state.replace(scene, "", message, floor_map)
+
+    def _folder_map(self, scene: Scene) -> tuple[Any, str]:
+        """Return the map ``scene`` names, from the folder, or None and why not."""
+        if not scene.map or self.folder is None:
+            return None, ""
+        try:
+            return self.folder.read_map(scene.map), ""
+        except (FolderError, ScenarioError) as error:
+            return None, f" Its map is not shown: {error}"
 
     def save_to_folder(self, name: str) -> None:
         """Save the scene in the scenes folder as ``name``; the panel says how it went."""

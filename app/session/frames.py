@@ -98,6 +98,9 @@ class Frame:
     """Slow planners whose result shown is for a slightly older scene (during a drag)."""
     slow_version: int = -1
     """Scene version the slow planners' results shown were computed for (-1: none)."""
+    floor_map: Any = None
+    """The occupancy map the scene was imported from (:mod:`planners.maps`), or None:
+    the view lays it on the floor."""
     enabled: frozenset[str] = frozenset()
     """Planners switched on (their lanes run them); the others have no entry in ``plans``."""
     progress: str | None = None
@@ -206,6 +209,7 @@ def build_frame(
         trajectory=trajectory,
         other_expanded=other,
         scenario=snapshot.scenario,
+        floor_map=snapshot.floor_map,
         compute_ms=compute_ms,
         lagging=lagging,
         slow_version=slow_version,

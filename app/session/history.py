@@ -47,6 +47,8 @@ class Entry:
     """The scene (a :class:`planners.Scene`; any value for the history itself)."""
     scenario: str = ""
     """Key of the scenario the scene came from ('' when loaded from elsewhere)."""
+    floor_map: Any = None
+    """The occupancy map the scene was imported from (drawn on the floor), or None."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -95,11 +95,12 @@ def layer_names(registry: Mapping[str, PlannerSpec]) -> Mapping[str, str]:
 
     Examples
     --------
-    >>> list(layer_names(planners.REGISTRY))[3:7]
+    >>> list(layer_names(planners.REGISTRY))[4:8]
     ['vg_edges', 'vg_path', 'vg_edges_all', 'svg_edges']
     """
     out = {
         "obstacles": "Obstacles",
+        "map": "Map (the occupancy grid under the obstacles)",
         "expanded": "Expanded obstacles",
         "other_expansion": "Other expansion model (outline)",
     }

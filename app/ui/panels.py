@@ -16,6 +16,7 @@ __all__ = [
     "wheel_rate_plot_data",
 ]
 
+import functools
 import math
 from collections.abc import Callable, Collection, Mapping
 from typing import Any
@@ -25,7 +26,7 @@ import numpy.typing as npt
 import viser
 
 import planners
-from app.session.controller import TOOLS, Controller, Frame, RobotPose
+from app.session.controller import MOTION_FILES, TOOLS, Controller, Frame, RobotPose
 from app.session.files import ScenesFolder
 from app.session.tools import layer_names
 from app.ui.style import COLORS, hex_color, planner_look
@@ -216,7 +217,8 @@ class Panels:
                 hint="Saves the scene to your computer",
             )
             self.upload = gui.add_upload_button(
-                "Upload a scenario (.json)", mime_type="application/json"
+                "Upload a scenario (.json) or map (.zip)",
+                mime_type="application/json,.json,application/zip,.zip",
             )
             self._build_folder(gui)
 
@@ -290,6 +292,15 @@ class Panels:
             self.playback = gui.add_button_group("Motion", ["Play", "Pause", "Restart"])
             self.speed = gui.add_slider("Speed", 0.1, 4.0, 0.1, 1.0)
             self.time = gui.add_slider("Time [s]", 0.0, 1.0, 0.01, 0.0)
+            # One button per file (a button group's callback would read the group's
+            # newest value, not the one clicked, when two clicks come close together).
+            self.motion_downloads = {
+                kind: gui.add_button(
+                    f"Download the {kind}",
+                    hint="The robot's motion in the scene's (the map's) frame",
+                )
+                for kind in MOTION_FILES
+            }
             self.rates = gui.add_markdown("")
             self.plot = gui.add_uplot(
                 (np.zeros(2), np.zeros(2)),
@@ -361,6 +372,20 @@ class Panels:
                 return
             action(event.target.value, self.controller)
 
+    def _send_motion(self, kind: str, event: Any) -> None:
+        # The file goes to the browser that asked; nothing is written on the server.
+        if self.controller is None or event.client is None:
+            return
+        file = self.controller.motion_file(kind)
+        if file is None:
+            event.client.add_notification(
+                "Nothing to download",
+                "The robot has no path to follow.",
+                auto_close_seconds=5.0,
+            )
+        else:
+            event.client.send_file_download(*file, save_immediately=True)
+
     def _own(self) -> None:
         # "(your own scene)" chosen while a shipped scenario is shown: nothing loads, so
         # the dropdown goes back to the scenario's name.
@@ -383,6 +408,9 @@ class Panels:
             if file is not None:
                 name, data = file
                 event.client.send_file_download(name, data, save_immediately=True)
+
+        for kind, button in self.motion_downloads.items():
+            button.on_click(functools.partial(self._send_motion, kind))
 
         @self.upload.on_upload
         def _(event: Any) -> None:

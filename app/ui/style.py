@@ -110,6 +110,8 @@ HEIGHTS: dict[str, float] = {
     # separate them in its depth buffer and they flicker as dashes (VG and SVG, which
     # often coincide, get the widest gap). Every flat layer stays below the top of the
     # robot's body (7.5 cm), so the robot is never hidden.
+    # An occupancy map lies under the floor's grid lines, which stay visible over it.
+    "floor_map": -0.01,
     "expanded_fill": 0.004,
     "expanded_edge": 0.008,
     "vg_edges": 0.012,

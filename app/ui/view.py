@@ -55,6 +55,7 @@ from shapely.geometry.base import BaseGeometry
 import planners
 from app.session.controller import Frame, Handle, RobotPose
 from app.session.robot import RobotModel
+from app.ui.backdrop import backdrop_of
 from app.ui.scoped import ScopedTarget
 from app.ui.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
 from app.ui.thinning import edges_to_draw
@@ -850,6 +851,8 @@ class PlannerView:
         self.walls = _Mesh(
             s, "/walls", COLORS["wall"], flat_shading=True, side="double"
         )
+        self._floor_map_node: Any = None
+        """The occupancy map's picture on the floor (:mod:`app.ui.backdrop`), or None."""
         # Obstacles and the configuration space in chunks of a few polygons each: a
         # drag sends the changed obstacle's chunk, not the whole layer (_Chunked).
         self.obstacles = _Chunked(
@@ -1027,6 +1030,7 @@ class PlannerView:
         ):
             self.set_robot_model(*self.robot_model_fn(scene.robot))
         self._render_floor_and_obstacles(frame)
+        self._render_floor_map(frame)
         self._render_expansion(frame)
         for graph in self.graphs.values():
             graph.render(frame, self._changed)
@@ -1059,6 +1063,30 @@ class PlannerView:
             if numbered
             else [],
             show,
+        )
+
+    def _render_floor_map(self, frame: Frame) -> None:
+        """Lay the occupancy map the scene was imported from on the floor (or take it away)."""
+        floor_map = frame.floor_map if frame.layers.get("map", True) else None
+        if not self._changed("floor_map", floor_map):
+            return
+        if self._floor_map_node is not None:
+            self._floor_map_node.remove()
+            self._floor_map_node = None
+        if floor_map is None:
+            return
+        backdrop = backdrop_of(floor_map)
+        (cx, cy), (width, height) = backdrop.centre, backdrop.size
+        self._floor_map_node = self.scene.add_image(
+            "/floor_map",
+            backdrop.rgb,
+            render_width=width,
+            render_height=height,
+            format="png",
+            cast_shadow=False,
+            receive_shadow=False,
+            position=(cx, cy, HEIGHTS["floor_map"]),
+            wxyz=yaw_quaternion(backdrop.yaw),
         )
 
     def _render_expansion(self, frame: Frame) -> None:

@@ -127,6 +127,9 @@ class _Recorder:
     def undo(self) -> None:
         self.calls.append("undo")
 
+    def motion_file(self, kind: str) -> None:
+        self.calls.append("motion_file")
+
     def redo(self) -> None:
         self.calls.append("redo")
 
@@ -153,7 +156,7 @@ def _entry_points() -> list[tuple[str, str]]:
         ("", n)
         for n, m in inspect.getmembers(Controller, inspect.isfunction)
         if not n.startswith("_")
-        and n not in ("add_view", "remove_views", "wait_idle", "close")
+        and n not in ("add_view", "remove_views", "wait_idle", "close", "motion_file")
     ]
     for group, cls in (
         ("edits", SceneEdits),
@@ -197,7 +200,9 @@ def test_the_gate_lets_reading_and_downloading_through():
     gated = GatedController(recorder, lambda: False)
     assert gated.version == 7
     gated.files.download()
-    assert recorder.calls == ["files.download"] and gated.refusals.count == 0
+    gated.motion_file("path .csv")  # a watcher downloads the path for its own robot
+    assert recorder.calls == ["files.download", "motion_file"]
+    assert gated.refusals.count == 0
 
 
 # --------------------------------------------------------------------------- the server

@@ -85,7 +85,7 @@ def test_the_presenters_page_shows_a_students_markup_as_text(browser, listener):
                 )
                 scene["name"], scene["description"] = payload, payload
                 student.upload(
-                    "Upload a scenario (.json)",
+                    "Upload a scenario (.json) or map (.zip)",
                     payload + ".json",
                     json.dumps(scene).encode(),
                 )

@@ -193,7 +193,7 @@ def attack(name: str, server: Server, stop: threading.Event) -> Callable[[], Non
         data = b"x" * 60_000_000
         for c in clients:
             try:
-                c.upload("Upload a scenario (.json)", "huge.json", data)
+                c.upload("Upload a scenario (.json) or map (.zip)", "huge.json", data)
             except Exception:
                 pass
         for c in clients:

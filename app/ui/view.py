@@ -354,7 +354,9 @@ def wall_mesh(
     """
     if boundary is None or boundary.is_empty:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.uint32)
-    outer = boundary.buffer(thickness, join_style="mitre")
+    # Square corners at right angles; a sharper corner (a traced map's) is bevelled
+    # instead of growing a spike up to five wall thicknesses long.
+    outer = boundary.buffer(thickness, join_style="mitre", mitre_limit=1.5)
     return prism_mesh(polygons_of(outer.difference(boundary)), height)
 
 

@@ -128,7 +128,11 @@ def _import_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
             " (both are, unless both are given)",
         )
     cmd.add_argument(
-        "--robot-radius", type=_length, default=0.3, metavar="R", help="[m], default 0.3"
+        "--robot-radius",
+        type=_length,
+        default=0.3,
+        metavar="R",
+        help="[m], default 0.3",
     )
     cmd.add_argument(
         "--tolerance",
@@ -221,7 +225,7 @@ def _import_map(args: argparse.Namespace) -> int:
 
 
 def _map_key(yaml_path: Path, output: Path) -> str:
-    """The scenario's ``map``: the YAML's file name when the scenario lies beside it."""
+    """Return the scenario's ``map``: the YAML's file name if the scenario lies beside it."""
     try:
         beside = yaml_path.resolve().parent == output.resolve().parent
     except (OSError, RuntimeError):  # a loop of links

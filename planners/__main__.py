@@ -310,7 +310,7 @@ def _import_map(args: argparse.Namespace) -> int:
 
 
 def _map_key(yaml_path: Path, output: Path) -> str:
-    """Return the scenario's ``map``: the YAML's file name when the scenario lies beside it."""
+    """Return the scenario's ``map``: the YAML's file name if the scenario lies beside it."""
     try:
         beside = yaml_path.resolve().parent == output.resolve().parent
     except (OSError, RuntimeError):  # a loop of links

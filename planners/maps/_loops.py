@@ -34,8 +34,14 @@ FloatArray = npt.NDArray[np.float64]
 
 
 @njit(cache=True, nogil=True)
-def _fill(mask: Mask, labels: npt.NDArray[np.int32], stack: npt.NDArray[np.int64],
-          r0: int, c0: int, label: int) -> int:  # fmt: skip
+def _fill(  # noqa: PLR0917
+    mask: Mask,
+    labels: npt.NDArray[np.int32],
+    stack: npt.NDArray[np.int64],
+    r0: int,
+    c0: int,
+    label: int,
+) -> int:
     """Give ``label`` to the 4-connected cells of ``mask`` around (r0, c0); return how many."""
     rows, cols = mask.shape
     top = 0
@@ -50,7 +56,12 @@ def _fill(mask: Mask, labels: npt.NDArray[np.int32], stack: npt.NDArray[np.int64
         count += 1
         for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1)):
             rr, cc = r + dr, c + dc
-            if 0 <= rr < rows and 0 <= cc < cols and mask[rr, cc] and not labels[rr, cc]:
+            if (
+                0 <= rr < rows
+                and 0 <= cc < cols
+                and mask[rr, cc]
+                and not labels[rr, cc]
+            ):
                 labels[rr, cc] = label
                 stack[top] = rr * cols + cc
                 top += 1
@@ -109,12 +120,37 @@ def _neighbours(m: Mask, r: int, c: int) -> int:
 
 
 @njit(cache=True, nogil=True)
+def _cuts(m: Mask, r: int, c: int) -> bool:
+    """Whether taking cell (r, c) out parts its side neighbours in the region, locally.
+
+    Around the cell, its eight neighbours in turn (each shares a side with the next): the
+    region's cells among them form runs; the cell holds its side neighbours together
+    when they lie in two runs or more.
+    """
+    ring_r = (1, 1, 0, -1, -1, -1, 0, 1)  # N, NE, E, SE, S, SW, W, NW
+    ring_c = (0, 1, 1, 1, 0, -1, -1, -1)
+    runs = 0
+    for k in range(8):
+        here = m[r + ring_r[k], c + ring_c[k]]
+        before = m[r + ring_r[(k + 7) % 8], c + ring_c[(k + 7) % 8]]
+        if here and not before:  # a run starts here; does it reach a side neighbour?
+            j = k
+            while m[r + ring_r[j % 8], c + ring_c[j % 8]] and j < k + 8:
+                if j % 2 == 0:
+                    runs += 1
+                    break
+                j += 1
+    return runs > 1
+
+
+@njit(cache=True, nogil=True)
 def resolve_pinches(m: Mask, keep: Mask) -> int:
     """Take cells out of the padded region ``m`` until no two of its cells meet at a corner only.
 
     Where the region's cells meet only diagonally (a 2 x 2 block holding just one
-    diagonal), one of the two is taken out: the one with fewer neighbours in the region,
-    the first of the block on a tie, never one of ``keep`` unless both are. Each removal
+    diagonal), one of the two is taken out: one of ``keep`` only if both are; else one
+    whose neighbours stay together without it (:func:`_cuts`) if only one does; else
+    the one with fewer neighbours in the region, the first of the block on a tie. Each removal
     can pinch the blocks around the removed cell, which are looked at again. Changes
     ``m`` in place; returns the number of cells taken out.
     """
@@ -142,8 +178,12 @@ def resolve_pinches(m: Mask, keep: Mask) -> int:
             r1, c1, r2, c2 = r, c, r + 1, c + 1
         else:
             r1, c1, r2, c2 = r, c + 1, r + 1, c
-        cost1 = _neighbours(m, r1, c1) + 8 * int(keep[r1, c1])
-        cost2 = _neighbours(m, r2, c2) + 8 * int(keep[r2, c2])
+        cost1 = (
+            _neighbours(m, r1, c1) + 8 * int(_cuts(m, r1, c1)) + 64 * int(keep[r1, c1])
+        )
+        cost2 = (
+            _neighbours(m, r2, c2) + 8 * int(_cuts(m, r2, c2)) + 64 * int(keep[r2, c2])
+        )
         rr, cc = (r1, c1) if cost1 <= cost2 else (r2, c2)
         m[rr, cc] = 0
         removed += 1
@@ -163,7 +203,7 @@ def resolve_pinches(m: Mask, keep: Mask) -> int:
 
 @njit(cache=True, nogil=True)
 def _out_direction(m: Mask, x: int, y: int) -> int:
-    """The direction of the border leaving vertex (x, y) with the region on its left.
+    """Return the direction of the border leaving vertex (x, y), the region on its left.
 
     0: +x, 1: +y, 2: -x, 3: -y; -1 when no border leaves (the four cells agree).
     """
@@ -265,7 +305,9 @@ def _segment_in_region(x0: int, y0: int, x1: int, y1: int, m: Mask) -> bool:
 
 
 @njit(cache=True, nogil=True)
-def _on_segment(qx: float, qy: float, ax: float, ay: float, bx: float, by: float) -> bool:
+def _on_segment(  # noqa: PLR0917
+    qx: float, qy: float, ax: float, ay: float, bx: float, by: float
+) -> bool:
     cross = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
     return (
         cross == 0.0
@@ -275,7 +317,9 @@ def _on_segment(qx: float, qy: float, ax: float, ay: float, bx: float, by: float
 
 
 @njit(cache=True, nogil=True)
-def _cut_holds(qx: float, qy: float, px: FloatArray, py: FloatArray, i: int, j: int) -> bool:
+def _cut_holds(  # noqa: PLR0917
+    qx: float, qy: float, px: FloatArray, py: FloatArray, i: int, j: int
+) -> bool:
     """Whether point q is inside or on the polygon of ring vertices i..j (j may pass n).
 
     The polygon is closed by the segment from vertex j to vertex i; a point on that
@@ -301,10 +345,32 @@ def _cut_holds(qx: float, qy: float, px: FloatArray, py: FloatArray, i: int, j: 
 
 
 @njit(cache=True, nogil=True)
-def _cut_holds_any(q: FloatArray, px: FloatArray, py: FloatArray, i: int, j: int,
-                   box: FloatArray) -> bool:  # fmt: skip
+def _distance_to_segment(  # noqa: PLR0917
+    qx: float, qy: float, ax: float, ay: float, bx: float, by: float
+) -> float:
+    dx, dy = bx - ax, by - ay
+    t = ((qx - ax) * dx + (qy - ay) * dy) / (dx * dx + dy * dy)
+    t = min(1.0, max(0.0, t))
+    return np.hypot(qx - (ax + t * dx), qy - (ay + t * dy))
+
+
+@njit(cache=True, nogil=True)
+def _cut_threatens(  # noqa: PLR0917
+    q: FloatArray,
+    clearance: float,
+    px: FloatArray,
+    py: FloatArray,
+    i: int,
+    j: int,
+    box: FloatArray,
+) -> bool:
+    """Whether the shortcut i -> j cuts off a protected point or comes within clearance."""
+    n = px.shape[0]
     for k in range(q.shape[0]):
         qx, qy = q[k, 0], q[k, 1]
+        near = _distance_to_segment(qx, qy, px[i], py[i], px[j % n], py[j % n])
+        if near < clearance:
+            return True
         if box[0] <= qx <= box[2] and box[1] <= qy <= box[3]:
             if _cut_holds(qx, qy, px, py, i, j):
                 return True
@@ -312,8 +378,14 @@ def _cut_holds_any(q: FloatArray, px: FloatArray, py: FloatArray, i: int, j: int
 
 
 @njit(cache=True, nogil=True)
-def simplify_ring(px: FloatArray, py: FloatArray, m: Mask, tolerance: float,
-                  protected: FloatArray) -> npt.NDArray[np.bool_]:  # fmt: skip
+def simplify_ring(  # noqa: PLR0917, PLR0915
+    px: FloatArray,
+    py: FloatArray,
+    m: Mask,
+    tolerance: float,
+    protected: FloatArray,
+    clearance: float,
+) -> npt.NDArray[np.bool_]:
     """Choose the corners of a ring to keep, giving up only the region's own space.
 
     Douglas-Peucker with three more conditions on each shortcut from corner i to corner
@@ -321,7 +393,8 @@ def simplify_ring(px: FloatArray, py: FloatArray, m: Mask, tolerance: float,
     or to its right (outside the region: the region is on the ring's left), within
     ``tolerance`` of it; (2) the shortcut lies in the closed region ``m`` (padded mask,
     the ring's own grid); (3) no ``protected`` point lies in the piece cut off (or on
-    the ring's part that the shortcut replaces). So the piece cut off is the region's,
+    the ring's part that the shortcut replaces), nor closer than ``clearance`` to the
+    shortcut (the robot's room at the start and the goal stays). So the piece cut off is the region's,
     within ``tolerance`` of its border: the region only shrinks. A shortcut that fails
     is split at its worst corner (the farthest on the wrong side, else the farthest).
 
@@ -335,6 +408,8 @@ def simplify_ring(px: FloatArray, py: FloatArray, m: Mask, tolerance: float,
         Largest distance [cells] of a dropped corner from its shortcut.
     protected
         Points (k, 2) in the padded grid that must stay in the region.
+    clearance
+        How far [cells] a shortcut must stay from each protected point.
 
     Returns
     -------
@@ -368,7 +443,12 @@ def simplify_ring(px: FloatArray, py: FloatArray, m: Mask, tolerance: float,
         length2 = dx * dx + dy * dy
         ok = True
         worst, worst_score = i + 1, -1.0
-        box[0], box[1], box[2], box[3] = min(ax, bx), min(ay, by), max(ax, bx), max(ay, by)
+        box[0], box[1], box[2], box[3] = (
+            min(ax, bx),
+            min(ay, by),
+            max(ax, bx),
+            max(ay, by),
+        )
         for k in range(i + 1, j):
             x, y = px[k], py[k]
             box[0], box[1] = min(box[0], x), min(box[1], y)
@@ -388,7 +468,7 @@ def simplify_ring(px: FloatArray, py: FloatArray, m: Mask, tolerance: float,
         if ok:
             ok = _segment_in_region(int(ax), int(ay), int(bx), int(by), m)
         if ok and protected.shape[0]:
-            ok = not _cut_holds_any(protected, px, py, i, j, box)
+            ok = not _cut_threatens(protected, clearance, px, py, i, j, box)
         if ok:
             continue
         keep[worst] = True
@@ -407,4 +487,6 @@ def warm_up() -> None:
     resolve_pinches(mask.copy(), np.zeros_like(mask))
     corners, _ = trace_rings(mask)
     ring = corners.astype(np.float64)
-    simplify_ring(ring[:, 0].copy(), ring[:, 1].copy(), mask, 1.0, np.zeros((1, 2)))
+    simplify_ring(
+        ring[:, 0].copy(), ring[:, 1].copy(), mask, 1.0, np.zeros((1, 2)), 0.5
+    )

@@ -174,7 +174,9 @@ def cell_centres(occupancy_map: OccupancyMap, cells: npt.ArrayLike) -> FloatArra
     return grid_to_world(occupancy_map, rc[:, ::-1] + 0.5)
 
 
-def contains_cells(occupancy_map: OccupancyMap, cells: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+def contains_cells(
+    occupancy_map: OccupancyMap, cells: npt.ArrayLike
+) -> npt.NDArray[np.bool_]:
     """Return whether each (row, col) (N, 2) is a cell of the map."""
     rc = np.asarray(cells).reshape(-1, 2)
     return (

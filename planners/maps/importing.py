@@ -33,11 +33,10 @@ from planners.maps.grid import (
     world_to_cell,
     world_to_grid,
 )
-from planners.maps.trace import free_cells, trace_free_space
+from planners.maps.trace import connected_cells, free_cells, trace_free_space
 from planners.scene import ScenarioError
 
 FloatArray = npt.NDArray[np.float64]
-_DECIMALS = 9  # coordinates are written to the nanometre when that keeps them valid
 
 
 def scene_from_map(
@@ -98,13 +97,11 @@ def scene_from_map(
         tolerance=cells / occupancy_map.resolution,
         unknown=unknown,
         protected=ends,
+        clearance=robot_radius / occupancy_map.resolution,
     )
     if not space.region[goal_cell]:
         raise ScenarioError(
-            source,
-            "goal",
-            f"{_shown(goal)} is in free space the start cannot reach "
-            "(cells connect through their sides, not their corners)",
+            source, "goal", _unreachable(occupancy_map, start_cell, goal, unknown)
         )
     data: dict[str, Any] = {
         "format": 1,
@@ -119,6 +116,26 @@ def scene_from_map(
     if map_file:
         data["map"] = map_file
     return data
+
+
+def _unreachable(
+    occupancy_map: OccupancyMap,
+    start_cell: tuple[int, int],
+    goal: Sequence[float],
+    unknown: str,
+) -> str:
+    """Say why the goal's cell is not in the start's traced region."""
+    connected = connected_cells(free_cells(occupancy_map, unknown), start_cell)
+    cell = tuple(world_to_cell(occupancy_map, [goal])[0])
+    if connected[cell]:  # the way there passed between two cells meeting at a corner
+        return (
+            f"{_shown(goal)} is reached from the start only through a gap where free"
+            " cells meet at a corner, which the trace closes"
+        )
+    return (
+        f"{_shown(goal)} is in free space the start cannot reach (through cells side"
+        f" by side, unknown cells counted as {unknown})"
+    )
 
 
 def _check_lengths(robot_radius: float, tolerance: float | None) -> None:
@@ -138,7 +155,9 @@ def _endpoint_cell(
     xy = np.asarray(point, dtype=np.float64)
     source = occupancy_map.source
     if xy.shape != (2,) or not np.isfinite(xy).all():
-        raise ScenarioError(source, field, f"expected a finite point [x, y], got {point!r}")
+        raise ScenarioError(
+            source, field, f"expected a finite point [x, y], got {point!r}"
+        )
     cell = world_to_cell(occupancy_map, xy)
     row, col = int(cell[0, 0]), int(cell[0, 1])
     where = f"cell (row {row}, column {col}; rows counted from the bottom)"
@@ -175,12 +194,8 @@ def _description(occupancy_map: OccupancyMap, unknown: str, tolerance: float) ->
 
 
 def _world_ring(occupancy_map: OccupancyMap, ring: FloatArray) -> list[list[float]]:
-    """The ring in world coordinates, rounded to the nanometre if it stays simple so."""
-    exact = grid_to_world(occupancy_map, ring)
-    rounded = np.round(exact, _DECIMALS)
-    if len(np.unique(rounded, axis=0)) == len(rounded) and Polygon(rounded).is_valid:
-        return rounded.tolist()
-    return exact.tolist()
+    """Return the ring in world coordinates, not rounded (so it stays inside the cells)."""
+    return grid_to_world(occupancy_map, ring).tolist()
 
 
 def default_endpoints(
@@ -239,7 +254,7 @@ def default_endpoints(
 
 
 def _shrunk(free: shapely.Geometry, clearance: float) -> Polygon:
-    """The largest piece of ``free`` shrunk by ``clearance`` [cells], or by less if empty."""
+    """Return the largest piece of ``free`` shrunk by ``clearance`` [cells] (less if empty)."""
     for depth in (clearance, clearance / 2, 0.5, 0.0):
         shrunk = free.buffer(-depth, join_style="mitre") if depth > 0 else free
         pieces = [p for p in shapely.get_parts(shrunk) if isinstance(p, Polygon)]

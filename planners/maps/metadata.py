@@ -66,7 +66,7 @@ class MapMetadata:
 
 
 def map_metadata(yaml_text: bytes | str, source: str) -> MapMetadata:
-    """Parse and check a map_server YAML file's text.
+    r"""Parse and check a map_server YAML file's text.
 
     Parameters
     ----------
@@ -109,7 +109,9 @@ def map_metadata(yaml_text: bytes | str, source: str) -> MapMetadata:
     mode = data.get("mode", "trinary")
     if mode not in MAP_MODES:
         raise ScenarioError(
-            source, "mode", f"expected one of {', '.join(MAP_MODES)}, got {_describe(mode)}"
+            source,
+            "mode",
+            f"expected one of {', '.join(MAP_MODES)}, got {_describe(mode)}",
         )
     return MapMetadata(image, resolution, origin, negate, occupied, free, mode)
 
@@ -125,7 +127,7 @@ def _document(yaml_text: bytes | str, source: str) -> Mapping[Any, Any]:
             f"{size} bytes, more than the {MAX_YAML_BYTES} a map's YAML file may have",
         )
     try:
-        data = yaml.load(yaml_text, Loader=_loader(yaml))  # noqa: S506 - a SafeLoader
+        data = yaml.load(yaml_text, Loader=_loader(yaml))  # a SafeLoader
     except yaml.MarkedYAMLError as error:
         mark = error.problem_mark or error.context_mark
         where = f"(line {mark.line + 1})" if mark is not None else "(file)"
@@ -185,7 +187,9 @@ def _describe(value: Any) -> str:
 
 def _image_name(source: str, value: Any) -> str:
     if not isinstance(value, str):
-        raise ScenarioError(source, "image", f"expected a file name, got {_describe(value)}")
+        raise ScenarioError(
+            source, "image", f"expected a file name, got {_describe(value)}"
+        )
     name = value.replace("\\", "/").rpartition("/")[2]
     if name in ("", ".", "..") or any(ord(ch) < 32 for ch in name):
         raise ScenarioError(source, "image", f"not a file name: {_describe(value)}")
@@ -227,7 +231,9 @@ def _origin(source: str, data: Mapping[Any, Any]) -> tuple[float, float, float]:
 def _negate(source: str, data: Mapping[Any, Any]) -> bool:
     value = _get(source, data, "negate")
     if value not in (0, 1) or isinstance(value, float):  # 0, 1, false, true
-        raise ScenarioError(source, "negate", f"expected 0 or 1, got {_describe(value)}")
+        raise ScenarioError(
+            source, "negate", f"expected 0 or 1, got {_describe(value)}"
+        )
     return bool(value)
 
 

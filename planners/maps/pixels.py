@@ -133,7 +133,9 @@ def _check_size(source: str, name: str, size: tuple[int, int]) -> None:
             f"{name}: {width} x {height} pixels, more than the {MAX_PIXELS:,} a map may have",
         )
     if width < 1 or height < 1:
-        raise ScenarioError(source, "image", f"{name}: empty picture ({width} x {height})")
+        raise ScenarioError(
+            source, "image", f"{name}: empty picture ({width} x {height})"
+        )
 
 
 def _picture(source: str, name: str, image: object) -> Picture:
@@ -144,7 +146,9 @@ def _picture(source: str, name: str, image: object) -> Picture:
     mode = image.mode
     if mode in ("I", "I;16", "I;16B", "I;16L"):  # 16-bit grey: the high byte
         wide = np.asarray(image).astype(np.int64)
-        return Picture((np.clip(wide, 0, 65535) >> 8).astype(np.uint8)[..., None], False)
+        return Picture(
+            (np.clip(wide, 0, 65535) >> 8).astype(np.uint8)[..., None], False
+        )
     if mode == "1":
         image = image.convert("L")
     elif mode == "P":
@@ -152,7 +156,9 @@ def _picture(source: str, name: str, image: object) -> Picture:
     elif mode in ("LA", "La", "PA", "RGBa"):
         image = image.convert("RGBA")
     elif mode not in ("L", "RGB", "RGBA"):
-        raise ScenarioError(source, "image", f"{name}: pixels of mode {mode} are not read")
+        raise ScenarioError(
+            source, "image", f"{name}: pixels of mode {mode} are not read"
+        )
     pixels = np.asarray(image, dtype=np.uint8)
     if pixels.ndim == 2:
         pixels = pixels[..., None]
@@ -192,7 +198,7 @@ def occupancy_values(
     return out
 
 
-def _block_values(
+def _block_values(  # noqa: PLR0917
     block: npt.NDArray[np.uint8],
     has_alpha: bool,
     mode: str,

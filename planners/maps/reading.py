@@ -18,7 +18,12 @@ import numpy as np
 
 from planners.maps.grid import OccupancyMap
 from planners.maps.metadata import MAX_YAML_BYTES, map_metadata
-from planners.maps.pixels import MAX_IMAGE_BYTES, cell_states, decode_picture, occupancy_values
+from planners.maps.pixels import (
+    MAX_IMAGE_BYTES,
+    cell_states,
+    decode_picture,
+    occupancy_values,
+)
 from planners.scene import ScenarioError
 
 

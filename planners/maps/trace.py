@@ -16,7 +16,8 @@
 4. **Simplifying inward.** Each ring is simplified within ``tolerance`` by
    Douglas-Peucker restricted so that only free space is given up
    (:func:`planners.maps._loops.simplify_ring`): a shortcut may cut off a piece of the
-   region, never add to it, and never a piece holding a protected point. A shortcut that
+   region, never add to it, never a piece holding a protected point (the start, the
+   goal), and never closer to one than the robot's radius. A shortcut that
    makes its ring cross or touch itself is undone. So the simplified free space is a
    subset of the traced one, and every point it loses is within ``tolerance`` of a
    blocked cell: free space shrinks by at most the tolerance and never grows. The
@@ -28,14 +29,16 @@ from __future__ import annotations
 
 __all__ = [
     "FreeSpace",
+    "connected_cells",
     "free_cells",
     "region_cells",
     "simplify_space",
-    "trace_region",
     "trace_free_space",
+    "trace_region",
 ]
 
 import dataclasses
+import itertools
 from collections.abc import Sequence
 
 import numpy as np
@@ -67,7 +70,7 @@ class FreeSpace:
     """The rings of the blocked areas inside."""
 
     def polygon(self) -> Polygon:
-        """The free space as one shapely polygon (holes merged where they overlap)."""
+        """Return the free space as one shapely polygon (overlapping holes merged)."""
         shell = Polygon(self.outer)
         if not self.holes:
             return shell
@@ -83,6 +86,14 @@ def free_cells(occupancy_map: OccupancyMap, unknown: str = "occupied") -> BoolAr
     if unknown == "free":
         free |= occupancy_map.cells == UNKNOWN
     return free
+
+
+def connected_cells(free: BoolArray, seed: tuple[int, int]) -> BoolArray:
+    """Return the free cells 4-connected to ``seed`` (row, col), pinches left as they are."""
+    from planners.maps import _loops  # noqa: PLC0415 - numba only when a map is traced
+
+    r0, c0 = seed
+    return _loops.component(free.astype(np.uint8), r0, c0).astype(bool)
 
 
 def region_cells(
@@ -126,8 +137,7 @@ def trace_region(region: BoolArray) -> FreeSpace:
 
     corners, starts = _loops.trace_rings(np.pad(region, 1).astype(np.uint8))
     rings = [
-        corners[a:b].astype(np.float64) - 1.0
-        for a, b in zip(starts[:-1], starts[1:], strict=True)
+        corners[a:b].astype(np.float64) - 1.0 for a, b in itertools.pairwise(starts)
     ]
     areas = [_signed_area(r) for r in rings]
     outer = [r for r, a in zip(rings, areas, strict=True) if a > 0]
@@ -143,13 +153,17 @@ def _signed_area(ring: FloatArray) -> float:
 
 
 def simplify_space(
-    space: FreeSpace, tolerance: float, protected: FloatArray | None = None
+    space: FreeSpace,
+    tolerance: float,
+    protected: FloatArray | None = None,
+    clearance: float = 0.0,
 ) -> FreeSpace:
     """Simplify each ring of ``space`` within ``tolerance`` [cells], giving up free space only.
 
-    ``protected``: points (k, 2) in the grid frame that stay in the free space. Holes
-    that the outer ring's shortcuts leave outside it are dropped (they lie in what is
-    no longer free). See the module's docstring.
+    ``protected``: points (k, 2) in the grid frame that stay in the free space, and no
+    shortcut comes closer to them than ``clearance`` [cells]. Holes that the outer
+    ring's shortcuts leave outside it are dropped (they lie in what is no longer free).
+    See the module's docstring.
     """
     if tolerance <= 0:
         return space
@@ -162,7 +176,12 @@ def simplify_space(
     def simplify(ring: FloatArray) -> FloatArray:
         shifted = ring + 1.0
         keep = _loops.simplify_ring(
-            shifted[:, 0].copy(), shifted[:, 1].copy(), padded, float(tolerance), points
+            shifted[:, 0].copy(),
+            shifted[:, 1].copy(),
+            padded,
+            float(tolerance),
+            points,
+            float(clearance),
         )
         return _untangled(ring, keep)
 
@@ -175,7 +194,7 @@ def simplify_space(
 
 
 def _untangled(ring: FloatArray, keep: BoolArray) -> FloatArray:
-    """The kept corners of ``ring``, with shortcuts undone until the ring is simple.
+    """Return the kept corners of ``ring``, shortcuts undone until the ring is simple.
 
     A shortcut (two kept corners with dropped corners between) that crosses or touches
     another edge of the ring gets its corners back; the exact ring is simple, so this
@@ -185,7 +204,7 @@ def _untangled(ring: FloatArray, keep: BoolArray) -> FloatArray:
     while True:
         kept = np.flatnonzero(keep)
         if len(kept) >= 3 and Polygon(ring[kept]).is_valid:
-            return ring[kept]
+            return _without_straight_corners(ring[kept])
         bad = _tangled_edges(ring[kept])
         shortcut = np.diff(np.append(kept, kept[0] + len(ring))) > 1
         undo = bad & shortcut
@@ -195,6 +214,13 @@ def _untangled(ring: FloatArray, keep: BoolArray) -> FloatArray:
             start = kept[e]
             stop = kept[e + 1] if e + 1 < len(kept) else kept[0] + len(ring)
             keep[np.arange(start, stop) % len(ring)] = True
+
+
+def _without_straight_corners(ring: FloatArray) -> FloatArray:
+    """``ring`` without the corners where it goes straight on (exact: integer corners)."""
+    before, after = ring - np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0) - ring
+    turn = before[:, 0] * after[:, 1] - before[:, 1] * after[:, 0]
+    return ring[turn != 0] if np.count_nonzero(turn) >= 3 else ring
 
 
 def _tangled_edges(points: FloatArray) -> BoolArray:
@@ -209,7 +235,9 @@ def _tangled_edges(points: FloatArray) -> BoolArray:
     # Neighbours share a corner; they are tangled only when they overlap along a piece.
     overlap = np.zeros(len(first), dtype=bool)
     if neighbours.any():
-        shared = shapely.intersection(edges[first[neighbours]], edges[second[neighbours]])
+        shared = shapely.intersection(
+            edges[first[neighbours]], edges[second[neighbours]]
+        )
         overlap[neighbours] = shapely.length(shared) > 0
     bad = np.zeros(n, dtype=bool)
     tangled = ~neighbours | overlap
@@ -225,6 +253,7 @@ def trace_free_space(
     tolerance: float = 1.0,
     unknown: str = "occupied",
     protected: FloatArray | None = None,
+    clearance: float = 0.0,
 ) -> FreeSpace:
     """Trace and simplify the free space around cell ``seed`` (row, col), grid frame.
 
@@ -242,8 +271,11 @@ def trace_free_space(
     protected
         Points (k, 2) in the grid frame whose cells are never given up at a pinch and
         which stay in the simplified free space (the start and the goal).
+    clearance
+        How far [cells] the simplified borders stay from the protected points (the
+        robot's radius: simplifying never takes its room at the start or the goal).
     """
     points = np.zeros((0, 2)) if protected is None else np.asarray(protected, float)
     cells = [(int(v), int(u)) for u, v in np.floor(points.reshape(-1, 2))]
     region = region_cells(free_cells(occupancy_map, unknown), seed, cells)
-    return simplify_space(trace_region(region), tolerance, points)
+    return simplify_space(trace_region(region), tolerance, points, clearance)

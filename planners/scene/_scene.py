@@ -171,7 +171,9 @@ _ROBOT_KEYS = frozenset(
 _MOTION_KEYS = frozenset({"obstacle", "waypoints", "speed", "mode", "pause"})
 # A map's file name: one plain component (as the app's scenes folder names files) ending
 # in .yaml or .yml, so that it can only ever name a file beside the scenario's.
-_MAP_NAME = re.compile(r"(?!.*\.\.)[A-Za-z0-9][A-Za-z0-9 _.\-]{0,58}\.[yY][aA]?[mM][lL]")
+_MAP_NAME = re.compile(
+    r"(?!.*\.\.)[A-Za-z0-9][A-Za-z0-9 _.\-]{0,58}\.[yY][aA]?[mM][lL]"
+)
 _DEVICES = re.compile(r"(con|prn|aux|nul|com[0-9]|lpt[0-9])(\..*)?", re.IGNORECASE)
 
 

@@ -162,9 +162,9 @@ class RingGeometry:
         d_out, d_in = self.unit, -self.prev_dir
         nu_out = np.column_stack([-d_out[:, 1], d_out[:, 0]])
         nu_in = np.column_stack([-d_in[:, 1], d_in[:, 0]])
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore"):  # inf, NaN where straight
             k = self.eps / (1.0 + np.einsum("ij,ij->i", nu_in, nu_out))
-        return self.start + k[:, None] * (nu_in + nu_out)
+            return self.start + k[:, None] * (nu_in + nu_out)
 
     @functools.cached_property
     def corner_list(self) -> list[bool]:

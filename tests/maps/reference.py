@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -19,7 +20,7 @@ from shapely import Polygon
 from planners.maps import FREE, OCCUPIED, UNKNOWN, OccupancyMap, grid_to_world
 
 
-def map_server_value(
+def map_server_value(  # noqa: PLR0917
     channels: list[int],
     has_alpha: bool,
     mode: str,
@@ -91,11 +92,17 @@ def blocked_space(occupancy_map: OccupancyMap, blocked: np.ndarray) -> shapely.G
     frame = Polygon(
         grid_to_world(
             occupancy_map,
-            [(-margin, -margin), (cols + margin, -margin), (cols + margin, rows + margin),
-             (-margin, rows + margin)],
+            [
+                (-margin, -margin),
+                (cols + margin, -margin),
+                (cols + margin, rows + margin),
+                (-margin, rows + margin),
+            ],
         ),
-        holes=[grid_to_world(occupancy_map, [(0, 0), (cols, 0), (cols, rows), (0, rows)])],
-    )  # fmt: skip
+        holes=[
+            grid_to_world(occupancy_map, [(0, 0), (cols, 0), (cols, rows), (0, rows)])
+        ],
+    )
     return shapely.union_all([frame, union_of_cells(occupancy_map, blocked)])
 
 
@@ -119,7 +126,7 @@ def component(free: np.ndarray, seed: tuple[int, int]) -> np.ndarray:
 def sample_path(path: np.ndarray, step: float) -> np.ndarray:
     """Points along a polyline no farther apart than ``step``, its vertices included."""
     points = [path[:1]]
-    for a, b in zip(path[:-1], path[1:], strict=True):
+    for a, b in itertools.pairwise(path):
         k = max(1, math.ceil(float(np.hypot(*(b - a))) / step))
         t = np.linspace(0.0, 1.0, k + 1)[1:, None]
         points.append(a + t * (b - a))

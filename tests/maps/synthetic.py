@@ -125,9 +125,10 @@ def encode_pgm(grey: np.ndarray, plain: bool = False) -> bytes:
     rows, cols = grey.shape
     if plain:
         lines = [" ".join(str(v) for v in row) for row in grey]
-        return f"P2\n# written by tests/maps\n{cols} {rows}\n255\n".encode() + (
-            "\n".join(lines) + "\n"
-        ).encode()
+        return (
+            f"P2\n# written by tests/maps\n{cols} {rows}\n255\n".encode()
+            + ("\n".join(lines) + "\n").encode()
+        )
     return f"P5\n{cols} {rows}\n255\n".encode() + grey.astype(np.uint8).tobytes()
 
 
@@ -138,7 +139,11 @@ def encode_png(pixels: np.ndarray, mode: str) -> bytes:
     """
     buffer = io.BytesIO()
     data = np.ascontiguousarray(pixels)
-    image = Image.fromarray(data) if data.dtype == np.uint16 else Image.fromarray(data, mode)
+    image = (
+        Image.fromarray(data)
+        if data.dtype == np.uint16
+        else Image.fromarray(data, mode)
+    )
     image.save(buffer, "PNG")
     return buffer.getvalue()
 

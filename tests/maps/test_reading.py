@@ -57,7 +57,9 @@ def _thresholds(draw) -> tuple[float, float]:
     # Thresholds that a pixel's occupancy can equal exactly, and any others.
     exact = st.integers(0, 255 * 4).map(lambda k: (255 - k / 4) / 255.0)
     free, occupied = sorted(
-        draw(st.one_of(exact, st.floats(0, 1), st.sampled_from([0.0, 1.0, 0.196, 0.65])))
+        draw(
+            st.one_of(exact, st.floats(0, 1), st.sampled_from([0.0, 1.0, 0.196, 0.65]))
+        )
         for _ in range(2)
     )
     if free == occupied:
@@ -68,7 +70,7 @@ def _thresholds(draw) -> tuple[float, float]:
 @st.composite
 def _maps(draw):
     kind = draw(st.sampled_from(sorted(_KINDS)))
-    mode_name, channels = _KINDS[kind]
+    channels = _KINDS[kind][1]
     rows, cols = draw(st.integers(1, 5)), draw(st.integers(1, 5))
     if kind == "png-16":
         pixels = draw(arrays(np.uint16, (rows, cols), elements=st.integers(0, 65535)))
@@ -112,8 +114,12 @@ def test_cells_are_map_servers_pixel_for_pixel(case):
         occupied_thresh=occupied,
         free_thresh=free,
         mode=mode,
-    ).replace(f"occupied_thresh: {occupied!r}", f"occupied_thresh: {_yaml_float(occupied)}")
-    yaml_text = yaml_text.replace(f"free_thresh: {free!r}", f"free_thresh: {_yaml_float(free)}")
+    ).replace(
+        f"occupied_thresh: {occupied!r}", f"occupied_thresh: {_yaml_float(occupied)}"
+    )
+    yaml_text = yaml_text.replace(
+        f"free_thresh: {free!r}", f"free_thresh: {_yaml_float(free)}"
+    )
     read = read_map_bytes(yaml_text, {image: data}, "m.yaml")
     seen, has_alpha = _as_map_server_sees(kind, pixels)
     rows, cols = seen.shape[:2]
@@ -121,9 +127,13 @@ def test_cells_are_map_servers_pixel_for_pixel(case):
     for j in range(rows):  # j counts from the picture's top, as map_server's loop does
         for i in range(cols):
             value = map_server_value(
-                [int(v) for v in seen[j, i]], has_alpha, mode or "trinary", negate,
-                occupied, free,
-            )  # fmt: skip
+                [int(v) for v in seen[j, i]],
+                has_alpha,
+                mode or "trinary",
+                negate,
+                occupied,
+                free,
+            )
             expected[rows - j - 1, i] = state_of_value(
                 value, mode or "trinary", occupied, free
             )
@@ -168,12 +178,20 @@ def test_the_top_row_of_the_picture_is_the_last_row_of_cells():
 
 def test_read_map_reads_the_picture_beside_the_yaml_by_its_file_name(tmp_path):
     grid = synthetic.maze(4)
-    path = synthetic.write_map(tmp_path, "maze", grid, resolution=0.1, origin=(1, 2, 0.5))
-    text = path.read_text().replace("image: maze.pgm", "image: /elsewhere/maps/maze.pgm")
+    path = synthetic.write_map(
+        tmp_path, "maze", grid, resolution=0.1, origin=(1, 2, 0.5)
+    )
+    text = path.read_text().replace(
+        "image: maze.pgm", "image: /elsewhere/maps/maze.pgm"
+    )
     path.write_text(text)
     read = read_map(path)
     np.testing.assert_array_equal(read.cells, grid)
-    assert (read.resolution, read.origin, read.image_name) == (0.1, (1.0, 2.0, 0.5), "maze.pgm")
+    assert (read.resolution, read.origin, read.image_name) == (
+        0.1,
+        (1.0, 2.0, 0.5),
+        "maze.pgm",
+    )
     assert read.source == str(path)
     same = read_map_bytes(text, {"maze.pgm": (tmp_path / "maze.pgm").read_bytes()}, "x")
     np.testing.assert_array_equal(same.cells, read.cells)
@@ -222,9 +240,17 @@ YAML_ERRORS = [
     (_replace("occupied_thresh", None), "occupied_thresh", "missing required key"),
     (_replace("occupied_thresh", "1.5"), "occupied_thresh", "between 0 and 1"),
     (_replace("free_thresh", "-0.1"), "free_thresh", "between 0 and 1"),
-    (_replace("free_thresh", "0.65"), "free_thresh", r"must be below occupied_thresh \(0.65\)"),
+    (
+        _replace("free_thresh", "0.65"),
+        "free_thresh",
+        r"must be below occupied_thresh \(0.65\)",
+    ),
     (_replace("free_thresh", "0.9"), "free_thresh", "must be below occupied_thresh"),
-    (_replace("mode", "Trinary"), "mode", "expected one of trinary, scale, raw, got str"),
+    (
+        _replace("mode", "Trinary"),
+        "mode",
+        "expected one of trinary, scale, raw, got str",
+    ),
     (_replace("mode", "1"), "mode", "expected one of trinary, scale, raw, got int 1"),
     ("a: &a [*a, *a]\nimage: *a\n", "image", r"expected a file name, got list \[\["),
 ]
@@ -233,7 +259,11 @@ YAML_ERRORS = [
 @pytest.mark.parametrize(("text", "field", "problem"), YAML_ERRORS)
 def test_every_bad_yaml_is_one_line_naming_the_file_and_the_field(text, field, problem):
     with pytest.raises(ScenarioError) as info:
-        read_map_bytes(text, {"m.pgm": synthetic.encode_pgm(np.zeros((2, 2), np.uint8))}, "lab.yaml")
+        read_map_bytes(
+            text,
+            {"m.pgm": synthetic.encode_pgm(np.zeros((2, 2), np.uint8))},
+            "lab.yaml",
+        )
     error = info.value
     assert (error.source, error.field) == ("lab.yaml", field), str(error)
     assert str(error).startswith(f"lab.yaml: {field}: ") and "\n" not in str(error)
@@ -247,7 +277,8 @@ def test_unknown_keys_are_ignored_as_map_server_ignores_them():
 
 def test_negate_may_be_a_boolean_and_yaml_12_floats_are_numbers():
     meta = map_metadata(
-        _replace("negate", "true").replace("resolution: 0.05", "resolution: 5e-2"), "m.yaml"
+        _replace("negate", "true").replace("resolution: 0.05", "resolution: 5e-2"),
+        "m.yaml",
     )
     assert meta.negate is True and meta.resolution == 0.05
 
@@ -266,13 +297,25 @@ _PNG = synthetic.encode_png(np.zeros((40, 40), np.uint8), "L")
 
 IMAGE_ERRORS = [
     ({}, "no picture named 'm.pgm'"),
-    ({"m.pgm": b"hello, not a picture"}, "m.pgm: not a PNG, PGM, PPM, PBM or BMP picture"),
+    (
+        {"m.pgm": b"hello, not a picture"},
+        "m.pgm: not a PNG, PGM, PPM, PBM or BMP picture",
+    ),
     ({"m.pgm": b"P5\n10 10\n255\n" + bytes(20)}, "m.pgm: cannot decode"),
-    ({"m.pgm": b"P5\n6000 6000\n255\n"}, "m.pgm: 6000 x 6000 pixels, more than the 25,000,000"),
-    ({"m.pgm": b"P5\n20000 20000\n255\n"}, r"m.pgm: too many pixels \(a decompression bomb\?\)"),
+    (
+        {"m.pgm": b"P5\n6000 6000\n255\n"},
+        "m.pgm: 6000 x 6000 pixels, more than the 25,000,000",
+    ),
+    (
+        {"m.pgm": b"P5\n20000 20000\n255\n"},
+        r"m.pgm: too many pixels \(a decompression bomb\?\)",
+    ),
     ({"m.pgm": _PNG[: len(_PNG) - 20]}, "m.pgm: cannot decode"),
     ({"m.pgm": _png_of_size(100, 100)}, "m.pgm: cannot decode"),
-    ({"m.pgm": _png_of_size(7000, 7000)}, "7000 x 7000 pixels, more than the 25,000,000"),
+    (
+        {"m.pgm": _png_of_size(7000, 7000)},
+        "7000 x 7000 pixels, more than the 25,000,000",
+    ),
     ({"m.pgm": b"P5\n0 3\n255\n"}, "m.pgm: "),
     ({"m.pgm": b"GIF89a" + bytes(20)}, "not a PNG, PGM, PPM, PBM or BMP picture"),
 ]
@@ -288,22 +331,32 @@ def test_every_bad_picture_is_one_line_naming_the_image(images, problem):
 
 
 def test_reading_from_disk_names_the_file_and_stays_in_its_folder(tmp_path):
-    with pytest.raises(ScenarioError, match=r"nope.yaml: \(file\): cannot read: No such file"):
+    with pytest.raises(
+        ScenarioError, match=r"nope.yaml: \(file\): cannot read: No such file"
+    ):
         read_map(tmp_path / "nope.yaml")
     path = synthetic.write_map(tmp_path, "m", synthetic.room())
     (tmp_path / "m.pgm").unlink()
-    with pytest.raises(ScenarioError, match=r"m.yaml: image: m.pgm: cannot read: No such file"):
+    with pytest.raises(
+        ScenarioError, match=r"m.yaml: image: m.pgm: cannot read: No such file"
+    ):
         read_map(path)
     (tmp_path / "m.pgm").mkdir()
-    with pytest.raises(ScenarioError, match=r"m.yaml: image: m.pgm: not a regular file"):
+    with pytest.raises(
+        ScenarioError, match=r"m.yaml: image: m.pgm: not a regular file"
+    ):
         read_map(path)
     (tmp_path / "m.pgm").rmdir()
     outside = tmp_path / "outside"
     outside.mkdir()
     synthetic.write_map(outside, "m", synthetic.room())
     os.symlink(outside / "m.pgm", tmp_path / "m.pgm")
-    with pytest.raises(ScenarioError, match=r"m.yaml: image: m.pgm leads out of the map's folder"):
+    with pytest.raises(
+        ScenarioError, match=r"m.yaml: image: m.pgm leads out of the map's folder"
+    ):
         read_map(path)
     (tmp_path / "big.yaml").write_text("#" * 70_000)
-    with pytest.raises(ScenarioError, match=r"big.yaml: \(file\): more than 65,536 bytes"):
+    with pytest.raises(
+        ScenarioError, match=r"big.yaml: \(file\): more than 65,536 bytes"
+    ):
         read_map(tmp_path / "big.yaml")

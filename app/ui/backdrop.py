@@ -5,12 +5,15 @@ from the map's cells; the view lays the map itself on the floor beneath them, so
 sees that the trace follows the map. The picture shows the cells as the importer read
 them (free, occupied, unknown), in the colours of map_server's pictures, and is reduced
 to at most :data:`MAX_SIDE` pixels a side, a block showing its most obstructed cell, so
-a thin wall never disappears from view. Pure numpy: the view hands the result to viser.
+a thin wall never disappears from view. A small map is enlarged cell by cell to at least
+:data:`MIN_SIDE` pixels: the browser smooths a picture it magnifies, and a wall's shade
+would bleed a whole cell into the free floor beside it. Pure numpy: the view hands the
+result to viser.
 """
 
 from __future__ import annotations
 
-__all__ = ["MAX_SIDE", "Backdrop", "backdrop_of"]
+__all__ = ["MAX_SIDE", "MIN_SIDE", "Backdrop", "backdrop_of"]
 
 import dataclasses
 import math
@@ -23,6 +26,8 @@ from planners.maps import FREE, OCCUPIED, UNKNOWN, OccupancyMap, grid_to_world
 MAX_SIDE = 2048
 """Largest side of the picture sent to browsers [px]: a 50 m hall at 3 cm cells is
 drawn at about 2.5 cm a pixel."""
+MIN_SIDE = 1024
+"""Smallest longer side of the picture [px] a map is enlarged to (by whole pixels a cell)."""
 
 _RANK = np.zeros(256, np.uint8)
 _RANK[[FREE, UNKNOWN, OCCUPIED]] = (0, 1, 2)
@@ -45,10 +50,14 @@ class Backdrop:
     yaw: float
     """The map's turn [rad] (its origin's yaw)."""
     step: int
-    """Cells per pixel along each side (1: one pixel a cell)."""
+    """Cells per pixel along each side (1: one pixel a cell, or several)."""
+    scale: int
+    """Pixels per cell along each side, for a small map enlarged (1 otherwise)."""
 
 
-def backdrop_of(occupancy_map: OccupancyMap, max_side: int = MAX_SIDE) -> Backdrop:
+def backdrop_of(
+    occupancy_map: OccupancyMap, max_side: int = MAX_SIDE, min_side: int = MIN_SIDE
+) -> Backdrop:
     """Return the picture of ``occupancy_map`` to lay on the floor.
 
     Examples
@@ -56,8 +65,8 @@ def backdrop_of(occupancy_map: OccupancyMap, max_side: int = MAX_SIDE) -> Backdr
     >>> cells = np.zeros((4, 6), np.uint8)
     >>> cells[0, 0] = OCCUPIED
     >>> b = backdrop_of(OccupancyMap(cells, 0.5, (1.0, 2.0, 0.0)), max_side=3)
-    >>> b.rgb.shape, b.step, b.size, b.centre
-    ((2, 3, 3), 2, (3.0, 2.0), (2.5, 3.0))
+    >>> b.rgb.shape, b.step, b.scale, b.size, b.centre
+    ((2, 3, 3), 2, 1, (3.0, 2.0), (2.5, 3.0))
     >>> b.rgb[-1, 0].tolist(), b.rgb[0, 0].tolist()  # bottom-left: the occupied cell
     ([0, 0, 0], [254, 254, 254])
     >>> backdrop_of(OccupancyMap(cells, 0.5, (1.0, 2.0, 0.0)), max_side=2).size  # 3 x 3 blocks
@@ -66,7 +75,9 @@ def backdrop_of(occupancy_map: OccupancyMap, max_side: int = MAX_SIDE) -> Backdr
     cells = occupancy_map.cells
     step = max(1, math.ceil(max(cells.shape) / max_side))
     ranks = _worst_of_blocks(_RANK[cells], step)
-    rgb = np.ascontiguousarray(_COLOURS[ranks[::-1]])  # row 0 of a picture is its top
+    scale = max(1, min_side // max(ranks.shape)) if step == 1 else 1
+    big = np.repeat(np.repeat(ranks, scale, axis=0), scale, axis=1)
+    rgb = np.ascontiguousarray(_COLOURS[big[::-1]])  # row 0 of a picture is its top
     rows, cols = ranks.shape[0] * step, ranks.shape[1] * step  # in cells, blocks whole
     centre = grid_to_world(occupancy_map, [[cols / 2, rows / 2]])[0]
     resolution = occupancy_map.resolution
@@ -76,6 +87,7 @@ def backdrop_of(occupancy_map: OccupancyMap, max_side: int = MAX_SIDE) -> Backdr
         centre=(float(centre[0]), float(centre[1])),
         yaw=float(occupancy_map.origin[2]),
         step=step,
+        scale=scale,
     )
 
 

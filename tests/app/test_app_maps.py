@@ -320,7 +320,7 @@ def test_the_picture_lies_on_the_map_cell_for_cell():
     cells[0, 0] = maps.OCCUPIED  # bottom-left
     cells[2, 4] = maps.UNKNOWN  # top-right
     floor_map = maps.OccupancyMap(cells, 0.5, ORIGIN)
-    shown = backdrop_of(floor_map)
+    shown = backdrop_of(floor_map, min_side=1)
     assert shown.step == 1 and shown.rgb.shape == (3, 5, 3) and shown.size == (2.5, 1.5)
     assert shown.rgb[2, 0].tolist() == [0, 0, 0]  # the picture's bottom row is row 0
     assert shown.rgb[0, 4].tolist() == [205, 205, 205]
@@ -328,6 +328,10 @@ def test_the_picture_lies_on_the_map_cell_for_cell():
     # The picture's centre is the map's centre, turned with it.
     centre = maps.grid_to_world(floor_map, [[2.5, 1.5]])[0]
     assert np.allclose(shown.centre, centre) and shown.yaw == ORIGIN[2]
+    # A small map is enlarged by whole pixels a cell: the same picture, cell for cell.
+    big = backdrop_of(floor_map)
+    assert big.scale == 1024 // 5 and big.size == shown.size
+    assert np.array_equal(big.rgb[:: big.scale, :: big.scale], shown.rgb)
 
 
 def test_a_big_map_is_reduced_and_a_thin_wall_stays_in_the_picture():

@@ -260,9 +260,7 @@ def test_scenario_snapshot(studio: Studio, path: Path) -> None:
 # against the ones this run just wrote, since they run after the scenario tests).
 
 
-def test_unchanged_scene_passes_twice_in_a_row(
-    studio: Studio, tmp_path: Path
-) -> None:
+def test_unchanged_scene_passes_twice_in_a_row(studio: Studio, tmp_path: Path) -> None:
     path = SCENARIOS[0]
     for _ in range(2):
         comparison = check_snapshot(

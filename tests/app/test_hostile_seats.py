@@ -64,7 +64,11 @@ def planner(classroom_app: Any) -> Iterator[Any]:
 def upload(c: ViserClient, name: str, data: bytes, declared: int | None = None) -> str:
     """Upload through the panel's scenario button."""
     return c.upload(
-        "Upload a scenario (.json) or map (.zip)", name, data, declared, UPLOAD_PART_BYTES
+        "Upload a scenario (.json) or map (.zip)",
+        name,
+        data,
+        declared,
+        UPLOAD_PART_BYTES,
     )
 
 

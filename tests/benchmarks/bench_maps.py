@@ -126,7 +126,8 @@ def write(folder: Path, grid: np.ndarray, cell: float) -> Path:
     grey[grid == OCCUPIED] = 0
     rows, cols = grid.shape
     (folder / "warehouse.pgm").write_bytes(
-        f"P5\n{cols} {rows}\n255\n".encode() + np.ascontiguousarray(grey[::-1]).tobytes()
+        f"P5\n{cols} {rows}\n255\n".encode()
+        + np.ascontiguousarray(grey[::-1]).tobytes()
     )
     path = folder / "warehouse.yaml"
     path.write_text(
@@ -219,7 +220,9 @@ def measure(yaml_path: Path, planners_csv: str, profile: bool, timeout: float) -
     """Import and plan in a fresh process; return its report."""
     ctx = multiprocessing.get_context("spawn")
     receive, send = ctx.Pipe(duplex=False)
-    child = ctx.Process(target=_child, args=(str(yaml_path), planners_csv, profile, send))
+    child = ctx.Process(
+        target=_child, args=(str(yaml_path), planners_csv, profile, send)
+    )
     child.start()
     answer = receive.recv() if receive.poll(timeout) else None
     child.join(5 if answer else 0)

@@ -205,3 +205,33 @@ def classroom_client(app: Any, presenter: bool = False) -> Iterator[ViserClient]
 def has_label(c: ViserClient, label: str) -> bool:
     """Whether ``c`` has received a GUI element labelled ``label``."""
     return any(e["label"] == label for e in c.gui.values())
+
+
+def settle(page: Any, frames: int = 3) -> None:
+    """Wait until the page has drawn a few frames: a click sent while software WebGL is
+    still busy drawing the last update can reach viser too late to count as a click."""
+    page.evaluate(
+        "(n) => new Promise(done => { const tick = () => (n-- > 0 ?"
+        " requestAnimationFrame(tick) : done()); tick(); })",
+        frames,
+    )
+
+
+def mouse_drag(
+    page: Any, start: tuple[float, float], end: tuple[float, float], steps: int = 6
+) -> None:
+    """Drag with the mouse from pixel ``start`` to pixel ``end`` in ``steps`` moves.
+
+    Each move waits until the browser has handled it; in software WebGL a move costs
+    about a frame of the page, so a few moves are a drag as well as many.
+    """
+    settle(page)
+    page.mouse.move(*start)
+    page.mouse.down()
+    for k in range(1, steps + 1):
+        page.mouse.move(
+            start[0] + (end[0] - start[0]) * k / steps,
+            start[1] + (end[1] - start[1]) * k / steps,
+        )
+        time.sleep(0.02)
+    page.mouse.up()

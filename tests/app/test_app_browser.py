@@ -17,7 +17,7 @@ from shapely import LineString
 
 from app import start_app
 from app.session.controller import TOOLS
-from tests.app.app_helpers import TopCamera, shown_mesh, wait_until
+from tests.app.app_helpers import TopCamera, mouse_drag, settle, shown_mesh, wait_until
 
 WIDTH, HEIGHT = 1280, 800
 # Straight down at the floor of 01_two_convex (10 m x 8 m), left of the panel.
@@ -55,15 +55,6 @@ def open_page(browser: Any, planner: Any) -> Any:
     return page
 
 
-def settle(page: Any, frames: int = 3) -> None:
-    """Wait until the page has drawn a few frames: a click sent while software WebGL is
-    still busy drawing the last update can reach viser too late to count as a click."""
-    page.evaluate(
-        "(n) => new Promise(done => { const tick = () => (n-- > 0 ? requestAnimationFrame(tick) : done()); tick(); })",
-        frames,
-    )
-
-
 def click(page: Any, xy: tuple[float, float]) -> None:
     settle(page)
     page.mouse.click(*CAMERA.pixel(xy))
@@ -88,21 +79,6 @@ def node_xy(page: Any, name: str) -> tuple[float, float]:
             f"() => {{ const n = window.__viserMutable.nodeRefFromName['{name}']; return [n.position.x, n.position.y]; }}"
         )
     )
-
-
-def mouse_drag(
-    page: Any, start: tuple[float, float], end: tuple[float, float], steps: int = 12
-) -> None:
-    settle(page)
-    page.mouse.move(*start)
-    page.mouse.down()
-    for k in range(1, steps + 1):
-        page.mouse.move(
-            start[0] + (end[0] - start[0]) * k / steps,
-            start[1] + (end[1] - start[1]) * k / steps,
-        )
-        time.sleep(0.02)
-    page.mouse.up()
 
 
 def vg_path(planner: Any) -> np.ndarray:

@@ -21,7 +21,7 @@ import pytest
 
 from app import start_app
 from app.media.browser import open_page
-from tests.app.app_helpers import TopCamera, wait_until
+from tests.app.app_helpers import TopCamera, mouse_drag, settle, wait_until
 from tests.browser import use_browser
 
 WIDTH, HEIGHT = 1280, 800
@@ -45,27 +45,11 @@ def planner() -> Iterator[Any]:
     app.stop()
 
 
-def _settle(page: Any, frames: int = 3) -> None:
-    page.evaluate(
-        "(n) => new Promise(done => { const tick = () => (n-- > 0 ? requestAnimationFrame(tick) : done()); tick(); })",
-        frames,
-    )
-
-
-def _drag(page: Any, start_xy: Any, end_xy: Any, steps: int = 12) -> None:
+def _drag(page: Any, start_xy: Any, end_xy: Any) -> None:
     """Drag with the mouse from the gizmo at ``start_xy`` to ``end_xy`` (floor metres)."""
     start = CAMERA.pixel((start_xy[0] + PLANE_OFFSET, start_xy[1] + PLANE_OFFSET))
     end = CAMERA.pixel((end_xy[0] + PLANE_OFFSET, end_xy[1] + PLANE_OFFSET))
-    _settle(page)
-    page.mouse.move(*start)
-    page.mouse.down()
-    for k in range(1, steps + 1):
-        page.mouse.move(
-            start[0] + (end[0] - start[0]) * k / steps,
-            start[1] + (end[1] - start[1]) * k / steps,
-        )
-        time.sleep(0.02)
-    page.mouse.up()
+    mouse_drag(page, start, end)
 
 
 def _node_xy(page: Any, name: str) -> tuple[float, float] | None:
@@ -88,7 +72,7 @@ def _shot(page: Any, name: str) -> None:
     folder = os.environ.get("CLASSROOM_SHOTS")
     if folder:
         Path(folder).mkdir(parents=True, exist_ok=True)
-        _settle(page, 5)
+        settle(page, 5)
         page.screenshot(path=str(Path(folder) / f"{name}.png"))
 
 

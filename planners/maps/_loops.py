@@ -368,7 +368,7 @@ def _cut_threatens(  # noqa: PLR0917
     n = px.shape[0]
     for k in range(q.shape[0]):
         qx, qy = q[k, 0], q[k, 1]
-        near = _distance_to_segment(qx, qy, px[i], py[i], px[j % n], py[j % n])
+        near = _distance_to_segment(qx, qy, px[i % n], py[i % n], px[j % n], py[j % n])
         if near < clearance:
             return True
         if box[0] <= qx <= box[2] and box[1] <= qy <= box[3]:
@@ -378,7 +378,55 @@ def _cut_threatens(  # noqa: PLR0917
 
 
 @njit(cache=True, nogil=True)
-def simplify_ring(  # noqa: PLR0917, PLR0915
+def _shortcut(  # noqa: PLR0917
+    px: FloatArray,
+    py: FloatArray,
+    m: Mask,
+    tolerance: float,
+    protected: FloatArray,
+    clearance: float,
+    i: int,
+    j: int,
+) -> int:
+    """Test the shortcut from corner i to corner j (j > i + 1, indices taken mod n).
+
+    Returns -1 when it may replace the corners between, else the worst of them (the
+    farthest on the region's side, else the farthest), where to split it.
+    """
+    n = px.shape[0]
+    ax, ay = px[i % n], py[i % n]
+    bx, by = px[j % n], py[j % n]
+    dx, dy = bx - ax, by - ay
+    length2 = dx * dx + dy * dy
+    ok = True
+    worst, worst_score = i + 1, -1.0
+    box = np.empty(4, dtype=np.float64)
+    box[0], box[1], box[2], box[3] = min(ax, bx), min(ay, by), max(ax, bx), max(ay, by)
+    for k in range(i + 1, j):
+        x, y = px[k % n], py[k % n]
+        box[0], box[1] = min(box[0], x), min(box[1], y)
+        box[2], box[3] = max(box[2], x), max(box[3], y)
+        cross = dx * (y - ay) - dy * (x - ax)
+        t = ((x - ax) * dx + (y - ay) * dy) / length2
+        t = min(1.0, max(0.0, t))
+        dist = np.hypot(x - (ax + t * dx), y - (ay + t * dy))
+        score = dist
+        if cross > 0.0:  # left of the shortcut: the region's side
+            ok = False
+            score += 1e9
+        elif dist > tolerance:
+            ok = False
+        if score > worst_score:
+            worst, worst_score = k, score
+    if ok:
+        ok = _segment_in_region(int(ax), int(ay), int(bx), int(by), m)
+    if ok and protected.shape[0]:
+        ok = not _cut_threatens(protected, clearance, px, py, i, j, box)
+    return -1 if ok else worst
+
+
+@njit(cache=True, nogil=True)
+def simplify_ring(  # noqa: PLR0917
     px: FloatArray,
     py: FloatArray,
     m: Mask,
@@ -394,9 +442,13 @@ def simplify_ring(  # noqa: PLR0917, PLR0915
     ``tolerance`` of it; (2) the shortcut lies in the closed region ``m`` (padded mask,
     the ring's own grid); (3) no ``protected`` point lies in the piece cut off (or on
     the ring's part that the shortcut replaces), nor closer than ``clearance`` to the
-    shortcut (the robot's room at the start and the goal stays). So the piece cut off is the region's,
-    within ``tolerance`` of its border: the region only shrinks. A shortcut that fails
-    is split at its worst corner (the farthest on the wrong side, else the farthest).
+    shortcut (the robot's room at the start and the goal stays). So the piece cut off
+    is the region's, within ``tolerance`` of its border: the region only shrinks. A
+    shortcut that fails is split at its worst corner. Douglas-Peucker splits where
+    a corner is farthest, which along a ragged border is often a corner of a notch
+    that a shortcut could have bridged; so then each kept corner is dropped, in turn
+    round the ring, when the shortcut between its neighbours passes the same test,
+    until none is.
 
     Parameters
     ----------
@@ -431,51 +483,61 @@ def simplify_ring(  # noqa: PLR0917, PLR0915
     stack[0, 0], stack[0, 1] = 0, far
     stack[1, 0], stack[1, 1] = far, n
     top = 2
-    box = np.empty(4, dtype=np.float64)
     while top > 0:
         top -= 1
         i, j = stack[top, 0], stack[top, 1]
         if j - i < 2:
             continue
-        ax, ay = px[i], py[i]
-        bx, by = px[j % n], py[j % n]
-        dx, dy = bx - ax, by - ay
-        length2 = dx * dx + dy * dy
-        ok = True
-        worst, worst_score = i + 1, -1.0
-        box[0], box[1], box[2], box[3] = (
-            min(ax, bx),
-            min(ay, by),
-            max(ax, bx),
-            max(ay, by),
-        )
-        for k in range(i + 1, j):
-            x, y = px[k], py[k]
-            box[0], box[1] = min(box[0], x), min(box[1], y)
-            box[2], box[3] = max(box[2], x), max(box[3], y)
-            cross = dx * (y - ay) - dy * (x - ax)
-            t = ((x - ax) * dx + (y - ay) * dy) / length2
-            t = min(1.0, max(0.0, t))
-            dist = np.hypot(x - (ax + t * dx), y - (ay + t * dy))
-            score = dist
-            if cross > 0.0:  # left of the shortcut: the region's side
-                ok = False
-                score += 1e9
-            elif dist > tolerance:
-                ok = False
-            if score > worst_score:
-                worst, worst_score = k, score
-        if ok:
-            ok = _segment_in_region(int(ax), int(ay), int(bx), int(by), m)
-        if ok and protected.shape[0]:
-            ok = not _cut_threatens(protected, clearance, px, py, i, j, box)
-        if ok:
+        worst = _shortcut(px, py, m, tolerance, protected, clearance, i, j)
+        if worst < 0:
             continue
         keep[worst] = True
         stack[top, 0], stack[top, 1] = i, worst
         stack[top + 1, 0], stack[top + 1, 1] = worst, j
         top += 2
+    _drop_corners(px, py, m, tolerance, protected, clearance, keep)
     return keep
+
+
+@njit(cache=True, nogil=True)
+def _drop_corners(  # noqa: PLR0917
+    px: FloatArray,
+    py: FloatArray,
+    m: Mask,
+    tolerance: float,
+    protected: FloatArray,
+    clearance: float,
+    keep: npt.NDArray[np.bool_],
+) -> None:
+    """Drop kept corners whose neighbours' shortcut passes, round the ring until none does."""
+    n = px.shape[0]
+    kept = np.flatnonzero(keep)
+    count = kept.shape[0]
+    prev = np.empty(n, dtype=np.int64)
+    nxt = np.empty(n, dtype=np.int64)
+    for t in range(count):
+        prev[kept[t]] = kept[(t - 1 + count) % count]
+        nxt[kept[t]] = kept[(t + 1) % count]
+    changed = True
+    while changed and count > 4:
+        changed = False
+        for t in range(kept.shape[0]):
+            k = kept[t]
+            if not keep[k] or count <= 4:
+                continue
+            i, j = prev[k], nxt[k]
+            if i >= k:  # the unrolled order i < k < j
+                i -= n
+            if j <= k:
+                j += n
+            if j - i < 2 or j - i >= n:
+                continue
+            if _shortcut(px, py, m, tolerance, protected, clearance, i + n, j + n) < 0:
+                keep[k] = False
+                nxt[prev[k]] = nxt[k]
+                prev[nxt[k]] = prev[k]
+                count -= 1
+                changed = True
 
 
 def warm_up() -> None:

@@ -84,11 +84,11 @@ def map_metadata(yaml_text: bytes | str, source: str) -> MapMetadata:
     Examples
     --------
     >>> meta = map_metadata(
-    ...     "image: maps/lab.pgm\\nresolution: 0.05\\norigin: [-1, -2, 0]\\nnegate: 0\\n"
-    ...     "occupied_thresh: 0.65\\nfree_thresh: 0.196\\n", "lab.yaml")
+    ...     "image: maps/lab.pgm\nresolution: 0.05\norigin: [-1, -2, 0]\nnegate: 0\n"
+    ...     "occupied_thresh: 0.65\nfree_thresh: 0.196\n", "lab.yaml")
     >>> meta.image, meta.origin, meta.mode
     ('lab.pgm', (-1.0, -2.0, 0.0), 'trinary')
-    >>> map_metadata("image: lab.pgm\\nresolution: 0", "lab.yaml")
+    >>> map_metadata("image: lab.pgm\nresolution: 0", "lab.yaml")
     Traceback (most recent call last):
     ...
     planners.scene.ScenarioError: lab.yaml: resolution: must be positive, got 0.0

@@ -218,8 +218,9 @@ def _block_values(  # noqa: PLR0917
         return np.trunc(color_avg).astype(np.uint8).view(np.int8).astype(np.int16)
     occ = (255 - color_avg) / 255.0
     if mode == "scale":
-        ratio = (occ - free_th) / (occ_th - free_th)
-        value = np.trunc(99 * ratio).clip(0, 99).astype(np.int16)
+        with np.errstate(over="ignore"):  # thresholds a hair apart: inf, set below
+            ratio = (occ - free_th) / (occ_th - free_th)
+            value = np.trunc(99 * ratio).clip(0, 99).astype(np.int16)
         alpha = block[..., n_channels - 1] if n_channels > 1 else None
         if alpha is not None:
             value[alpha < 1.0] = -1

@@ -1,13 +1,14 @@
 """A warehouse occupancy map: import (read + trace + simplify) and VG + SVG + DSB on it.
 
 Run: ``.venv/bin/python tests/benchmarks/bench_maps.py [--side 50] [--cell 0.03]
-[--planners vg,svg,dsb] [--timeout S] [--profile]``.
+[--specks 2e-4] [--planners vg,svg,dsb] [--timeout S] [--profile]``.
 
 The map is generated (deterministic): a ``side`` x ``side`` metre warehouse at ``cell``
 metres a cell (50 m at 3 cm: 1,667 x 1,667 = 2.8 million cells), its outer walls and
 two inner walls with doors, rows of shelves (racks 1 m deep, 8 to 12 m long, aisles
 3 m wide) with their posts, as a scan leaves them: ragged wall faces, occupied specks
-in the aisles, free specks in the walls, unknown space outside the building and in
+in the aisles (``--specks``, a share of the free cells: a few hundred by default), free
+specks in the walls, unknown space outside the building and in
 the racks' shadows. It is written as a binary PGM with its YAML file, as map_saver
 writes maps.
 
@@ -61,8 +62,13 @@ TARGET_S = 5.0
 TARGET_MB = 1024.0
 
 
-def warehouse(side: float = 50.0, cell: float = 0.03, seed: int = 7) -> np.ndarray:
-    """The warehouse's grid of states, row 0 at the bottom."""
+def warehouse(
+    side: float = 50.0, cell: float = 0.03, specks: float = 2e-4, seed: int = 7
+) -> np.ndarray:
+    """The warehouse's grid of states, row 0 at the bottom.
+
+    ``specks``: the share of free cells a scan leaves occupied, one by one.
+    """
     rng = np.random.default_rng(seed)
     n = math.ceil(side / cell)
     grid = np.full((n, n), UNKNOWN, np.uint8)
@@ -115,7 +121,7 @@ def warehouse(side: float = 50.0, cell: float = 0.03, seed: int = 7) -> np.ndarr
     grid[near & (grid == FREE) & (flicker < 0.15)] = OCCUPIED
     grid[face & (flicker < 0.05)] = FREE
     free = grid == FREE
-    grid[free & (rng.random(grid.shape) < 2e-4)] = OCCUPIED
+    grid[free & (rng.random(grid.shape) < specks)] = OCCUPIED
     return grid
 
 
@@ -237,6 +243,12 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--side", type=float, default=50.0, help="[m], default 50")
     parser.add_argument("--cell", type=float, default=0.03, help="[m], default 0.03")
+    parser.add_argument(
+        "--specks",
+        type=float,
+        default=2e-4,
+        help="share of free cells left occupied one by one (default 2e-4: a few hundred)",
+    )
     parser.add_argument("--planners", default="vg,svg,dsb")
     parser.add_argument("--timeout", type=float, default=300.0)
     parser.add_argument("--profile", action="store_true")
@@ -245,7 +257,8 @@ def main() -> int:
     print(f"machine before: fixed 12 ms of work, p50 {p50:.1f} ms, p95 {p95:.1f} ms")
     with tempfile.TemporaryDirectory() as folder:
         t0 = time.perf_counter()
-        path = write(Path(folder), warehouse(args.side, args.cell), args.cell)
+        grid = warehouse(args.side, args.cell, args.specks)
+        path = write(Path(folder), grid, args.cell)
         print(f"map generated and written in {time.perf_counter() - t0:.1f} s")
         r = measure(path, args.planners, args.profile, args.timeout)
     if "error" in r:

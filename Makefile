@@ -32,7 +32,7 @@ $(STAMP): pyproject.toml
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
-	$(PY) -c 'import planners.kernels as k; k.warm_up()'  # compile the loops once (about 20 s)
+	$(PY) -c 'import planners.kernels as k, planners.maps as m; k.warm_up(); m.warm_up()'  # compile the loops once (about 30 s)
 	touch $@
 
 # The peers pin numpy<2, so they live in their own environment; the project never imports them.

@@ -6,6 +6,7 @@ The rooms, each importing only those below it (docs/architecture.md):
 
 - :mod:`planners.api` (:func:`plan_all`), :mod:`planners.registry` (the planners),
   the command line (``python -m planners``);
+- :mod:`planners.maps`: ROS map_server occupancy maps read and traced into scenarios;
 - :mod:`planners.explain`: each method as steps a lecturer can show;
 - :mod:`planners.visibility` (VG, SVG) and :mod:`planners.bug` (TangentBug, Bug2, the
   sensor, the live robot);
@@ -22,7 +23,7 @@ The rooms, each importing only those below it (docs/architecture.md):
 
 from __future__ import annotations
 
-from planners import api, memo, registry, scene, visibility
+from planners import api, maps, memo, registry, scene, visibility
 from planners.api import PLANNERS, InvalidResult, plan_all, result_to_json
 from planners.bug import bug2, live, sensor, tangent_bug
 from planners.bug.sensor import Sensing, sense
@@ -102,6 +103,7 @@ __all__ = [
     "explain_vg",
     "live",
     "load_scene",
+    "maps",
     "memo",
     "motion",
     "plan_all",

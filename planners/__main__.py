@@ -295,9 +295,13 @@ def _import_map(args: argparse.Namespace) -> int:
         print(f"error: {error}", file=sys.stderr)
         return 2
     if not map_file:
+        why = (
+            f"{yaml_path.name} is not a plain file name"
+            if not is_map_name(yaml_path.name) and _beside(yaml_path, output)
+            else f"{output} is not in the folder of {yaml_path}"
+        )
         print(
-            f"note: {output} does not lie beside {yaml_path.name}, or that name is not"
-            " a plain file name: the scenario names no map (the app then draws none)",
+            f"note: {why}: the scenario names no map (the app then draws none)",
             file=sys.stderr,
         )
     vertices = sum(len(o) for o in data["obstacles"])
@@ -309,12 +313,16 @@ def _import_map(args: argparse.Namespace) -> int:
     return 0
 
 
+def _beside(yaml_path: Path, output: Path) -> bool:
+    try:
+        return yaml_path.resolve().parent == output.resolve().parent
+    except (OSError, RuntimeError):  # a loop of links
+        return False
+
+
 def _map_key(yaml_path: Path, output: Path) -> str:
     """Return the scenario's ``map``: the YAML's file name if the scenario lies beside it."""
-    try:
-        beside = yaml_path.resolve().parent == output.resolve().parent
-    except (OSError, RuntimeError):  # a loop of links
-        return ""
+    beside = _beside(yaml_path, output)
     return yaml_path.name if beside and is_map_name(yaml_path.name) else ""
 
 

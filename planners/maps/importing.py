@@ -37,6 +37,7 @@ from planners.maps.trace import connected_cells, free_cells, trace_free_space
 from planners.scene import ScenarioError
 
 FloatArray = npt.NDArray[np.float64]
+_DECIMALS = 12
 
 
 def scene_from_map(
@@ -170,15 +171,23 @@ def _endpoint_cell(
         )
     state = int(occupancy_map.cells[row, col])
     if state == OCCUPIED or (state != FREE and unknown != "free"):
-        hint = "" if state == OCCUPIED else " (count unknown cells as free to allow it)"
+        hint = (
+            ""
+            if state == OCCUPIED
+            else " (unknown cells count as occupied unless told)"
+        )
         raise ScenarioError(
             source, field, f"{_shown(xy)} is in an {STATE_NAMES[state]} {where}{hint}"
         )
     return row, col
 
 
+def _file_name(source: str) -> str:
+    return source.replace("\\", "/").rpartition("/")[2]
+
+
 def _map_name(source: str) -> str:
-    name = source.replace("\\", "/").rpartition("/")[2]
+    name = _file_name(source)
     stem, dot, extension = name.rpartition(".")
     return stem if dot and extension.lower() in ("yaml", "yml") else name
 
@@ -187,15 +196,23 @@ def _description(occupancy_map: OccupancyMap, unknown: str, tolerance: float) ->
     m = occupancy_map
     picture = f"{m.image_name}: " if m.image_name else ""
     return (
-        f"Imported from the occupancy map {_map_name(m.source)} ({picture}{m.cols} x"
+        f"Imported from the occupancy map {_file_name(m.source)} ({picture}{m.cols} x"
         f" {m.rows} cells of {m.resolution:g} m, {m.width:g} m x {m.height:g} m);"
         f" unknown cells counted as {unknown}; borders traced within {tolerance:g} m."
     )
 
 
 def _world_ring(occupancy_map: OccupancyMap, ring: FloatArray) -> list[list[float]]:
-    """Return the ring in world coordinates, not rounded (so it stays inside the cells)."""
-    return grid_to_world(occupancy_map, ring).tolist()
+    """Return the ring in world coordinates, to 12 decimals where it stays simple so.
+
+    ``-1 + 12 * 0.05`` is -0.3999999999999999 in floating point; rounded it is -0.4.
+    Rounding moves a vertex by less than 1e-12 m, far below any map's cell.
+    """
+    exact = grid_to_world(occupancy_map, ring)
+    rounded = np.round(exact, _DECIMALS)
+    if len(np.unique(rounded, axis=0)) == len(rounded) and Polygon(rounded).is_valid:
+        return rounded.tolist()
+    return exact.tolist()
 
 
 def default_endpoints(

@@ -151,7 +151,7 @@ ENDPOINT_ERRORS = [
         (0.5, 0.5),
         (4.5, 4.5),
         "goal",
-        r"is in an unknown cell .*count unknown cells as free",
+        r"is in an unknown cell .*unknown cells count as occupied unless told",
     ),
     ((0.5, 0.5), (float("nan"), 1.0), "goal", r"expected a finite point"),
     ((0.5, 0.5, 1.0), (0.5, 0.5), "start", r"expected a finite point"),
@@ -292,3 +292,25 @@ def test_polygons_written_are_simple_and_the_start_inside():
     rings = [data["boundary"], *data["obstacles"]]
     assert all(Polygon(r).is_valid and len(r) >= 3 for r in rings)
     assert Polygon(data["boundary"]).contains(shapely.Point(start))
+
+
+def test_the_shipped_example_is_the_documented_import_of_its_map(tmp_path, capsys):
+    # docs/maps.md: import-map lab.yaml --start 0.5 0.5 --goal 8.5 4.0 -o lab.json
+    folder = ROOT / "static_scenarios" / "maps"
+    for name in ("lab.yaml", "lab.pgm"):
+        (tmp_path / name).write_bytes((folder / name).read_bytes())
+    argv = ["import-map", str(tmp_path / "lab.yaml"), "--start", "0.5", "0.5"]
+    argv += ["--goal", "8.5", "4.0", "-o", str(tmp_path / "lab.json")]
+    assert main(argv) == 0
+    assert capsys.readouterr().out.startswith(
+        f"wrote {tmp_path / 'lab.json'}: a boundary of 30 vertices and 8 obstacles"
+    )
+    assert (tmp_path / "lab.json").read_text() == (folder / "lab.json").read_text()
+    import jsonschema
+
+    schema = json.loads(
+        (ROOT / "static_scenarios/schema/scenario.schema.json").read_text()
+    )
+    jsonschema.validate(json.loads((folder / "lab.json").read_text()), schema)
+    plans = planners.plan_all(planners.load_scene(folder / "lab.json"))
+    assert [plans[p].status for p in ("vg", "svg", "dsb")] == ["ok", "ok", "reached"]

@@ -61,3 +61,28 @@ def test_the_compiled_loops_give_what_their_python_gives():
     for a, b in zip(compiled, python, strict=True):
         assert a == b
     assert np.mean([len(s["boundary"]) for s in compiled]) > 4  # not all trivial
+
+
+def test_yaml_and_numba_load_only_when_a_map_is_read_and_traced(tmp_path):
+    path = synthetic.write_map(tmp_path, "room", synthetic.room())
+    code = (
+        "import sys\n"
+        "import planners\n"
+        "from planners import maps\n"
+        "loaded = lambda: [m in sys.modules for m in ('yaml', 'numba')]\n"
+        "print(*loaded())\n"
+        f"m = maps.read_map({str(path)!r})\n"
+        "print(*loaded())\n"
+        "maps.scene_from_map(m, (0.1, 0.1), (1.0, 0.5))\n"
+        "print(*loaded())\n"
+    )
+    child = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        timeout=300,
+        check=True,
+    )
+    assert child.stdout.split() == ["False", "False", "True", "False", "True", "True"]

@@ -326,14 +326,15 @@ def _cut_holds(  # noqa: PLR0917
     segment is not held (it stays on the new border).
     """
     n = px.shape[0]
-    ax, ay, bx, by = px[i % n], py[i % n], px[j % n], py[j % n]
+    ax, ay = float(px[i % n]), float(py[i % n])
+    bx, by = float(px[j % n]), float(py[j % n])
     if _on_segment(qx, qy, bx, by, ax, ay):
         return False
     inside = False
     for k in range(i, j + 1):
-        x1, y1 = px[k % n], py[k % n]
+        x1, y1 = float(px[k % n]), float(py[k % n])
         if k < j:
-            x2, y2 = px[(k + 1) % n], py[(k + 1) % n]
+            x2, y2 = float(px[(k + 1) % n]), float(py[(k + 1) % n])
         else:
             x2, y2 = ax, ay
         if _on_segment(qx, qy, x1, y1, x2, y2):
@@ -368,7 +369,8 @@ def _cut_threatens(  # noqa: PLR0917
     n = px.shape[0]
     for k in range(q.shape[0]):
         qx, qy = q[k, 0], q[k, 1]
-        near = _distance_to_segment(qx, qy, px[i % n], py[i % n], px[j % n], py[j % n])
+        ax, ay = float(px[i % n]), float(py[i % n])
+        near = _distance_to_segment(qx, qy, ax, ay, float(px[j % n]), float(py[j % n]))
         if near < clearance:
             return True
         if box[0] <= qx <= box[2] and box[1] <= qy <= box[3]:

@@ -145,7 +145,7 @@ def _check_lengths(robot_radius: float, tolerance: float | None) -> None:
             raise ValueError(f"{label} must be a non-negative number, got {value!r}")
 
 
-def _shown(point: Sequence[float]) -> str:
+def _shown(point: Sequence[float] | FloatArray) -> str:
     return f"({float(point[0]):.6g}, {float(point[1]):.6g})"
 
 
@@ -273,7 +273,7 @@ def default_endpoints(
 def _shrunk(free: shapely.Geometry, clearance: float) -> Polygon:
     """Return the largest piece of ``free`` shrunk by ``clearance`` [cells] (less if empty)."""
     for depth in (clearance, clearance / 2, 0.5, 0.0):
-        shrunk = free.buffer(-depth, join_style="mitre") if depth > 0 else free
+        shrunk = shapely.buffer(free, -depth, join_style="mitre") if depth > 0 else free
         pieces = [p for p in shapely.get_parts(shrunk) if isinstance(p, Polygon)]
         pieces = [p for p in pieces if p.area > 0]
         if pieces:

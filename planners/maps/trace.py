@@ -28,6 +28,7 @@
 from __future__ import annotations
 
 __all__ = [
+    "UNKNOWN_AS",
     "FreeSpace",
     "connected_cells",
     "free_cells",

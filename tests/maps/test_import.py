@@ -180,6 +180,8 @@ def test_bad_options_are_refused():
         scene_from_map(m, (0.5, 0.5), (2.5, 2.5), tolerance=math.nan)
     with pytest.raises(ValueError):
         scene_from_map(m, (0.5, 0.5), (2.5, 2.5), unknown="maybe")
+    with pytest.raises(ValueError):
+        scene_from_map(m, (0.5, 0.5), (2.5, 2.5), map_file="../lab.yaml")
 
 
 # --------------------------------------------------------------------------- the command line

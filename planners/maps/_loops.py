@@ -36,8 +36,8 @@ FloatArray = npt.NDArray[np.float64]
 @njit(cache=True, nogil=True)
 def _fill(  # noqa: PLR0917
     mask: Mask,
-    labels: npt.NDArray[np.int32],
-    stack: npt.NDArray[np.int64],
+    labels: npt.NDArray[np.int32] | Mask,
+    stack: npt.NDArray[np.int32],
     r0: int,
     c0: int,
     label: int,
@@ -51,7 +51,7 @@ def _fill(  # noqa: PLR0917
     count = 0
     while top > 0:
         top -= 1
-        k = stack[top]
+        k = int(stack[top])
         r, c = k // cols, k % cols
         count += 1
         for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1)):
@@ -71,23 +71,25 @@ def _fill(  # noqa: PLR0917
 @njit(cache=True, nogil=True)
 def component(mask: Mask, r0: int, c0: int) -> Mask:
     """Return the 4-connected component of ``mask`` holding cell (r0, c0) (empty if none)."""
-    labels = np.zeros(mask.shape, dtype=np.int32)
+    labels = np.zeros(mask.shape, dtype=np.uint8)
     if mask[r0, c0]:
-        stack = np.empty(mask.size, dtype=np.int64)
+        stack = np.empty(mask.size, dtype=np.int32)  # 25 million cells at most
         _fill(mask, labels, stack, r0, c0, 1)
-    return labels.astype(np.uint8)
+    return labels
 
 
 @njit(cache=True, nogil=True)
-def label_components(mask: Mask) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]:
+def label_components(mask: Mask) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]:
     """Label the 4-connected components of ``mask`` 1, 2, ...; return labels and sizes.
 
     ``sizes[k]`` is the number of cells of label k (``sizes[0]`` is 0).
     """
     rows, cols = mask.shape
     labels = np.zeros(mask.shape, dtype=np.int32)
-    stack = np.empty(mask.size, dtype=np.int64)
-    sizes = np.zeros(mask.size + 1, dtype=np.int64)
+    stack = np.empty(mask.size, dtype=np.int32)
+    sizes = np.zeros(
+        mask.size // 2 + 2, dtype=np.int32
+    )  # components, each a cell at least
     label = 0
     for r in range(rows):
         for c in range(cols):
@@ -156,7 +158,7 @@ def resolve_pinches(m: Mask, keep: Mask) -> int:
     """
     rows, cols = m.shape
     n_blocks = (rows - 1) * (cols - 1)
-    stack = np.empty(n_blocks, dtype=np.int64)
+    stack = np.empty(n_blocks, dtype=np.int32)
     queued = np.zeros(n_blocks, dtype=np.uint8)
     top = 0
     for r in range(rows - 1):
@@ -168,7 +170,7 @@ def resolve_pinches(m: Mask, keep: Mask) -> int:
     removed = 0
     while top > 0:
         top -= 1
-        k = stack[top]
+        k = int(stack[top])
         queued[k] = 0
         r, c = k // (cols - 1), k % (cols - 1)
         which = _pinched(m, r, c)
@@ -326,14 +328,15 @@ def _cut_holds(  # noqa: PLR0917
     segment is not held (it stays on the new border).
     """
     n = px.shape[0]
-    ax, ay, bx, by = px[i % n], py[i % n], px[j % n], py[j % n]
+    ax, ay = float(px[i % n]), float(py[i % n])
+    bx, by = float(px[j % n]), float(py[j % n])
     if _on_segment(qx, qy, bx, by, ax, ay):
         return False
     inside = False
     for k in range(i, j + 1):
-        x1, y1 = px[k % n], py[k % n]
+        x1, y1 = float(px[k % n]), float(py[k % n])
         if k < j:
-            x2, y2 = px[(k + 1) % n], py[(k + 1) % n]
+            x2, y2 = float(px[(k + 1) % n]), float(py[(k + 1) % n])
         else:
             x2, y2 = ax, ay
         if _on_segment(qx, qy, x1, y1, x2, y2):
@@ -368,7 +371,8 @@ def _cut_threatens(  # noqa: PLR0917
     n = px.shape[0]
     for k in range(q.shape[0]):
         qx, qy = q[k, 0], q[k, 1]
-        near = _distance_to_segment(qx, qy, px[i % n], py[i % n], px[j % n], py[j % n])
+        ax, ay = float(px[i % n]), float(py[i % n])
+        near = _distance_to_segment(qx, qy, ax, ay, float(px[j % n]), float(py[j % n]))
         if near < clearance:
             return True
         if box[0] <= qx <= box[2] and box[1] <= qy <= box[3]:

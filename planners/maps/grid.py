@@ -141,7 +141,7 @@ def world_to_grid(occupancy_map: OccupancyMap, points: npt.ArrayLike) -> FloatAr
     """
     origin, matrix = _frame(occupancy_map)
     xy = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    return np.linalg.solve(matrix, (xy - origin).T).T
+    return np.asarray(np.linalg.solve(matrix, (xy - origin).T).T, dtype=np.float64)
 
 
 def world_to_cell(occupancy_map: OccupancyMap, points: npt.ArrayLike) -> IntArray:

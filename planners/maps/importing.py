@@ -33,8 +33,13 @@ from planners.maps.grid import (
     world_to_cell,
     world_to_grid,
 )
-from planners.maps.trace import connected_cells, free_cells, trace_free_space
-from planners.scene import ScenarioError
+from planners.maps.trace import (
+    UNKNOWN_AS,
+    connected_cells,
+    free_cells,
+    trace_free_space,
+)
+from planners.scene import ScenarioError, is_map_name
 
 FloatArray = npt.NDArray[np.float64]
 _DECIMALS = 12
@@ -84,18 +89,21 @@ def scene_from_map(
         unknown one (the message says which cell and its state), or the goal is in free
         space the start cannot reach through free cells (4-connected).
     ValueError
-        For a negative or non-finite radius or tolerance, or another ``unknown``.
+        For a negative or non-finite radius or tolerance, another ``unknown``, or a
+        ``map_file`` that is not a plain YAML file name.
     """
-    _check_lengths(robot_radius, tolerance)
+    _check_options(robot_radius, tolerance, unknown)
+    if map_file and not is_map_name(map_file):
+        raise ValueError(f"map_file must be a plain YAML file name, got {map_file!r}")
     source = occupancy_map.source
     start_cell = _endpoint_cell(occupancy_map, "start", start, unknown)
     goal_cell = _endpoint_cell(occupancy_map, "goal", goal, unknown)
-    cells = occupancy_map.resolution if tolerance is None else tolerance
+    tolerance_m = occupancy_map.resolution if tolerance is None else tolerance
     ends = world_to_grid(occupancy_map, [start, goal])
     space = trace_free_space(
         occupancy_map,
         start_cell,
-        tolerance=cells / occupancy_map.resolution,
+        tolerance=tolerance_m / occupancy_map.resolution,
         unknown=unknown,
         protected=ends,
         clearance=robot_radius / occupancy_map.resolution,
@@ -107,7 +115,7 @@ def scene_from_map(
     data: dict[str, Any] = {
         "format": 1,
         "name": _map_name(source),
-        "description": _description(occupancy_map, unknown, cells),
+        "description": _description(occupancy_map, unknown, tolerance_m),
         "boundary": _world_ring(occupancy_map, space.outer),
         "obstacles": [_world_ring(occupancy_map, h) for h in space.holes],
         "start": [float(v) for v in start],
@@ -139,13 +147,15 @@ def _unreachable(
     )
 
 
-def _check_lengths(robot_radius: float, tolerance: float | None) -> None:
+def _check_options(robot_radius: float, tolerance: float | None, unknown: str) -> None:
+    if unknown not in UNKNOWN_AS:
+        raise ValueError(f"unknown must be one of {UNKNOWN_AS}, got {unknown!r}")
     for label, value in (("robot_radius", robot_radius), ("tolerance", tolerance)):
         if value is not None and not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{label} must be a non-negative number, got {value!r}")
 
 
-def _shown(point: Sequence[float]) -> str:
+def _shown(point: Sequence[float] | FloatArray) -> str:
     return f"({float(point[0]):.6g}, {float(point[1]):.6g})"
 
 
@@ -241,7 +251,7 @@ def default_endpoints(
     ScenarioError
         Field ``image`` when the map has no free cell.
     """
-    _check_lengths(robot_radius, tolerance)
+    _check_options(robot_radius, tolerance, unknown)
     from planners.maps import _loops  # noqa: PLC0415 - numba only when a map is traced
 
     free = free_cells(occupancy_map, unknown)
@@ -273,7 +283,7 @@ def default_endpoints(
 def _shrunk(free: shapely.Geometry, clearance: float) -> Polygon:
     """Return the largest piece of ``free`` shrunk by ``clearance`` [cells] (less if empty)."""
     for depth in (clearance, clearance / 2, 0.5, 0.0):
-        shrunk = free.buffer(-depth, join_style="mitre") if depth > 0 else free
+        shrunk = shapely.buffer(free, -depth, join_style="mitre") if depth > 0 else free
         pieces = [p for p in shapely.get_parts(shrunk) if isinstance(p, Polygon)]
         pieces = [p for p in pieces if p.area > 0]
         if pieces:

@@ -28,6 +28,7 @@
 from __future__ import annotations
 
 __all__ = [
+    "UNKNOWN_AS",
     "FreeSpace",
     "connected_cells",
     "free_cells",
@@ -45,6 +46,7 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 from shapely import Polygon
+from shapely.geometry.base import BaseGeometry
 
 from planners.maps.grid import FREE, UNKNOWN, OccupancyMap
 
@@ -69,7 +71,7 @@ class FreeSpace:
     holes: tuple[FloatArray, ...]
     """The rings of the blocked areas inside."""
 
-    def polygon(self) -> Polygon:
+    def polygon(self) -> BaseGeometry:
         """Return the free space as one shapely polygon (overlapping holes merged)."""
         shell = Polygon(self.outer)
         if not self.holes:
@@ -226,7 +228,8 @@ def _without_straight_corners(ring: FloatArray) -> FloatArray:
 def _tangled_edges(points: FloatArray) -> BoolArray:
     """Which edges of a closed ring meet an edge other than at their shared corner."""
     n = len(points)
-    edges = shapely.linestrings(np.stack([points, np.roll(points, -1, axis=0)], axis=1))
+    ends = np.stack([points, np.roll(points, -1, axis=0)], axis=1)
+    edges = np.asarray(shapely.linestrings(ends), dtype=object)
     tree = shapely.STRtree(edges)
     first, second = tree.query(edges, predicate="intersects")
     pair = first < second

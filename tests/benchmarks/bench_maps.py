@@ -1,7 +1,7 @@
 """A warehouse occupancy map: import (read + trace + simplify) and VG + SVG + DSB on it.
 
 Run: ``.venv/bin/python tests/benchmarks/bench_maps.py [--side 50] [--cell 0.03]
-[--specks 2e-4] [--planners vg,svg,dsb] [--timeout S] [--profile]``.
+[--specks 2e-4] [--planners vg,svg,dsb|none] [--timeout S] [--profile]``.
 
 The map is generated (deterministic): a ``side`` x ``side`` metre warehouse at ``cell``
 metres a cell (50 m at 3 cm: 1,667 x 1,667 = 2.8 million cells), its outer walls and
@@ -23,7 +23,8 @@ disk, as in the app). The child reports
 - the vertex counts: the exact trace's (tolerance 0) and the simplified scene's;
 - ``plan_all`` on the imported scene: the wall time and each planner's ``ms``;
 - peak memory: ``ru_maxrss`` after the import and after planning, and before either
-  (the interpreter with the project imported).
+  (the interpreter with the project imported). The map is generated in a process of
+  its own: a child's ``ru_maxrss`` starts from its parent's.
 
 Before and after, the machine's own speed: :func:`clock.spread` (a fixed 12 ms piece of
 work timed 150 times), so figures from two runs can be compared as ratios to it. With
@@ -145,6 +146,23 @@ def write(folder: Path, grid: np.ndarray, cell: float) -> Path:
     return path
 
 
+def _write_child(folder: str, side: float, cell: float, specks: float) -> None:
+    write(Path(folder), warehouse(side, cell, specks), cell)
+
+
+def generate(folder: Path, side: float, cell: float, specks: float) -> Path:
+    """Generate and write the map in a process of its own; return the YAML's path.
+
+    Not here: a child's peak memory (``ru_maxrss``) starts from its parent's, so the
+    process that measures must not be started by one that held the map's arrays.
+    """
+    ctx = multiprocessing.get_context("spawn")
+    child = ctx.Process(target=_write_child, args=(str(folder), side, cell, specks))
+    child.start()
+    child.join()
+    return folder / "warehouse.yaml"
+
+
 def _rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
@@ -174,12 +192,12 @@ def _child(yaml_path: str, planners_csv: str, profile: bool, out: Any) -> None:
     import_mb = _rss_mb()
     seed = world_to_cell(m, [start])[0]
     exact = trace_free_space(m, (int(seed[0]), int(seed[1])), tolerance=0.0)
-    which = tuple(planners_csv.split(","))
+    which = () if planners_csv == "none" else tuple(planners_csv.split(","))
     profiler = cProfile.Profile() if profile else None
     t5 = time.perf_counter()
     if profiler:
         profiler.enable()
-    results = planners.plan_all(scene, which)
+    results = planners.plan_all(scene, which) if which else {}
     if profiler:
         profiler.disable()
     t6 = time.perf_counter()
@@ -249,7 +267,9 @@ def main() -> int:
         default=2e-4,
         help="share of free cells left occupied one by one (default 2e-4: a few hundred)",
     )
-    parser.add_argument("--planners", default="vg,svg,dsb")
+    parser.add_argument(
+        "--planners", default="vg,svg,dsb", help="comma-separated, or none: import only"
+    )
     parser.add_argument("--timeout", type=float, default=300.0)
     parser.add_argument("--profile", action="store_true")
     args = parser.parse_args()
@@ -257,8 +277,7 @@ def main() -> int:
     print(f"machine before: fixed 12 ms of work, p50 {p50:.1f} ms, p95 {p95:.1f} ms")
     with tempfile.TemporaryDirectory() as folder:
         t0 = time.perf_counter()
-        grid = warehouse(args.side, args.cell, args.specks)
-        path = write(Path(folder), grid, args.cell)
+        path = generate(Path(folder), args.side, args.cell, args.specks)
         print(f"map generated and written in {time.perf_counter() - t0:.1f} s")
         r = measure(path, args.planners, args.profile, args.timeout)
     if "error" in r:

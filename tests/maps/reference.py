@@ -16,6 +16,7 @@ import math
 import numpy as np
 import shapely
 from shapely import Polygon
+from shapely.geometry.base import BaseGeometry
 
 from planners.maps import FREE, OCCUPIED, UNKNOWN, OccupancyMap, grid_to_world
 
@@ -79,13 +80,13 @@ def cell_squares(occupancy_map: OccupancyMap, cells: np.ndarray) -> list[Polygon
     return out
 
 
-def union_of_cells(occupancy_map: OccupancyMap, mask: np.ndarray) -> shapely.Geometry:
+def union_of_cells(occupancy_map: OccupancyMap, mask: np.ndarray) -> BaseGeometry:
     """The union of the squares of the cells where ``mask`` is true (world)."""
     squares = cell_squares(occupancy_map, np.argwhere(mask))
     return shapely.union_all(squares) if squares else Polygon()
 
 
-def blocked_space(occupancy_map: OccupancyMap, blocked: np.ndarray) -> shapely.Geometry:
+def blocked_space(occupancy_map: OccupancyMap, blocked: np.ndarray) -> BaseGeometry:
     """The blocked cells' squares and everything off the map (within a wide frame)."""
     rows, cols = blocked.shape
     margin = 4 + max(rows, cols)

@@ -94,8 +94,8 @@ def test_the_cells_are_read_only_and_checked():
     with pytest.raises(ValueError):
         m.cells[0, 0] = 1
     with pytest.raises(ValueError, match="uint8"):
-        OccupancyMap(np.zeros((2, 2)), 1.0, (0, 0, 0))
+        OccupancyMap(np.zeros((2, 2)), 1.0, (0, 0, 0))  # pyright: ignore[reportArgumentType]
     with pytest.raises(ValueError, match="resolution"):
         OccupancyMap(np.zeros((2, 2), np.uint8), 0.0, (0, 0, 0))
     with pytest.raises(ValueError, match="origin"):
-        OccupancyMap(np.zeros((2, 2), np.uint8), 1.0, (0, 0))
+        OccupancyMap(np.zeros((2, 2), np.uint8), 1.0, (0, 0))  # pyright: ignore[reportArgumentType]

@@ -31,14 +31,21 @@ from tests.maps.reference import blocked_space
 # --------------------------------------------------------------------------- round trip
 
 
-def _rasterised(scene: planners.Scene, resolution: float, origin) -> OccupancyMap:
-    """The scene drawn into a map: a cell is free when its centre is in the free space."""
+def _rasterised(scene: planners.Scene, resolution: float, yaw: float) -> OccupancyMap:
+    """The scene drawn into a map turned by ``yaw``, centred on it, a margin all round.
+
+    A cell is free when its centre is in the scene's free space.
+    """
+    assert scene.boundary is not None
     free = scene.boundary.difference(shapely.union_all(scene.obstacles))
     minx, miny, maxx, maxy = scene.boundary.bounds
     side = math.ceil(max(maxx - minx, maxy - miny) * 1.6 / resolution)
+    half = side * resolution / 2
+    turn = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    corner = np.array(scene.boundary.centroid.coords[0]) - turn @ [half, half]
+    origin = (float(corner[0]), float(corner[1]), yaw)
     m = OccupancyMap(np.zeros((side, side), np.uint8), resolution, origin, "drawn.yaml")
-    cells = np.argwhere(np.ones((side, side), bool))
-    centres = cell_centres(m, cells)
+    centres = cell_centres(m, np.argwhere(np.ones((side, side), bool)))
     inside = shapely.contains_xy(free, centres[:, 0], centres[:, 1])
     grid = np.where(inside, 0, OCCUPIED).astype(np.uint8).reshape(side, side)
     return OccupancyMap(grid, resolution, origin, "drawn.yaml", "drawn.pgm")
@@ -51,17 +58,7 @@ def test_a_scenario_drawn_into_a_map_comes_back_within_the_tolerance(
 ):
     scene = planners.load_scene(ROOT / "static_scenarios" / "01_two_convex.json")
     resolution = 0.05
-    # The map's lower-left corner well outside the room, turned by yaw about it.
-    centre = np.array(scene.boundary.centroid.coords[0])
-    reach = 0.8 * math.ceil(12 * 1.6 / resolution) * resolution
-    corner = (
-        centre
-        - reach
-        * np.array([math.cos(yaw) - math.sin(yaw), math.sin(yaw) + math.cos(yaw)])
-        / 2
-        * 1.25
-    )
-    drawn = _rasterised(scene, resolution, (corner[0], corner[1], yaw))
+    drawn = _rasterised(scene, resolution, yaw)
     # Through the files, as a user would have it.
     (tmp_path / "drawn.pgm").write_bytes(
         synthetic.encode_pgm(synthetic.picture_of(drawn.cells))
@@ -75,6 +72,7 @@ def test_a_scenario_drawn_into_a_map_comes_back_within_the_tolerance(
         m, scene.start, scene.goal, robot_radius=scene.robot.radius, tolerance=tolerance
     )
     back = planners.load_scene(data)
+    assert scene.boundary is not None and back.boundary is not None
     t = resolution if tolerance is None else tolerance
     bound = t + resolution * math.sqrt(2)
     assert len(back.obstacles) == len(scene.obstacles)
@@ -176,13 +174,14 @@ def test_a_start_or_goal_off_the_free_space_is_one_line_naming_it(
 
 def test_bad_options_are_refused():
     m = OccupancyMap(np.zeros((3, 3), np.uint8), 1.0, (0, 0, 0))
-    for options in (
-        {"robot_radius": -1.0},
-        {"tolerance": math.nan},
-        {"unknown": "maybe"},
-    ):
-        with pytest.raises(ValueError):
-            scene_from_map(m, (0.5, 0.5), (2.5, 2.5), **options)
+    with pytest.raises(ValueError):
+        scene_from_map(m, (0.5, 0.5), (2.5, 2.5), robot_radius=-1.0)
+    with pytest.raises(ValueError):
+        scene_from_map(m, (0.5, 0.5), (2.5, 2.5), tolerance=math.nan)
+    with pytest.raises(ValueError):
+        scene_from_map(m, (0.5, 0.5), (2.5, 2.5), unknown="maybe")
+    with pytest.raises(ValueError):
+        scene_from_map(m, (0.5, 0.5), (2.5, 2.5), map_file="../lab.yaml")
 
 
 # --------------------------------------------------------------------------- the command line

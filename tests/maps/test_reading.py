@@ -7,6 +7,7 @@ The pictures are written here (PGM by hand, PNG by Pillow) from random pixels, r
 
 from __future__ import annotations
 
+import io
 import os
 import re
 import struct
@@ -360,3 +361,20 @@ def test_reading_from_disk_names_the_file_and_stays_in_its_folder(tmp_path):
         ScenarioError, match=r"big.yaml: \(file\): more than 65,536 bytes"
     ):
         read_map(tmp_path / "big.yaml")
+
+
+def test_bilevel_and_palette_pictures_read_as_their_colours():
+    # PBM: 1 is black. A palette PNG: read by its colours, not its indices.
+    pbm = read_map_bytes(
+        synthetic.map_yaml("m.pbm"), {"m.pbm": b"P1\n3 1\n1 0 1\n"}, "m"
+    )
+    assert pbm.cells.tolist() == [[OCCUPIED, FREE, OCCUPIED]]
+    from PIL import Image
+
+    image = Image.new("P", (3, 1))
+    image.putpalette([255, 255, 255, 0, 0, 0, 205, 205, 205])  # indices 0, 1, 2
+    image.putdata([1, 0, 2])
+    buffer = io.BytesIO()
+    image.save(buffer, "PNG")
+    png = read_map_bytes(synthetic.map_yaml("m.png"), {"m.png": buffer.getvalue()}, "m")
+    assert png.cells.tolist() == [[OCCUPIED, FREE, UNKNOWN]]

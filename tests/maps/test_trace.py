@@ -16,6 +16,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from shapely import Polygon
+from shapely.geometry.base import BaseGeometry
 
 import planners
 from planners.maps import (
@@ -152,7 +153,7 @@ def _axes(m: OccupancyMap) -> np.ndarray:
     )
 
 
-def _free_space(scene: dict) -> shapely.Geometry:
+def _free_space(scene: dict) -> BaseGeometry:
     free = Polygon(scene["boundary"])
     holes = [Polygon(o) for o in scene["obstacles"]]
     return free.difference(shapely.union_all(holes)) if holes else free

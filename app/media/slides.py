@@ -50,7 +50,12 @@ from app.media.camera import TOP_FOV, CameraPose, frame_camera, picture_bounds
 from app.media.labels import Box, LabelRequest, Placement, label_size, place_labels
 from app.media.slide_options import SlideOptions
 from app.ui.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
-from app.ui.view import EVENT_CROSS, event_labels, marker_size
+from app.ui.view import (
+    EVENT_CROSS,
+    MAX_NUMBERED_OBSTACLES,
+    event_labels,
+    marker_size,
+)
 from planners.registry import PlannerSpec
 from planners.scene import Scene
 
@@ -617,7 +622,9 @@ def _label_requests(
                 clearance=disk.width / 2 + 2,
             )
         )
-    if layers.get("obstacles", True):
+    # A floor plan's or a map's hundreds of obstacles go unnumbered, as in the app.
+    numbered = len(scene.obstacles) <= MAX_NUMBERED_OBSTACLES
+    if layers.get("obstacles", True) and numbered:
         top = HEIGHTS["obstacle"]
         font = font_px(height)
         for i, obstacle in enumerate(scene.obstacles):

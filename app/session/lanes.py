@@ -161,8 +161,8 @@ class ProcessLane:
                 if self._closed:
                     raise RuntimeError("the planner process is closed")
                 try:
-                    self._send(scene, keywords, abandoned)
-                    ok, value = pickle.load(self._pipe("stdout"))
+                    answers = self._send(scene, keywords, abandoned)
+                    ok, value = pickle.load(answers)
                     break
                 except (EOFError, OSError, pickle.UnpicklingError, ValueError):
                     if abandoned is not None and abandoned():
@@ -181,21 +181,25 @@ class ProcessLane:
         scene: Any,
         keywords: dict[str, Any],
         abandoned: Callable[[], bool] | None,
-    ) -> None:
-        """Hand one call to the worker, unless the caller has given it up.
+    ) -> IO[bytes]:
+        """Hand one call to the worker, unless given up; return its answer's pipe.
 
-        Under the start lock, like :meth:`interrupt`: a caller sets its flag before it
-        interrupts, so a call given up is either refused here or written to the worker
-        that the interrupt then stops -- never to the fresh one.
+        The worker is chosen under the start lock, like :meth:`interrupt`: a caller sets
+        its flag before it interrupts, so a call given up is either refused here or
+        written to the worker that the interrupt then stops -- never to the fresh one.
+        The call is written outside the lock: a worker still importing reads a big scene
+        only when it is ready, and an interrupt meanwhile must not wait for that (the
+        write then fails on the stopped worker's pipe, and so does the answer's read).
         """
         with self._start_lock:
             if abandoned is not None and abandoned():
                 raise Interrupted("the computation was given up")
             if self._proc is None and not self._closed:
                 self._start()
-            stdin = self._pipe("stdin")
-            pickle.dump((scene, keywords), stdin, protocol=pickle.HIGHEST_PROTOCOL)
-            stdin.flush()
+            stdin, stdout = self._pipe("stdin"), self._pipe("stdout")
+        pickle.dump((scene, keywords), stdin, protocol=pickle.HIGHEST_PROTOCOL)
+        stdin.flush()
+        return stdout
 
     def _stop_process(self) -> None:
         proc, self._proc = self._proc, None

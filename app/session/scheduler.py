@@ -77,6 +77,11 @@ PlanFn = Callable[[Scene], Mapping[str, Any]]
 # process) shares the interpreter lock with the fast lane: it starts on a new scene once
 # the fast lane has drawn it, or after this [s]. A worker process starts at once.
 _SLOW_LANE_YIELD_S = 0.03
+GIVE_UP_AFTER_S = 1.0
+"""A big scene's slow call is given up for a newer edit only once it has run this long
+[s]. Stopping the worker costs its restart and its memo: during a drag of a start or a
+goal on a map the slow planners' answers, a few tenths of a second each, would never
+arrive. A longer computation still stops (a later round, or the timer, gives it up)."""
 ROBOT_LAG_S = 0.15
 """During a drag, the robot's trajectory may wait for the edit no newer one overtakes,
 but never longer than this after the robot was last drawn [s]."""
@@ -436,6 +441,8 @@ class Scheduler:
         """How long the robot may stay on an older edit's trajectory during a drag [s]."""
         self._job: BigJob | None = None  # a big scene's computation (app.session.big)
         self._slow_big = False  # the slow lane computes a big scene
+        self._slow_since = 0.0  # when the slow lane started on _slow_tried [monotonic s]
+        self._give_up_timer: threading.Timer | None = None
         self._slow_given_up: _PlanKey | None = None  # the slow call given up on
         # The fast lane's thread only:
         self._other: tuple[Any, tuple[Polygon, ...] | None] = (None, None)
@@ -493,6 +500,9 @@ class Scheduler:
         with self._lock:
             self._closed = True
             self._lock.notify_all()
+            timer = self._give_up_timer
+        if timer is not None:
+            timer.cancel()
         self._cancel_job()
         if self.process is not None:
             self.process.close()
@@ -651,6 +661,7 @@ class Scheduler:
                     return
                 key = self._key(snapshot)
                 self._slow_tried, self._slow_busy = key, True
+                self._slow_since = time.monotonic()
                 self._slow_given_up = None  # a call given up before is over
                 self._slow_big = scene_vertices(snapshot.scene) > BIG_SCENE_VERTICES
             which = lane.which(key.enabled)
@@ -738,10 +749,15 @@ class Scheduler:
         worker of its own (a small scene's slow result is still shown, marked lagging,
         during a drag: that call is left to finish).
         """
-        job, process = self._job, None
+        job = self._job
         if job is not None and job.key != key:
             self._job = None
             job.cancel()
+        self._give_up_slow(key)
+
+    def _give_up_slow(self, key: _PlanKey) -> None:
+        """Stop the slow lane's big call if it is not for ``key`` and has run long enough."""
+        process = None
         with self._lock:
             slow = self._slow_lane
             if (
@@ -753,10 +769,32 @@ class Scheduler:
                 and self._slow_tried != self._slow_given_up
                 and not _same_slow_work(slow, self._slow_tried, key)
             ):
-                self._slow_given_up = self._slow_tried
-                process = slow.process
+                young = GIVE_UP_AFTER_S - (time.monotonic() - self._slow_since)
+                if young > 0:
+                    self._give_up_later_locked(young)
+                else:
+                    self._slow_given_up = self._slow_tried
+                    process = slow.process
         if process is not None:
             process.interrupt()
+
+    def _give_up_later_locked(self, delay: float) -> None:
+        """Ask :meth:`_give_up_slow` again in ``delay`` s (one timer at a time)."""
+        timer = self._give_up_timer
+        if timer is not None and timer.is_alive():
+            return
+        timer = threading.Timer(delay, self._give_up_for_newest)
+        timer.daemon = True
+        self._give_up_timer = timer
+        timer.start()
+
+    def _give_up_for_newest(self) -> None:
+        """Give the slow call up if it is not for the newest scene (the timer's call)."""
+        with self._lock:
+            if self._closed or self._slow_tried is None:
+                return
+            newest = self._key(self._state.snapshot_locked())
+        self._give_up_slow(newest)
 
     def _compute_big(self, snapshot: Snapshot, key: _PlanKey) -> _Computed | None:
         """Plan a big scene in the worker, drawing progress frames; None if overtaken."""

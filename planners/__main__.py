@@ -23,7 +23,7 @@ import argparse
 import json
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -56,36 +56,25 @@ def _planner_list(text: str) -> tuple[str, ...]:
     return names
 
 
-def _sensor_range(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not value > 0 or math.isnan(value):
-        raise argparse.ArgumentTypeError(
-            f"must be positive (inf for unlimited), got {text!r}"
-        )
-    return value
+def _number(accept: Callable[[float], bool], wanted: str) -> Callable[[str], float]:
+    """Return an argparse type: a float that ``accept`` takes, else "WANTED, got TEXT"."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        if not accept(value):
+            raise argparse.ArgumentTypeError(f"{wanted}, got {text!r}")
+        return value
+
+    return parse
 
 
-def _length(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"must be a number >= 0, got {text!r}")
-    return value
-
-
-def _coordinate(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
-    return value
+_sensor_range = _number(lambda v: v > 0, "must be positive (inf for unlimited)")
+_length = _number(lambda v: math.isfinite(v) and v >= 0, "must be a number >= 0")
+_coordinate = _number(math.isfinite, "must be a finite number")
+_positive = _number(lambda v: math.isfinite(v) and v > 0, "must be a positive number")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -115,16 +104,6 @@ def _parser() -> argparse.ArgumentParser:
     _export_parser(sub)
     _import_parser(sub)
     return parser
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
-    return value
 
 
 def _export_parser(sub: Any) -> None:

@@ -20,6 +20,7 @@ __all__ = [
     "MAP_SUFFIXES",
     "MAX_UNZIPPED_BYTES",
     "MAX_UPLOAD_BYTES",
+    "MAX_UPLOAD_MAP_VERTICES",
     "MAX_UPLOAD_PIXELS",
     "MAX_ZIP_ENTRIES",
     "FolderError",
@@ -54,6 +55,10 @@ MAX_UPLOAD_PIXELS = 4_000_000
 """Largest map picture a browser may upload: 2,000 x 2,000 cells (100 m at 5 cm). The
 server reads and traces it while it serves the class; bigger maps open from the scenes
 folder or the command line."""
+MAX_UPLOAD_MAP_VERTICES = 20_000
+"""Most vertices an uploaded map may trace to (a 50 m warehouse at 3 cm traces to about
+7,000): a small zip of a speckled picture would otherwise hand the class's workers tens
+of thousands of obstacles to plan around. Bigger maps open from the scenes folder."""
 MAP_SUFFIXES = (".yaml", ".yml")
 """A file with one of these suffixes is a map_server map's YAML file."""
 
@@ -284,7 +289,8 @@ def zip_scene(
     The zip holds one map (its YAML file and the picture it names) and at most one
     scenario file (``.json``). With a scenario, it is the scene (its ``map`` must name
     the zip's YAML file); without, the map opens as :func:`map_scene` opens it. The
-    picture may have at most :data:`MAX_UPLOAD_PIXELS` pixels.
+    picture may have at most :data:`MAX_UPLOAD_PIXELS` pixels, and the scene at most
+    :data:`MAX_UPLOAD_MAP_VERTICES` vertices.
 
     Raises
     ------
@@ -305,9 +311,21 @@ def zip_scene(
     meta = maps.map_metadata(files[name], inner)
     _check_pixels(files.get(meta.image), inner)
     occupancy_map = maps.read_map_bytes(files[name], files, inner)
-    if not jsons:
-        return map_scene(occupancy_map, like, name), occupancy_map
-    scene = _zip_scenario(files[jsons[0]], f"{source}/{jsons[0]}", name)
+    if jsons:
+        scene = _zip_scenario(files[jsons[0]], f"{source}/{jsons[0]}", name)
+    else:
+        scene = map_scene(occupancy_map, like, name)
+    vertices = sum(len(o.exterior.coords) - 1 for o in scene.obstacles)
+    if scene.boundary is not None:
+        vertices += len(scene.boundary.exterior.coords) - 1
+    if vertices > MAX_UPLOAD_MAP_VERTICES:
+        raise ScenarioError(
+            inner,
+            "image",
+            f"the map traces to {vertices:,} vertices, more than the "
+            f"{MAX_UPLOAD_MAP_VERTICES:,} an upload may have; open it from the scenes "
+            "folder (--scenes-dir)",
+        )
     return scene, occupancy_map
 
 

@@ -22,6 +22,7 @@ from app import start_app
 from app.server import open_scenario
 from app.session.files import (
     MAX_UNZIPPED_BYTES,
+    MAX_UPLOAD_MAP_VERTICES,
     MAX_UPLOAD_PIXELS,
     MAX_ZIP_ENTRIES,
     ScenesFolder,
@@ -213,6 +214,13 @@ def test_a_plain_scenario_upload_naming_a_map_shows_none(
     )
 
 
+def _specks(side: int) -> np.ndarray:
+    """A free square with an occupied cell every other cell: a speck a cell."""
+    grid = np.zeros((side, side), np.uint8)
+    grid[1:-1:2, 1:-1:2] = maps.OCCUPIED
+    return grid
+
+
 def _bomb() -> bytes:
     # 40 MB of one byte packs into about 40 kB, and the header says so honestly.
     return _zip({"lab.yaml": b"image: lab.pgm\n", "lab.pgm": b"\0" * 40_000_000})
@@ -261,6 +269,15 @@ def _lying_bomb() -> bytes:
             f"x.zip/lab.yaml: image: 2000 x 2001 pixels, more than the {MAX_UPLOAD_PIXELS:,}",
         ),
         (
+            _zip(
+                {
+                    "lab.yaml": map_yaml("lab.pgm").encode(),
+                    "lab.pgm": encode_pgm(picture_of(_specks(400))),
+                }
+            ),
+            f"x.zip/lab.yaml: image: the map traces to 158,408 vertices, more than the {MAX_UPLOAD_MAP_VERTICES:,}",
+        ),
+        (
             _zip({"lab.yaml": b"image: [1, 2]\n", "lab.pgm": b""}),
             "x.zip/lab.yaml: image: expected a file name",
         ),
@@ -285,6 +302,7 @@ def _lying_bomb() -> bytes:
         "no-picture",
         "picture-path",
         "pixels",
+        "specks",
         "yaml-field",
         "scenario-other-map",
     ],

@@ -441,9 +441,8 @@ class Scheduler:
         """How long the robot may stay on an older edit's trajectory during a drag [s]."""
         self._job: BigJob | None = None  # a big scene's computation (app.session.big)
         self._slow_big = False  # the slow lane computes a big scene
-        self._slow_since = (
-            0.0  # when the slow lane started on _slow_tried [monotonic s]
-        )
+        # When the slow lane started on _slow_tried [monotonic s].
+        self._slow_since = 0.0
         self._give_up_timer: threading.Timer | None = None
         self._slow_given_up: _PlanKey | None = None  # the slow call given up on
         # The fast lane's thread only:

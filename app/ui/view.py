@@ -1511,12 +1511,32 @@ def floor_bounds(scene: Any) -> tuple[float, float, float, float]:
     :func:`app.media.camera.picture_bounds`.
     """
     if scene.boundary is not None:
-        x0, y0, x1, y1 = scene.boundary.bounds
-        return (math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1))
+        return _whole_metres(*scene.boundary.bounds)
     pts = [np.asarray(o.exterior.coords) for o in scene.obstacles] + [
         np.array([scene.start, scene.goal])
     ]
     allp = np.vstack(pts)
     x0, y0 = allp.min(axis=0) - 2.0
     x1, y1 = allp.max(axis=0) + 2.0
-    return (math.floor(x0), math.floor(y0), math.ceil(x1), math.ceil(y1))
+    return _whole_metres(x0, y0, x1, y1)
+
+
+def _whole_metres(
+    x0: float, y0: float, x1: float, y1: float
+) -> tuple[float, float, float, float]:
+    """Round a box outward to whole metres, as floats.
+
+    Floats, not ints: ``math.floor(1e20)`` is an int too big for msgpack, and viser's
+    sender to every browser would die on the message carrying it.
+
+    Examples
+    --------
+    >>> _whole_metres(0.5, -0.5, 1e20, 2.0)
+    (0.0, -1.0, 1e+20, 2.0)
+    """
+    return (
+        float(np.floor(x0)),
+        float(np.floor(y0)),
+        float(np.ceil(x1)),
+        float(np.ceil(y1)),
+    )

@@ -507,3 +507,28 @@ def test_a_browser_that_left_has_no_priority(planner):
         assert door.is_priority(cid)
     assert wait_until(lambda: not door.knows(cid), 20)
     assert not door.is_priority(cid) and door.is_priority(None)
+
+
+# --------------------------------------------------------------------------- huge numbers
+
+FAR = {
+    "format": 1,
+    "obstacles": [[[1e20, 0], [1e20 + 1e5, 0], [1e20, 1e5]]],
+    "start": [0, 0],
+    "goal": [1, 1],
+}
+"""A scene whose floor reaches 1e20 m: a whole metre of that is an int too big for
+msgpack, and a message carrying one killed viser's sender to every browser."""
+
+
+def test_a_scene_far_away_leaves_every_browser_connected(planner):
+    planner.classroom.set_open(True)
+    with seat(planner, presenter=True) as lecturer, seat(planner) as student:
+        upload(student, "far.json", json.dumps(FAR).encode())
+        assert wait_until(
+            lambda: planner.controller.frame.scene.obstacles[0].bounds[0] == 1e20, 30
+        )
+        assert planner.wait_idle(60)
+        with seat(planner) as newcomer:  # its panel and scene arrive
+            assert has_label(newcomer, "Radius [m]")
+            assert not (lecturer.closed or student.closed or newcomer.closed)

@@ -140,6 +140,10 @@ def _document(yaml_text: bytes | str, source: str) -> Mapping[Any, Any]:
         ) from None
     except RecursionError:
         raise ScenarioError(source, "(file)", "nested too deeply to be a map") from None
+    except ValueError:  # Python reads integers of at most 4,300 digits
+        raise ScenarioError(
+            source, "(file)", "a number too long to read (more than 4,300 digits)"
+        ) from None
     if not isinstance(data, Mapping):
         raise ScenarioError(
             source, "(top level)", f"expected a YAML mapping, got {_describe(data)}"

@@ -181,9 +181,17 @@ def _number(source: str, field: str, value: Any) -> float:
     # bool is an int in Python; a scenario that says `true` for a coordinate is wrong.
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ScenarioError(source, field, f"expected a number, got {_describe(value)}")
-    number = float(value)
+    try:
+        number = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        number = math.inf
     if not math.isfinite(number):
-        raise ScenarioError(source, field, f"expected a finite number, got {value!r}")
+        shown = (
+            repr(value)
+            if isinstance(value, float)
+            else f"an integer of {len(str(abs(value)))} digits"
+        )
+        raise ScenarioError(source, field, f"expected a finite number, got {shown}")
     return number
 
 
@@ -541,6 +549,12 @@ def scene_from_text(text: str | bytes, source: str = "<scenario>") -> Scene:
     except json.JSONDecodeError as error:
         raise ScenarioError(
             source, f"(line {error.lineno})", f"not valid JSON: {error.msg}"
+        ) from None
+    except ScenarioError:
+        raise
+    except ValueError:  # Python reads integers of at most 4,300 digits
+        raise ScenarioError(
+            source, "(file)", "a number too long to read (more than 4,300 digits)"
         ) from None
     except RecursionError:
         # No scenario field nests more than three lists deep; Python's parser (and any

@@ -215,6 +215,7 @@ YAML_ERRORS = [
     ("- 1\n- 2\n", "(top level)", r"expected a YAML mapping, got list"),
     ("", "(top level)", r"expected a YAML mapping, got NoneType"),
     ("[" * 5000 + "]" * 5000, "(file)", "nested too deeply"),
+    ("resolution: " + "9" * 5000 + "\n", "(file)", "a number too long to read"),
     (b"\xff\xfe\x00\x00\xd8", "(file)", "not valid YAML"),
     ("x" * 70_000, "(file)", "more than the 65536"),
     (_replace("image", None), "image", "missing required key"),

@@ -344,3 +344,24 @@ def test_a_scene_pickles_without_its_kept_problems_while_another_thread_asks():
     back = pickle.loads(out.getvalue())
     assert back == scene and "_problems" not in back.__dict__
     assert "_problems" in scene.__dict__  # asked midway: kept on the original only
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        (
+            '{"format": 1, "obstacles": [], "start": [%s, 0], "goal": [1, 1]}'
+            % ("9" * 5000),
+            "big.json: (file): a number too long to read (more than 4,300 digits)",
+        ),
+        (
+            '{"format": 1, "obstacles": [], "start": [%s, 0], "goal": [1, 1]}'
+            % ("9" * 400),
+            "big.json: start[0]: expected a finite number, got an integer of 400 digits",
+        ),
+    ],
+)
+def test_integers_too_big_for_a_float_are_one_line(text, expected):
+    with pytest.raises(ScenarioError) as error:
+        scene_from_text(text, "big.json")
+    assert str(error.value) == expected

@@ -23,6 +23,7 @@ from planners.maps import (
     FREE,
     OCCUPIED,
     UNKNOWN,
+    decode_picture,
     map_metadata,
     read_map,
     read_map_bytes,
@@ -379,3 +380,18 @@ def test_bilevel_and_palette_pictures_read_as_their_colours():
     image.save(buffer, "PNG")
     png = read_map_bytes(synthetic.map_yaml("m.png"), {"m.png": buffer.getvalue()}, "m")
     assert png.cells.tolist() == [[OCCUPIED, FREE, UNKNOWN]]
+
+
+@pytest.mark.parametrize(
+    "picture",
+    [
+        b"P2\n3 1\n255\n" + b"#\n" * 500_000 + b"0 35 254\n",  # Pillow: quadratic
+        b"P2\n" + b"#\n" * 500_000 + b"3 1\n255\n0 35 254\n",  # in the header
+        b"P5\n" + b"#\n" * 500_000 + b"3 1\n255\n" + bytes([0, 35, 254]),
+        b"P5 3 1 255\n" + bytes([0, 35, 254]),  # '#' (35) as a pixel stays a pixel
+    ],
+    ids=["plain-data", "plain-header", "binary-header", "binary-hash-pixel"],
+)
+def test_comments_are_read_past_and_pixels_kept(picture):
+    decoded = decode_picture(picture, "m.yaml", "m.pgm")
+    assert decoded.pixels[..., 0].tolist() == [[0, 35, 254]]

@@ -8,7 +8,14 @@ motion.
 
 from __future__ import annotations
 
-__all__ = ["LONG_PATH_M", "robot_params", "sample_period", "trajectory"]
+__all__ = [
+    "LONG_PATH_M",
+    "MAX_SAMPLES",
+    "least_duration",
+    "robot_params",
+    "sample_period",
+    "trajectory",
+]
 
 import math
 
@@ -23,6 +30,12 @@ from planners.scene import Robot, Scene
 LONG_PATH_M = 500.0
 """Paths longer than this [m] are sampled more sparsely, so that a scene with its goal
 kilometres away (a hostile upload) cannot fill a server's memory with samples."""
+
+
+MAX_SAMPLES = 20_000
+"""Most samples a trajectory is planned with (1,000 s at 0.05 s): a robot with wheel
+limits near zero (a hostile scene's) crawls for days, and its samples would fill the
+memory; its period is stretched instead (:func:`least_duration`)."""
 
 
 def robot_params(robot: Robot) -> RobotParams:
@@ -47,6 +60,33 @@ def sample_period(path: npt.NDArray[np.float64], dt: float = 0.05) -> float:
     """
     length = float(np.sum(np.hypot(*np.diff(path, axis=0).T))) if len(path) > 1 else 0.0
     return dt * max(1.0, length / LONG_PATH_M)
+
+
+def least_duration(path: npt.NDArray[np.float64], limits: kinematics.Limits) -> float:
+    """Return a lower bound [s] of the time the centre needs for ``path`` within ``limits``.
+
+    Driving the length at most at the top speed, or speeding up and slowing down once,
+    and likewise turning through every corner of the path (a differential robot turns
+    at each; a holonomic one may not, which only makes the bound lower).
+
+    Examples
+    --------
+    >>> limits = kinematics.Limits(max_speed=0.5, max_acceleration=1e6)
+    >>> round(least_duration(np.array([[0.0, 0.0], [10.0, 0.0]]), limits), 6)
+    20.0
+    """
+    steps = np.diff(path, axis=0) if len(path) > 1 else np.zeros((0, 2))
+    length = float(np.sum(np.hypot(*steps.T)))
+    headings = np.arctan2(steps[:, 1], steps[:, 0])
+    turns = np.angle(np.exp(1j * np.diff(headings))) if len(headings) > 1 else []
+    turning = float(np.sum(np.abs(turns)))
+
+    def least(amount: float, top: float, acceleration: float) -> float:
+        return max(amount / top, 2.0 * math.sqrt(amount / acceleration))
+
+    return least(length, limits.max_speed, limits.max_acceleration) + least(
+        turning, limits.max_turn_rate, limits.max_angular_acceleration
+    )
 
 
 def trajectory(
@@ -85,7 +125,9 @@ def trajectory(
     # With wheel limits, long turns in place are costly: the differential robot may
     # reverse instead (stop mode).
     points = np.asarray(path, dtype=np.float64)
+    least = least_duration(points, limits or kinematics.Limits())
     options = kinematics.TrajectoryOptions(
-        reverse=limits is not None, dt=sample_period(points, dt)
+        reverse=limits is not None,
+        dt=max(sample_period(points, dt), least / MAX_SAMPLES),
     )
     return kinematics.plan_trajectory(points, params, limits=limits, options=options)

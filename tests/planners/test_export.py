@@ -160,3 +160,42 @@ def test_the_command_refuses_an_unknown_suffix(tmp_path, capsys):
         capsys.readouterr().err
         == f"error: {tmp_path / 'x.txt'}: (file): write .csv or .json\n"
     )
+
+
+@pytest.mark.parametrize(
+    "robot",
+    [
+        {"kind": "differential", "max_wheel_rate": 1e-4},
+        {"kind": "holonomic", "max_wheel_acceleration": 1e-9},
+        {
+            "kind": "differential",
+            "max_wheel_rate": 1e-6,
+            "max_wheel_acceleration": 1e-6,
+        },
+    ],
+)
+def test_a_crawling_robot_gets_a_bounded_number_of_samples(robot):
+    # Wheel limits near zero make a motion of days: its period is stretched, so the
+    # samples stay within drive.MAX_SAMPLES (and a hostile scene cannot fill memory).
+    scene = planners.load_scene(
+        {
+            "format": 1,
+            "obstacles": [[[2, 2], [4, 2], [3, 4]]],
+            "start": [0, 0],
+            "goal": [6, 5],
+            "robot": robot,
+        }
+    )
+    path = planners.plan_all(scene, ["vg"])["vg"].path
+    traj = drive.trajectory(scene, path)
+    assert len(traj.t) <= drive.MAX_SAMPLES * 1.01
+    assert (
+        traj.duration > 1e5
+    )  # still the motion the limits allow, only sampled sparsely
+    assert np.allclose(traj.pose[-1, :2], scene.goal, atol=1e-6)
+
+
+def test_least_duration_is_a_lower_bound(planned):
+    _, path, traj = planned
+    limits = traj.limits
+    assert drive.least_duration(np.asarray(path), limits) <= traj.duration

@@ -43,7 +43,13 @@ from pathlib import Path
 import planners
 from planners import maps
 from planners.maps import OccupancyMap
-from planners.scene import ScenarioError, Scene, scene_from_text, scene_to_dict
+from planners.scene import (
+    ScenarioError,
+    Scene,
+    is_map_name,
+    scene_from_text,
+    scene_to_dict,
+)
 
 MAX_UPLOAD_BYTES = 1_000_000
 """Largest scenario file a browser may upload (a lecture scene is a few kilobytes)."""
@@ -206,12 +212,18 @@ def map_scene(occupancy_map: OccupancyMap, like: Scene, name: str) -> Scene:
     The free space around the start and goal :func:`planners.maps.default_endpoints`
     chooses, traced as :func:`planners.maps.scene_from_map` does, with the robot and
     settings of ``like`` (the scene shown before). ``name``: the map's YAML file name,
-    the scene's ``map``.
+    the scene's ``map`` when it is a plain one (:func:`planners.scene.is_map_name`; a
+    zip's need not be: then the scene names no map, and its picture is shown all the
+    same).
     """
     radius = like.robot.radius
     start, goal = maps.default_endpoints(occupancy_map, radius)
     data = maps.scene_from_map(
-        occupancy_map, start, goal, robot_radius=radius, map_file=name
+        occupancy_map,
+        start,
+        goal,
+        robot_radius=radius,
+        map_file=name if is_map_name(name) else "",
     )
     kept = scene_to_dict(like)
     for key in ("robot", "expansion", "sensor_range"):

@@ -320,6 +320,20 @@ def test_a_bad_zip_is_one_line_and_the_scene_is_kept(
     assert expected in frame.message and "\n" not in frame.message, frame.message
 
 
+@pytest.mark.parametrize("name", ["lab (2).yaml", "étage.yaml", "x" * 80 + ".yaml"])
+def test_a_zip_whose_map_has_no_plain_name_opens_naming_no_map(
+    make_controller, scene, name
+):
+    files = zipfile.ZipFile(io.BytesIO(_lab_zip()))
+    renamed = {name: files.read("lab.yaml"), "lab.pgm": files.read("lab.pgm")}
+    controller, _ = make_controller(scene)
+    controller.files.load_text(_zip(renamed), "x.zip")
+    assert controller.wait_idle(30)
+    frame = controller.frame
+    assert frame.message == "Loaded x.zip."
+    assert frame.floor_map is not None and frame.scene.map == ""
+
+
 def test_read_zip_ignores_folders_and_mac_copies():
     files = read_zip(
         _zip(

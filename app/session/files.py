@@ -20,6 +20,7 @@ __all__ = [
     "MAP_SUFFIXES",
     "MAX_UNZIPPED_BYTES",
     "MAX_UPLOAD_BYTES",
+    "MAX_UPLOAD_MAP_ISLANDS",
     "MAX_UPLOAD_MAP_VERTICES",
     "MAX_UPLOAD_PIXELS",
     "MAX_ZIP_ENTRIES",
@@ -65,6 +66,10 @@ MAX_UPLOAD_MAP_VERTICES = 20_000
 """Most vertices an uploaded map may trace to (a 50 m warehouse at 3 cm traces to about
 7,000): a small zip of a speckled picture would otherwise hand the class's workers tens
 of thousands of obstacles to plan around. Bigger maps open from the scenes folder."""
+MAX_UPLOAD_MAP_ISLANDS = 5_000
+"""Most separate groups of blocked cells an uploaded map may have (each may become an
+obstacle; the warehouse of the benchmarks has about 450), counted before anything is
+traced: a few hundred bytes of zip can hold a picture speckled with tens of thousands."""
 MAP_SUFFIXES = (".yaml", ".yml")
 """A file with one of these suffixes is a map_server map's YAML file."""
 
@@ -301,8 +306,9 @@ def zip_scene(
     The zip holds one map (its YAML file and the picture it names) and at most one
     scenario file (``.json``). With a scenario, it is the scene (its ``map`` must name
     the zip's YAML file); without, the map opens as :func:`map_scene` opens it. The
-    picture may have at most :data:`MAX_UPLOAD_PIXELS` pixels, and the scene at most
-    :data:`MAX_UPLOAD_MAP_VERTICES` vertices.
+    picture may have at most :data:`MAX_UPLOAD_PIXELS` pixels and
+    :data:`MAX_UPLOAD_MAP_ISLANDS` islands of blocked cells (counted before the trace),
+    and the scene at most :data:`MAX_UPLOAD_MAP_VERTICES` vertices.
 
     Raises
     ------
@@ -323,6 +329,15 @@ def zip_scene(
     meta = maps.map_metadata(files[name], inner)
     _check_pixels(files.get(meta.image), inner)
     occupancy_map = maps.read_map_bytes(files[name], files, inner)
+    islands = maps.blocked_islands(occupancy_map)
+    if islands > MAX_UPLOAD_MAP_ISLANDS:
+        raise ScenarioError(
+            inner,
+            "image",
+            f"{islands:,} separate groups of blocked cells, more than the "
+            f"{MAX_UPLOAD_MAP_ISLANDS:,} an upload may have; open it from the scenes "
+            "folder (--scenes-dir)",
+        )
     if jsons:
         scene = _zip_scenario(files[jsons[0]], f"{source}/{jsons[0]}", name)
     else:

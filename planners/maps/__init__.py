@@ -38,6 +38,7 @@ __all__ = [
     "MapMetadata",
     "OccupancyMap",
     "Picture",
+    "blocked_islands",
     "cell_centres",
     "cell_states",
     "contains_cells",
@@ -78,7 +79,12 @@ from planners.maps.pixels import (
     occupancy_values,
 )
 from planners.maps.reading import read_map, read_map_bytes
-from planners.maps.trace import FreeSpace, free_cells, trace_free_space
+from planners.maps.trace import (
+    FreeSpace,
+    blocked_islands,
+    free_cells,
+    trace_free_space,
+)
 
 
 def warm_up() -> None:

@@ -90,6 +90,27 @@ def free_cells(occupancy_map: OccupancyMap, unknown: str = "occupied") -> BoolAr
     return free
 
 
+def blocked_islands(occupancy_map: OccupancyMap, unknown: str = "occupied") -> int:
+    """Count the 4-connected groups of blocked cells (at most the obstacles a trace gives).
+
+    Every obstacle of a traced scene holds one at least, so this is a bound on them,
+    found in one pass over the cells without tracing (a caller that must refuse a map
+    with too many obstacles asks this first).
+
+    Examples
+    --------
+    >>> cells = np.zeros((3, 5), np.uint8)
+    >>> cells[1, 1] = cells[1, 3] = 1  # OCCUPIED
+    >>> blocked_islands(OccupancyMap(cells, 1.0, (0.0, 0.0, 0.0)))
+    2
+    """
+    from planners.maps import _loops  # noqa: PLC0415 - numba only when a map is traced
+
+    blocked = ~free_cells(occupancy_map, unknown)
+    _, sizes = _loops.label_components(blocked.astype(np.uint8))
+    return int(np.count_nonzero(sizes))
+
+
 def connected_cells(free: BoolArray, seed: tuple[int, int]) -> BoolArray:
     """Return the free cells 4-connected to ``seed`` (row, col), pinches left as they are."""
     from planners.maps import _loops  # noqa: PLC0415 - numba only when a map is traced

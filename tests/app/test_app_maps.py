@@ -22,6 +22,7 @@ from app import start_app
 from app.server import open_scenario
 from app.session.files import (
     MAX_UNZIPPED_BYTES,
+    MAX_UPLOAD_MAP_ISLANDS,
     MAX_UPLOAD_MAP_VERTICES,
     MAX_UPLOAD_PIXELS,
     MAX_ZIP_ENTRIES,
@@ -221,6 +222,18 @@ def _specks(side: int) -> np.ndarray:
     return grid
 
 
+def _combs(side: int, rows: int) -> np.ndarray:
+    """One island of blocked cells: combs with teeth a cell apart on a common spine."""
+    grid = np.zeros((side, side), np.uint8)
+    grid[:, 0] = maps.OCCUPIED
+    band = side // rows
+    for k in range(rows):
+        top = k * band + 2
+        grid[top, :-2] = maps.OCCUPIED
+        grid[top + 1 : top + band - 3, 2:-2:2] = maps.OCCUPIED
+    return grid
+
+
 def _bomb() -> bytes:
     # 40 MB of one byte packs into about 40 kB, and the header says so honestly.
     return _zip({"lab.yaml": b"image: lab.pgm\n", "lab.pgm": b"\0" * 40_000_000})
@@ -275,7 +288,16 @@ def _lying_bomb() -> bytes:
                     "lab.pgm": encode_pgm(picture_of(_specks(400))),
                 }
             ),
-            f"x.zip/lab.yaml: image: the map traces to 158,408 vertices, more than the {MAX_UPLOAD_MAP_VERTICES:,}",
+            f"x.zip/lab.yaml: image: 39,601 separate groups of blocked cells, more than the {MAX_UPLOAD_MAP_ISLANDS:,}",
+        ),
+        (
+            _zip(
+                {
+                    "lab.yaml": map_yaml("lab.pgm").encode(),
+                    "lab.pgm": encode_pgm(picture_of(_combs(1000, 16))),
+                }
+            ),
+            f"more than the {MAX_UPLOAD_MAP_VERTICES:,} an upload may have",
         ),
         (
             _zip({"lab.yaml": b"image: [1, 2]\n", "lab.pgm": b""}),
@@ -303,6 +325,7 @@ def _lying_bomb() -> bytes:
         "picture-path",
         "pixels",
         "specks",
+        "combs",
         "yaml-field",
         "scenario-other-map",
     ],

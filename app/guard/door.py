@@ -19,6 +19,8 @@ what the planner's page sends in normal use:
   (:func:`message_limit`), so an oversized frame closes its sender before it is read;
 - **a rate per browser** for browsers without priority (a classroom's seats): a token
   bucket per kind of message (camera moves, uploads, the rest); what is over is dropped.
+  A click on a *Download* button (the server builds a file and sends it, up to a few
+  MB) takes a token of a bucket of its own as well.
 
 The door reads a message's type first, then the few messages it checks whole as typed
 records (:class:`msgspec.Struct`): a field of the wrong shape is refused as it is read.
@@ -39,6 +41,7 @@ from __future__ import annotations
 
 __all__ = [
     "ALLOWED",
+    "DOWNLOAD_LABEL",
     "MAX_MESSAGE_BYTES",
     "MAX_TEXT",
     "Bucket",
@@ -92,6 +95,8 @@ MAX_TEXT = 200
 UPLOAD_PART_BYTES = 512 * 1024
 """Size of an upload's parts as viser's page cuts them."""
 
+DOWNLOAD_LABEL = "Download"
+"""Buttons whose label starts so make the server build a file and send it."""
 _BUCKET = {"ViewerCameraMessage": "camera", "FileTransferStartUpload": "upload"}
 """Which of a browser's buckets a message takes from (all others: ``other``)."""
 
@@ -149,6 +154,10 @@ class Rates:
     """Uploads a second (each is read, checked and planned in the server)."""
     upload_burst: float = 3.0
     """Uploads a quiet browser may start at once."""
+    downloads: float = 0.2
+    """Clicks on a *Download* button a second (each builds a file and sends it)."""
+    download_burst: float = 3.0
+    """Downloads a quiet browser may ask for at once."""
 
 
 @dataclasses.dataclass
@@ -310,6 +319,7 @@ class Door:
             for kind, rate in (("camera", rates.camera), ("other", rates.other))
         }
         buckets["upload"] = Bucket(rates.uploads, rates.upload_burst, now)
+        buckets["download"] = Bucket(rates.downloads, rates.download_burst, now)
         with self._lock:
             self._guests[client_id] = _Guest(False, buckets, since=now)
         self.reprioritise(client_id)
@@ -403,7 +413,7 @@ class Door:
                     return "rate"
         try:
             if kind == "GuiUpdateMessage":
-                return self._value_refusal(client_id, _UPDATE.decode(raw))
+                return self._value_refusal(client_id, guest, _UPDATE.decode(raw))
             if kind == "FileTransferStartUpload":
                 return self._start_refusal(client_id, guest, _START.decode(raw))
             if kind == "FileTransferPart":
@@ -412,14 +422,27 @@ class Door:
             return "malformed"
         return None
 
-    def _value_refusal(self, client_id: int, message: _Update) -> str | None:
+    def _value_refusal(
+        self, client_id: int, guest: _Guest, message: _Update
+    ) -> str | None:
         if set(message.updates) != {"value"}:
             return "value"
         handle = self._handle(client_id, message.uuid)
         if handle is None:
             return "widget"
         value = _VALUE.decode(message.updates["value"])
-        return None if offers(handle, value) else "value"
+        if not offers(handle, value):
+            return "value"
+        label = getattr(handle, "label", "")
+        if (
+            isinstance(label, str)
+            and label.startswith(DOWNLOAD_LABEL)
+            and not guest.priority
+        ):
+            with self._lock:
+                if not guest.buckets["download"].take(time.monotonic()):
+                    return "rate"
+        return None
 
     def _start_refusal(
         self, client_id: int, guest: _Guest, message: _Start

@@ -377,7 +377,13 @@ def _check_pixels(picture: bytes | None, source: str) -> None:
 
 
 def _zip_scenario(text: bytes, source: str, map_name: str) -> Scene:
-    """Return the zip's scenario, which must name the zip's map."""
+    """Return the zip's scenario: no bigger than an upload, naming the zip's map."""
+    if len(text) > MAX_UPLOAD_BYTES:
+        raise ScenarioError(
+            source,
+            "(file)",
+            f"{len(text):,} bytes, more than the {MAX_UPLOAD_BYTES:,} a scenario may have",
+        )
     scene = scene_from_text(text, source)
     if scene.map != map_name:
         raise ScenarioError(

@@ -300,6 +300,16 @@ def _lying_bomb() -> bytes:
             f"more than the {MAX_UPLOAD_MAP_VERTICES:,} an upload may have",
         ),
         (
+            _zip(
+                {
+                    "lab.yaml": map_yaml("lab.pgm").encode(),
+                    "lab.pgm": encode_pgm(picture_of(room(20, 20))),
+                    "s.json": b" " * 1_000_001,
+                }
+            ),
+            "x.zip/s.json: (file): 1,000,001 bytes, more than the 1,000,000",
+        ),
+        (
             _zip({"lab.yaml": b"image: [1, 2]\n", "lab.pgm": b""}),
             "x.zip/lab.yaml: image: expected a file name",
         ),
@@ -326,6 +336,7 @@ def _lying_bomb() -> bytes:
         "pixels",
         "specks",
         "combs",
+        "big-scenario",
         "yaml-field",
         "scenario-other-map",
     ],

@@ -139,7 +139,7 @@ def export_json(
         "frame": "world",
         "units": {"length": "m", "angle": "rad", "time": "s", "wheel_rate": "rad/s"},
         "scene": scene.name,
-        "map": getattr(scene, "map", "") or None,
+        "map": scene.map or None,
         "planner": planner,
         "path": points.tolist(),
         "trajectory": table,

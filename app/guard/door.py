@@ -154,9 +154,9 @@ class Rates:
     """Uploads a second (each is read, checked and planned in the server)."""
     upload_burst: float = 3.0
     """Uploads a quiet browser may start at once."""
-    downloads: float = 0.2
+    downloads: float = 0.1
     """Clicks on a *Download* button a second (each builds a file and sends it)."""
-    download_burst: float = 3.0
+    download_burst: float = 2.0
     """Downloads a quiet browser may ask for at once."""
 
 

@@ -22,6 +22,7 @@ __all__ = [
     "MAX_UPLOAD_BYTES",
     "MAX_UPLOAD_MAP_ISLANDS",
     "MAX_UPLOAD_MAP_VERTICES",
+    "MAX_UPLOAD_PICTURE_BYTES",
     "MAX_UPLOAD_PIXELS",
     "MAX_ZIP_ENTRIES",
     "FolderError",
@@ -44,6 +45,7 @@ from pathlib import Path
 import planners
 from planners import maps
 from planners.maps import OccupancyMap
+from planners.maps.pixels import IMAGE_FORMATS, without_comments
 from planners.scene import (
     ScenarioError,
     Scene,
@@ -66,6 +68,8 @@ MAX_UPLOAD_MAP_VERTICES = 20_000
 """Most vertices an uploaded map may trace to (a 50 m warehouse at 3 cm traces to about
 7,000): a small zip of a speckled picture would otherwise hand the class's workers tens
 of thousands of obstacles to plan around. Bigger maps open from the scenes folder."""
+MAX_UPLOAD_PICTURE_BYTES = 17_000_000
+"""Largest map picture file in an upload (a plain-text PGM of 2,000 x 2,000 cells)."""
 MAX_UPLOAD_MAP_ISLANDS = 5_000
 """Most separate groups of blocked cells an uploaded map may have (each may become an
 obstacle; the warehouse of the benchmarks has about 450), counted before anything is
@@ -357,15 +361,28 @@ def zip_scene(
 
 
 def _check_pixels(picture: bytes | None, source: str) -> None:
-    """Refuse a picture of more than :data:`MAX_UPLOAD_PIXELS` before it is decoded."""
+    """Refuse a picture of more than :data:`MAX_UPLOAD_PIXELS` before it is decoded.
+
+    Read as :func:`planners.maps.decode_picture` reads it: a PNM picture's header
+    normalised first, and only the formats a map may have (Pillow walks some formats'
+    headers a chunk or a byte at a time).
+    """
     if picture is None:
         return  # read_map_bytes names the missing picture
+    if len(picture) > MAX_UPLOAD_PICTURE_BYTES:
+        raise ScenarioError(
+            source,
+            "image",
+            f"{len(picture):,} bytes, more than the {MAX_UPLOAD_PICTURE_BYTES:,} an "
+            "uploaded picture may have; open a bigger map from the scenes folder",
+        )
     from PIL import Image  # noqa: PLC0415 - only for maps
 
     try:
-        with Image.open(io.BytesIO(picture)) as image:
+        data = without_comments(picture)
+        with Image.open(io.BytesIO(data), formats=IMAGE_FORMATS) as image:
             width, height = image.size
-    except Exception:
+    except Exception:  # read_map_bytes says what is wrong with it
         return
     if width * height > MAX_UPLOAD_PIXELS:
         raise ScenarioError(

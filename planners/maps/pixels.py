@@ -102,7 +102,10 @@ def decode_picture(data: bytes, source: str, name: str) -> Picture:
         raise ScenarioError(
             source, "image", f"{name}: {len(data)} bytes, more than {MAX_IMAGE_BYTES}"
         )
-    data = without_comments(data)
+    try:
+        data = without_comments(data)
+    except ValueError as error:
+        raise ScenarioError(source, "image", f"{name}: {error}") from None
     try:
         with Image.open(io.BytesIO(data), formats=IMAGE_FORMATS) as image:
             _check_size(source, name, image.size)
@@ -121,6 +124,9 @@ def decode_picture(data: bytes, source: str, name: str) -> Picture:
         ) from None
 
 
+MAX_PNM_HEADER = 4096
+"""Longest stretch [bytes] of blanks and comments before a PNM header's field: Pillow
+reads a header a byte at a time (30 MB of blanks took it 49 s)."""
 _PNM_FIELD = re.compile(rb"(?:\s|#[^\n\r]*)*(\S+)")
 """A header field of a PNM picture, after the blanks and comments before it."""
 
@@ -137,23 +143,31 @@ def without_comments(data: bytes) -> bytes:
     Examples
     --------
     >>> without_comments(b"P2\n# a map\n2 1\n255\n0 # dark\n254\n")
-    b'P2\n\n2 1\n255\n0 \n254\n'
+    b'P2 2 1 255\n\n0 \n254\n'
     >>> without_comments(b"P5\n#c\n2 1 255\n#\xfe")  # the pixel '#' stays
     b'P5 2 1 255\n#\xfe'
+
+    Raises
+    ------
+    ValueError
+        When a header field is not found within :data:`MAX_PNM_HEADER` bytes.
     """
     magic = data[:2]
-    if magic in (b"P1", b"P2", b"P3"):
-        return re.sub(rb"#[^\n\r]*", b"", data)
-    if magic not in (b"P4", b"P5", b"P6"):
+    if magic not in (b"P1", b"P2", b"P3", b"P4", b"P5", b"P6"):
         return data
     fields, at = [], 0
-    for _ in range(3 if magic == b"P4" else 4):  # magic, width, height[, maxval]
-        found = _PNM_FIELD.match(data, at)
+    for _ in range(3 if magic in (b"P1", b"P4") else 4):  # magic, width, height[, max]
+        found = _PNM_FIELD.match(data, at, min(len(data), at + MAX_PNM_HEADER))
         if found is None:
-            return data  # cut short: Pillow says so
+            raise ValueError(
+                f"a PNM header of more than {MAX_PNM_HEADER} bytes, or cut short"
+            )
         fields.append(found.group(1))
         at = found.end()
-    return b" ".join(fields) + b"\n" + data[at + 1 :]
+    header = b" ".join(fields) + b"\n"
+    if magic in (b"P1", b"P2", b"P3"):
+        return header + re.sub(rb"#[^\n\r]*", b"", data[at:])
+    return header + data[at + 1 :]
 
 
 def _one_line(error: BaseException) -> str:

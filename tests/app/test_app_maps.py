@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 import planners
 from app import start_app
@@ -24,6 +25,7 @@ from app.session.files import (
     MAX_UNZIPPED_BYTES,
     MAX_UPLOAD_MAP_ISLANDS,
     MAX_UPLOAD_MAP_VERTICES,
+    MAX_UPLOAD_PICTURE_BYTES,
     MAX_UPLOAD_PIXELS,
     MAX_ZIP_ENTRIES,
     ScenesFolder,
@@ -234,6 +236,12 @@ def _combs(side: int, rows: int) -> np.ndarray:
     return grid
 
 
+def _gif() -> bytes:
+    out = io.BytesIO()
+    Image.new("L", (4, 4), 254).save(out, "GIF")
+    return out.getvalue()
+
+
 def _bomb() -> bytes:
     # 40 MB of one byte packs into about 40 kB, and the header says so honestly.
     return _zip({"lab.yaml": b"image: lab.pgm\n", "lab.pgm": b"\0" * 40_000_000})
@@ -310,6 +318,28 @@ def _lying_bomb() -> bytes:
             "x.zip/s.json: (file): 1,000,001 bytes, more than the 1,000,000",
         ),
         (
+            _zip(
+                {
+                    "lab.yaml": map_yaml("lab.pgm").encode(),
+                    "lab.pgm": b"P2" + b" " * 5_000_000 + b"1 1\n255\n254\n",
+                }
+            ),
+            "x.zip/lab.yaml: image: lab.pgm: a PNM header of more than 4096 bytes",
+        ),
+        (
+            _zip(
+                {
+                    "lab.yaml": map_yaml("lab.pgm").encode(),
+                    "lab.pgm": b"P5 1 1 255\n" + b"\xfe" * 17_000_000,
+                }
+            ),
+            f"x.zip/lab.yaml: image: 17,000,011 bytes, more than the {MAX_UPLOAD_PICTURE_BYTES:,}",
+        ),
+        (
+            _zip({"lab.yaml": map_yaml("lab.gif").encode(), "lab.gif": _gif()}),
+            "x.zip/lab.yaml: image: lab.gif: not a PNG, PGM, PPM, PBM or BMP picture",
+        ),
+        (
             _zip({"lab.yaml": b"image: [1, 2]\n", "lab.pgm": b""}),
             "x.zip/lab.yaml: image: expected a file name",
         ),
@@ -337,6 +367,9 @@ def _lying_bomb() -> bytes:
         "specks",
         "combs",
         "big-scenario",
+        "padded-header",
+        "big-picture",
+        "gif",
         "yaml-field",
         "scenario-other-map",
     ],

@@ -20,6 +20,7 @@ __all__ = [
     "MAP_SUFFIXES",
     "MAX_UNZIPPED_BYTES",
     "MAX_UPLOAD_BYTES",
+    "MAX_UPLOAD_MAP_EDGES",
     "MAX_UPLOAD_MAP_ISLANDS",
     "MAX_UPLOAD_MAP_VERTICES",
     "MAX_UPLOAD_PICTURE_BYTES",
@@ -41,6 +42,8 @@ import re
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
+
+import numpy as np
 
 import planners
 from planners import maps
@@ -70,6 +73,10 @@ MAX_UPLOAD_MAP_VERTICES = 20_000
 of thousands of obstacles to plan around. Bigger maps open from the scenes folder."""
 MAX_UPLOAD_PICTURE_BYTES = 17_000_000
 """Largest map picture file in an upload (a plain-text PGM of 2,000 x 2,000 cells)."""
+MAX_UPLOAD_MAP_EDGES = 60_000
+"""Most cell edges between free and blocked cells an uploaded map may have (the 50 m
+warehouse of the benchmarks has 58,000), counted before anything is traced: a maze of
+one-cell corridors in a 40 kB zip made the trace's shapely work take minutes and GBs."""
 MAX_UPLOAD_MAP_ISLANDS = 5_000
 """Most separate groups of blocked cells an uploaded map may have (each may become an
 obstacle; the warehouse of the benchmarks has about 450), counted before anything is
@@ -333,6 +340,18 @@ def zip_scene(
     meta = maps.map_metadata(files[name], inner)
     _check_pixels(files.get(meta.image), inner)
     occupancy_map = maps.read_map_bytes(files[name], files, inner)
+    free = maps.free_cells(occupancy_map)
+    edges = int(np.count_nonzero(free[:, 1:] != free[:, :-1])) + int(
+        np.count_nonzero(free[1:] != free[:-1])
+    )
+    if edges > MAX_UPLOAD_MAP_EDGES:
+        raise ScenarioError(
+            inner,
+            "image",
+            f"{edges:,} cell edges between free and blocked cells, more than the "
+            f"{MAX_UPLOAD_MAP_EDGES:,} an upload may have; open it from the scenes "
+            "folder (--scenes-dir)",
+        )
     islands = maps.blocked_islands(occupancy_map)
     if islands > MAX_UPLOAD_MAP_ISLANDS:
         raise ScenarioError(

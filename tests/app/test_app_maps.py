@@ -21,10 +21,10 @@ from PIL import Image
 import planners
 from app import start_app
 from app.server import open_scenario
+from app.session import files
 from app.session.files import (
     MAX_UNZIPPED_BYTES,
-    MAX_UPLOAD_MAP_ISLANDS,
-    MAX_UPLOAD_MAP_VERTICES,
+    MAX_UPLOAD_MAP_EDGES,
     MAX_UPLOAD_PICTURE_BYTES,
     MAX_UPLOAD_PIXELS,
     MAX_ZIP_ENTRIES,
@@ -224,18 +224,6 @@ def _specks(side: int) -> np.ndarray:
     return grid
 
 
-def _combs(side: int, rows: int) -> np.ndarray:
-    """One island of blocked cells: combs with teeth a cell apart on a common spine."""
-    grid = np.zeros((side, side), np.uint8)
-    grid[:, 0] = maps.OCCUPIED
-    band = side // rows
-    for k in range(rows):
-        top = k * band + 2
-        grid[top, :-2] = maps.OCCUPIED
-        grid[top + 1 : top + band - 3, 2:-2:2] = maps.OCCUPIED
-    return grid
-
-
 def _gif() -> bytes:
     out = io.BytesIO()
     Image.new("L", (4, 4), 254).save(out, "GIF")
@@ -296,16 +284,7 @@ def _lying_bomb() -> bytes:
                     "lab.pgm": encode_pgm(picture_of(_specks(400))),
                 }
             ),
-            f"x.zip/lab.yaml: image: 39,601 separate groups of blocked cells, more than the {MAX_UPLOAD_MAP_ISLANDS:,}",
-        ),
-        (
-            _zip(
-                {
-                    "lab.yaml": map_yaml("lab.pgm").encode(),
-                    "lab.pgm": encode_pgm(picture_of(_combs(1000, 16))),
-                }
-            ),
-            f"more than the {MAX_UPLOAD_MAP_VERTICES:,} an upload may have",
+            f"x.zip/lab.yaml: image: 158,404 cell edges between free and blocked cells, more than the {MAX_UPLOAD_MAP_EDGES:,}",
         ),
         (
             _zip(
@@ -365,7 +344,6 @@ def _lying_bomb() -> bytes:
         "picture-path",
         "pixels",
         "specks",
-        "combs",
         "big-scenario",
         "padded-header",
         "big-picture",
@@ -399,6 +377,20 @@ def test_a_zip_whose_map_has_no_plain_name_opens_naming_no_map(
     frame = controller.frame
     assert frame.message == "Loaded x.zip."
     assert frame.floor_map is not None and frame.scene.map == ""
+
+
+def test_a_map_tracing_to_too_many_vertices_is_refused(
+    make_controller, scene, monkeypatch
+):
+    # Behind the counts made before the trace (edges, islands): the traced scene's size.
+    monkeypatch.setattr(files, "MAX_UPLOAD_MAP_VERTICES", 10)
+    controller, _ = make_controller(scene)
+    controller.files.load_text(_lab_zip(), "x.zip")
+    assert controller.wait_idle(30)
+    frame = controller.frame
+    assert frame.scene == scene and frame.floor_map is None
+    assert "x.zip/lab.yaml: image: the map traces to " in frame.message
+    assert "vertices, more than the 10 an upload may have" in frame.message
 
 
 def test_read_zip_ignores_folders_and_mac_copies():

@@ -28,7 +28,14 @@ Every problem raises :class:`planners.scene.ScenarioError` naming the file and t
 
 from __future__ import annotations
 
-__all__ = ["MAP_MODES", "MAX_YAML_BYTES", "MapMetadata", "map_metadata"]
+__all__ = [
+    "MAP_MODES",
+    "MAX_ORIGIN",
+    "MAX_YAML_BYTES",
+    "RESOLUTIONS",
+    "MapMetadata",
+    "map_metadata",
+]
 
 import dataclasses
 import math
@@ -65,6 +72,13 @@ class MapMetadata:
     """How pixels are read: ``trinary``, ``scale`` or ``raw`` (:mod:`planners.maps.pixels`)."""
 
 
+RESOLUTIONS = (1e-4, 100.0)
+"""Cell sizes [m] a map may have: a tenth of a millimetre to 100 m (ROS maps use about
+1 to 10 cm); beyond them a map's world overflows what the planners can draw."""
+MAX_ORIGIN = 1e8
+"""Largest distance [m] of a map's origin from the world's (a UTM northing is about 5e6)."""
+
+
 def map_metadata(yaml_text: bytes | str, source: str) -> MapMetadata:
     r"""Parse and check a map_server YAML file's text.
 
@@ -96,6 +110,12 @@ def map_metadata(yaml_text: bytes | str, source: str) -> MapMetadata:
     data = _document(yaml_text, source)
     image = _image_name(source, _get(source, data, "image"))
     resolution = _number(source, "resolution", data, positive=True)
+    if not RESOLUTIONS[0] <= resolution <= RESOLUTIONS[1]:
+        raise ScenarioError(
+            source,
+            "resolution",
+            f"expected {RESOLUTIONS[0]:g} to {RESOLUTIONS[1]:g} m a cell, got {resolution!r}",
+        )
     origin = _origin(source, data)
     negate = _negate(source, data)
     occupied = _threshold(source, "occupied_thresh", data)
@@ -229,7 +249,14 @@ def _origin(source: str, data: Mapping[Any, Any]) -> tuple[float, float, float]:
             source, "origin", f"expected [x, y, yaw], got {_describe(value)}"
         )
     x, y, yaw = (_finite(source, f"origin[{k}]", v) for k, v in enumerate(value))
-    return (x, y, yaw)
+    for k, v in enumerate((x, y)):
+        if abs(v) > MAX_ORIGIN:
+            raise ScenarioError(
+                source,
+                f"origin[{k}]",
+                f"expected at most {MAX_ORIGIN:g} m from the world's origin, got {v!r}",
+            )
+    return (x, y, math.remainder(yaw, math.tau))
 
 
 def _negate(source: str, data: Mapping[Any, Any]) -> bool:

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import multiprocessing
 import resource
 import sys
 import time
@@ -33,10 +32,14 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+HERE = Path(__file__).resolve().parent
+for path in (str(ROOT), str(HERE)):
+    if path not in sys.path:
+        sys.path.insert(0, path)
 
-from planners import plan_all  # noqa: E402 - after the path set-up above
+from clock import in_fresh_process  # noqa: E402 - after the path set-up above
+
+from planners import plan_all  # noqa: E402
 from planners.allocator import keep_freed_memory  # noqa: E402
 from planners.scene import load_scene  # noqa: E402
 
@@ -129,16 +132,7 @@ def _summary(result: Any) -> dict[str, Any]:
 
 def measure(name: str, planners: str, timeout: float) -> dict[str, Any]:
     """Run planners (comma-separated) on one scene in a fresh process; return its report."""
-    ctx = multiprocessing.get_context("spawn")
-    receive, send = ctx.Pipe(duplex=False)
-    child = ctx.Process(target=_child, args=(name, planners, send))
-    child.start()
-    answer = receive.recv() if receive.poll(timeout) else None
-    child.join(5 if answer else 0)
-    if child.is_alive():
-        child.kill()
-        child.join()
-    return answer or {"error": f"no answer within {timeout:g} s (killed)"}
+    return in_fresh_process(_child, (name, planners), timeout)
 
 
 def _lines(name: str, planners: str, r: dict[str, Any]) -> list[str]:

@@ -55,7 +55,7 @@ for path in (str(ROOT), str(HERE)):
     if path not in sys.path:
         sys.path.insert(0, path)
 
-from clock import spread  # noqa: E402
+from clock import in_fresh_process, spread  # noqa: E402
 
 from planners.maps import FREE, OCCUPIED, UNKNOWN  # noqa: E402
 
@@ -242,18 +242,7 @@ def _child(yaml_path: str, planners_csv: str, profile: bool, out: Any) -> None:
 
 def measure(yaml_path: Path, planners_csv: str, profile: bool, timeout: float) -> dict:
     """Import and plan in a fresh process; return its report."""
-    ctx = multiprocessing.get_context("spawn")
-    receive, send = ctx.Pipe(duplex=False)
-    child = ctx.Process(
-        target=_child, args=(str(yaml_path), planners_csv, profile, send)
-    )
-    child.start()
-    answer = receive.recv() if receive.poll(timeout) else None
-    child.join(5 if answer else 0)
-    if child.is_alive():
-        child.kill()
-        child.join()
-    return answer or {"error": f"no answer within {timeout:g} s (killed)"}
+    return in_fresh_process(_child, (str(yaml_path), planners_csv, profile), timeout)
 
 
 def main() -> int:

@@ -7,7 +7,9 @@ not installed. Both scripts find this module next to them (sys.path[0]).
 from __future__ import annotations
 
 import gc
+import multiprocessing
 import time
+from typing import Any
 
 
 class Clock:
@@ -82,3 +84,21 @@ def spread(target_ms: float = 12.0, samples: int = 150) -> tuple[float, float]:
         times.append((time.perf_counter() - start) * 1e3)
     times.sort()
     return times[len(times) // 2], times[min(len(times) - 1, int(0.95 * len(times)))]
+
+
+def in_fresh_process(target: Any, args: tuple, timeout: float) -> dict:
+    """Run ``target(*args, send)`` in a spawned process; return what it sends.
+
+    Cold work: nothing the caller cached answers, and the child's ``ru_maxrss`` is its
+    own. A child that sends nothing within ``timeout`` s is killed and reported so.
+    """
+    ctx = multiprocessing.get_context("spawn")
+    receive, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=target, args=(*args, send))
+    child.start()
+    answer = receive.recv() if receive.poll(timeout) else None
+    child.join(5 if answer else 0)
+    if child.is_alive():
+        child.kill()
+        child.join()
+    return answer or {"error": f"no answer within {timeout:g} s (killed)"}

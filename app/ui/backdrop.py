@@ -41,7 +41,8 @@ class Backdrop:
     """A map's picture and where it lies on the floor."""
 
     rgb: npt.NDArray[np.uint8]
-    """The picture, (H, W, 3), row 0 at the top (the map's far edge, +y of the grid)."""
+    """The picture, (H, W, 3), row 0 at the map's bottom (-y of the grid): viser lays an
+    image's first row along its plane's -y edge, as the cells' row 0."""
     size: tuple[float, float]
     """Its width and height on the floor [m]: the map's, and a block's part beyond the
     map's last row or column when the reduction's blocks do not divide it."""
@@ -67,7 +68,7 @@ def backdrop_of(
     >>> b = backdrop_of(OccupancyMap(cells, 0.5, (1.0, 2.0, 0.0)), max_side=3)
     >>> b.rgb.shape, b.step, b.scale, b.size, b.centre
     ((2, 3, 3), 2, 1, (3.0, 2.0), (2.5, 3.0))
-    >>> b.rgb[-1, 0].tolist(), b.rgb[0, 0].tolist()  # bottom-left: the occupied cell
+    >>> b.rgb[0, 0].tolist(), b.rgb[-1, 0].tolist()  # bottom-left: the occupied cell
     ([0, 0, 0], [254, 254, 254])
     >>> backdrop_of(OccupancyMap(cells, 0.5, (1.0, 2.0, 0.0)), max_side=2).size  # 3 x 3 blocks
     (3.0, 3.0)
@@ -77,7 +78,7 @@ def backdrop_of(
     ranks = _worst_of_blocks(_RANK[cells], step)
     scale = max(1, min_side // max(ranks.shape)) if step == 1 else 1
     big = np.repeat(np.repeat(ranks, scale, axis=0), scale, axis=1)
-    rgb = np.ascontiguousarray(_COLOURS[big[::-1]])  # row 0 of a picture is its top
+    rgb = np.ascontiguousarray(_COLOURS[big])  # row 0 stays the map's bottom row
     rows, cols = ranks.shape[0] * step, ranks.shape[1] * step  # in cells, blocks whole
     centre = grid_to_world(occupancy_map, [[cols / 2, rows / 2]])[0]
     resolution = occupancy_map.resolution

@@ -413,8 +413,8 @@ def test_the_picture_lies_on_the_map_cell_for_cell():
     floor_map = maps.OccupancyMap(cells, 0.5, ORIGIN)
     shown = backdrop_of(floor_map, min_side=1)
     assert shown.step == 1 and shown.rgb.shape == (3, 5, 3) and shown.size == (2.5, 1.5)
-    assert shown.rgb[2, 0].tolist() == [0, 0, 0]  # the picture's bottom row is row 0
-    assert shown.rgb[0, 4].tolist() == [205, 205, 205]
+    assert shown.rgb[0, 0].tolist() == [0, 0, 0]  # row 0 is the map's bottom row
+    assert shown.rgb[2, 4].tolist() == [205, 205, 205]
     assert shown.rgb[1, 2].tolist() == [254, 254, 254]
     # The picture's centre is the map's centre, turned with it.
     centre = maps.grid_to_world(floor_map, [[2.5, 1.5]])[0]

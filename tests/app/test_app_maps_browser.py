@@ -40,6 +40,7 @@ def _room(tmp_path: Path) -> Path:
     grid = np.full((40, 60), maps.UNKNOWN, np.uint8)
     grid[8:32, 8:52] = maps.OCCUPIED  # the walls, one cell thick
     grid[9:31, 9:51] = maps.FREE
+    grid[33:36, 38:44] = maps.OCCUPIED  # beyond the top wall only: not mirrored
     return write_map(tmp_path, "room", grid, resolution=0.1, origin=(1.0, -2.0, 0.2))
 
 
@@ -73,6 +74,12 @@ def test_the_maps_picture_lies_under_the_scene_where_the_map_says(browser, tmp_p
     # map_server's grey (205), give or take the renderer's shading; the floor is white.
     assert (np.abs(grey - 205) <= 24).all(), grey
     assert (white >= 235).all(), white
+    # The block beyond the top wall is black where the map says, and its mirror image
+    # below the room is the unknown grey: the picture is not flipped.
+    block = maps.cell_centres(floor_map, [[34, 41], [5, 41]])
+    at = project(camera, W, H, np.column_stack([block, np.zeros(2)]))
+    dark, mirror = _pixels(shown, at)
+    assert (dark <= 60).all() and (np.abs(mirror - 205) <= 24).all(), (dark, mirror)
     # Inside the room nothing changes: the free cells are as light as the floor, and
     # whatever is drawn there is drawn over the map.
     room = Polygon(

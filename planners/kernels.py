@@ -49,10 +49,13 @@ __all__ = [
     "box_pairs",
     "bucket_edges",
     "compressed_rows",
+    "cover_sectors",
     "facing",
     "kept_pairs",
     "march_cells",
+    "occluded_by_cover",
     "row_pairs",
+    "screened_pairs",
     "segments_meet_box",
     "sweep_intervals",
     "tangent_pairs",
@@ -717,6 +720,87 @@ def tangent_pairs(  # noqa: PLR0917
 
 
 @njit(cache=True, nogil=True)
+def _beyond(c: float, bound: float, dx: float, dy: float, angle_tol: float) -> bool:
+    """Tell if ``c > angle_tol * hypot(dx, dy)``, computing the hypot only near it.
+
+    ``bound`` is a little above ``angle_tol * (|dx| + |dy|)``, which is at least the
+    tolerance: a ``c`` above it, or not above 0, is decided without the hypot (a slow
+    call, and most sines are far from the tolerance).
+    """
+    if c <= 0.0:
+        return False
+    if c > bound:
+        return True
+    return c > angle_tol * math.hypot(dx, dy)
+
+
+@njit(cache=True, nogil=True)
+def screened_pairs(  # noqa: PLR0917 - one loop over the pairs, kept whole
+    rows: IntArray,
+    cols: IntArray,
+    points: FloatArray,
+    wedges: tuple[FloatArray, FloatArray, BoolArray],
+    angle_tol: float,
+    tangent: bool,
+) -> tuple[IntArray, IntArray]:
+    """Return the pairs (r, c), r in ``rows``, c in ``cols``, r < c, that pass the screen.
+
+    Both ascending; pairs in row-major order. A pair is screened out when the segment
+    from r to c leaves either end into its blocked wedge (``wedges`` as for
+    :func:`box_pairs`), or, with ``tangent``, when the line through them enters either
+    end's narrow wedge (section 9.5). The decisions of
+    :func:`planners.visibility._graphs.leaves_blocked` and ``_not_tangent``, without
+    their n^2 temporaries: what a cold visibility graph lists before its sight tests.
+    """
+    nxt, prv, narrow = wedges
+    slack = angle_tol * (1.0 + 1e-6)  # rounding of the sum and the product, and more
+    out_i = np.empty(1024, dtype=np.intp)
+    out_j = np.empty(1024, dtype=np.intp)
+    count = 0
+    for k in range(len(rows)):
+        i = int(rows[k])
+        ax, ay = points[i, 0], points[i, 1]
+        n0, n1, p0, p1, thin = nxt[i, 0], nxt[i, 1], prv[i, 0], prv[i, 1], narrow[i]
+        for c in range(np.searchsorted(cols, i, side="right"), len(cols)):
+            j = int(cols[c])
+            dx, dy = points[j, 0] - ax, points[j, 1] - ay
+            bound = slack * (abs(dx) + abs(dy))
+            a = n0 * dy - n1 * dx  # cross(nxt, d) at i
+            b = dx * p1 - dy * p0  # cross(d, prv) at i
+            fwd_a = _beyond(a, bound, dx, dy, angle_tol)
+            fwd_b = _beyond(b, bound, dx, dy, angle_tol)
+            if tangent or thin:
+                blocked = fwd_a and fwd_b
+            else:
+                blocked = fwd_a or fwd_b
+            if tangent and not blocked:  # the line's extension behind i
+                blocked = _beyond(-a, bound, dx, dy, angle_tol) and _beyond(
+                    -b, bound, dx, dy, angle_tol
+                )
+            if blocked:
+                continue
+            a = nxt[j, 0] * dy - nxt[j, 1] * dx
+            b = dx * prv[j, 1] - dy * prv[j, 0]
+            back_a = _beyond(-a, bound, dx, dy, angle_tol)
+            back_b = _beyond(-b, bound, dx, dy, angle_tol)
+            if tangent or narrow[j]:
+                blocked = back_a and back_b
+            else:
+                blocked = back_a or back_b
+            if tangent and not blocked:  # the line's extension beyond j
+                blocked = _beyond(a, bound, dx, dy, angle_tol) and _beyond(
+                    b, bound, dx, dy, angle_tol
+                )
+            if blocked:
+                continue
+            if count == len(out_i):
+                out_i, out_j = _grow_int(out_i, count), _grow_int(out_j, count)
+            out_i[count], out_j[count] = i, j
+            count += 1
+    return out_i[:count], out_j[:count]
+
+
+@njit(cache=True, nogil=True)
 def row_pairs(
     moved: IntArray,
     stable: BoolArray,
@@ -756,6 +840,131 @@ def row_pairs(
             out_i[count], out_j[count] = i, j
             count += 1
     return out_i[:count], out_j[:count]
+
+
+# --------------------------------------------------------------------------- the disks' cover
+
+
+@njit(cache=True, nogil=True)
+def cover_sectors(
+    centers: FloatArray, radii: FloatArray, sources: FloatArray, sectors: int
+) -> FloatArray:
+    """Per source and sector, the nearest distance to a disk whose cone holds the sector.
+
+    Sector k of a source holds the directions at angles in [k w - pi, (k + 1) w - pi],
+    w = 2 pi / ``sectors``; shape (len(sources), sectors), inf where no disk's cone
+    holds the sector [m]. The arithmetic of
+    :func:`planners.visibility.sightlines.cover_table`'s numpy version, disk by disk.
+    """
+    width = 2.0 * math.pi / sectors
+    table = np.full((len(sources), sectors), np.inf)
+    for s in range(len(sources)):
+        for d in range(len(radii)):
+            cx = centers[d, 0] - sources[s, 0]
+            cy = centers[d, 1] - sources[s, 1]
+            dist = math.hypot(cx, cy)
+            if not dist > radii[d]:
+                continue  # the source is inside the disk
+            half = math.asin(min(radii[d] / max(dist, 1e-300), 1.0))
+            mid = math.atan2(cy, cx) + math.pi  # in [0, 2 pi]
+            # Sectors k with [k w, (k + 1) w] inside the cone (mid - half, mid + half).
+            first = math.ceil((mid - half) / width)
+            last = math.floor((mid + half) / width) - 1
+            for k in range(first, last + 1):
+                sector = k % sectors
+                table[s, sector] = min(table[s, sector], dist)
+    return table
+
+
+ATAN_ERROR = 1e-5
+"""A bound [rad] on the error of :func:`rough_atan2` (it is within 1.7e-6; a test sweeps
+the circle), with room to spare: the sector of a direction farther than this from a
+sector's side is the one the C library's atan2 gives."""
+
+
+@njit(cache=True, nogil=True)
+def rough_atan2(y: float, x: float) -> float:
+    """Return atan2(y, x) within :data:`ATAN_ERROR`, a few times faster than the C library.
+
+    The octant is reduced to an argument z in [0, 1] and atan z taken from a minimax
+    polynomial in z^2 (Hastings' 11th-degree approximation).
+    """
+    ax, ay = abs(x), abs(y)
+    if ax == 0.0 and ay == 0.0:
+        return math.atan2(y, x)  # the signs of zeros decide
+    z = min(ax, ay) / max(ax, ay)
+    z2 = z * z
+    r = z * (
+        0.99997726
+        + z2
+        * (
+            -0.33262347
+            + z2
+            * (0.19354346 + z2 * (-0.11643287 + z2 * (0.05265332 - 0.01172120 * z2)))
+        )
+    )
+    if ay > ax:
+        r = 0.5 * math.pi - r
+    if x < 0.0:
+        r = math.pi - r
+    return math.copysign(r, y)  # the sign of a zero y too, as atan2 reads it
+
+
+@njit(cache=True, nogil=True)
+def _sector(dx: float, dy: float, width: float, sectors: int) -> int:
+    """Return the sector of direction (dx, dy), as :func:`cover_sectors` numbers them.
+
+    Exactly ``(atan2(dy, dx) + pi) // width`` with the C library's atan2; that is only
+    computed for a direction within :data:`ATAN_ERROR` of a sector's side.
+    """
+    q = (rough_atan2(dy, dx) + math.pi) / width
+    k = math.floor(q)
+    margin = 2.0 * ATAN_ERROR / width
+    if q - k < margin or k + 1 - q < margin:
+        k = int((math.atan2(dy, dx) + math.pi) // width)
+    return min(k, sectors - 1)
+
+
+@njit(cache=True, nogil=True)
+def _longer(dx: float, dy: float, squared: float, limit: float) -> bool:
+    """Tell if ``hypot(dx, dy) > limit``, computing the hypot only near the limit.
+
+    ``squared`` is ``dx * dx + dy * dy``; within rounding it is the square of the
+    length, and far from ``limit`` squared it decides alone.
+    """
+    if limit == np.inf:
+        return False
+    if squared > (limit * (1.0 + 1e-9)) ** 2:
+        return True
+    if squared < (limit * (1.0 - 1e-9)) ** 2:
+        return False
+    return math.hypot(dx, dy) > limit
+
+
+@njit(cache=True, nogil=True)
+def occluded_by_cover(
+    table: FloatArray, points: FloatArray, i: IntArray, j: IntArray
+) -> BoolArray:
+    """Tell which segments points[i] -> points[j] are longer than the cover either way.
+
+    ``table`` is :func:`cover_sectors` of every point; from j the direction is reversed
+    (half a turn of sectors on). The decisions of
+    :func:`planners.visibility.sightlines.occluded_pairs`'s numpy version, with the C
+    library's atan2 (which numpy's own can differ from in the last bit).
+    """
+    sectors = table.shape[1]
+    width = 2.0 * math.pi / sectors
+    blocked = np.zeros(len(i), dtype=np.bool_)
+    for k in range(len(i)):
+        a, b = i[k], j[k]
+        dx = points[b, 0] - points[a, 0]
+        dy = points[b, 1] - points[a, 1]
+        sector = _sector(dx, dy, width, sectors)
+        squared = dx * dx + dy * dy
+        blocked[k] = _longer(dx, dy, squared, table[a, sector]) or _longer(
+            dx, dy, squared, table[b, (sector + sectors // 2) % sectors]
+        )
+    return blocked
 
 
 # --------------------------------------------------------------------------- the sensor's sweep
@@ -1170,6 +1379,9 @@ def warm_up() -> None:
     box_pairs(points, nodes, np.zeros(2, dtype=np.uint8), box, wedges, 1e-12)
     kept_pairs(nodes, np.ones(2, dtype=np.bool_), one, one + 1, points, box)
     row_pairs(one, np.zeros(2, dtype=np.bool_), points, wedges, 1e-12)
+    screened_pairs(nodes, nodes, points, wedges, 1e-12, False)
+    table = cover_sectors(points, np.ones(2), points, 64)
+    occluded_by_cover(table, points, nodes, nodes[::-1].copy())
     segments_meet_box(points, points[::-1].copy(), box)
     facing(points, wedges, box, 1e-12)
     tangent_pairs(one, one + 1, wedges[2], points, wedges[:2], 1e-12)

@@ -84,10 +84,9 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.intp]
 
-# Node pairs screened at once (a block of rows against the columns after them): small
-# enough for the screen's temporaries to stay in the processor's cache and under the
-# allocator's threshold for fresh pages (larger ones cost a page fault every 4 KiB).
-_SCREEN_PAIRS = 1 << 14
+# Node pairs screened by one call of the compiled screen (a block of rows against the
+# columns after them): the screen has no temporaries, so this only bounds a block's size.
+_SCREEN_ROWS_PAIRS = 1 << 18
 # Pairs handed on at once, at most (plus one screened block's).
 _BLOCK_PAIRS = 1 << 18
 # Below this many segment x edge pairs, a bounding-box matrix beats the edge grid.
@@ -737,32 +736,26 @@ def _candidate_pairs(
     A pair (nodes[r], nodes[c]), r < c, is left out when the segment leaves either end
     strictly into its blocked wedge; with ``tangent``, also when its extension beyond
     either end does (the line enters the obstacle there: not a tangent, section 9.5).
-    Pairs are screened ``_SCREEN_PAIRS`` at a time and handed on in blocks of about
+    A compiled loop (:func:`planners.kernels.screened_pairs`) screens about
+    ``_SCREEN_ROWS_PAIRS`` pairs at a time; they are handed on in blocks of about
     ``_BLOCK_PAIRS``, so memory does not grow with n^2; pairs come in row-major order of
     ``nodes`` (which must be ascending).
     """
+    from planners.kernels import screened_pairs  # noqa: PLC0415 - numba only where graphs are built
+
+    arrays = (wedges.nxt, wedges.prv, wedges.narrow)
     k = len(nodes)
-    x, y = points[nodes, 0], points[nodes, 1]
-    screen = _not_tangent if tangent else leaves_blocked
     found: list[tuple[IntArray, IntArray]] = []
     count = 0
     r0 = 0
     while r0 < k - 1:
-        r1 = min(k - 1, r0 + max(1, _SCREEN_PAIRS // (k - r0)))
-        rows, cols = np.arange(r0, r1)[:, None], np.arange(r0 + 1, k)[None, :]
-        dx, dy = x[cols] - x[rows], y[cols] - y[rows]
-        out = screen(wedges, nodes[rows], nodes[cols], dx, dy)
-        # Column c is node r0 + 1 + c: at or before row r only in the first r1 - r0.
-        out[:, : r1 - r0] |= cols[:, : r1 - r0] <= rows
-        r, c = np.nonzero(~out)
-        found.append((nodes[r0 + r], nodes[r0 + 1 + c]))
-        count += len(r)
+        r1 = min(k - 1, r0 + max(1, _SCREEN_ROWS_PAIRS // (k - r0)))
+        block = screened_pairs(nodes[r0:r1], nodes, points, arrays, ANGLE_TOL, tangent)
+        found.append(block)
+        count += len(block[0])
         r0 = r1
         if count >= _BLOCK_PAIRS or r0 >= k - 1:
-            yield (
-                np.concatenate([f[0] for f in found]),
-                np.concatenate([f[1] for f in found]),
-            )
+            yield _joined(found)
             found, count = [], 0
 
 
@@ -1015,22 +1008,18 @@ def _rows_against(
 ) -> Iterator[tuple[IntArray, IntArray]]:
     """Yield the pairs (r, c), r in ``rows``, c in ``cols``, r < c, that pass the screen.
 
-    Both ascending; in blocks of about ``_SCREEN_PAIRS`` pairs, as
-    :func:`_candidate_pairs` screens them (:func:`leaves_blocked`).
+    Both ascending; in blocks of about ``_SCREEN_ROWS_PAIRS`` screened pairs, as
+    :func:`_candidate_pairs` screens them (:func:`leaves_blocked`, compiled).
     """
-    x, y = points[cols, 0], points[cols, 1]
+    from planners.kernels import screened_pairs  # noqa: PLC0415 - numba only where graphs are built
+
+    arrays = (wedges.nxt, wedges.prv, wedges.narrow)
     k = 0
     while k < len(rows):
         first = int(np.searchsorted(cols, rows[k], side="right"))
         width = max(len(cols) - first, 1)
-        r1 = min(len(rows), k + max(1, _SCREEN_PAIRS // width))
-        r = rows[k:r1, None]
-        c = cols[None, first:]
-        dx = x[None, first:] - points[r, 0]
-        dy = y[None, first:] - points[r, 1]
-        out = leaves_blocked(wedges, r, c, dx, dy) | (c <= r)
-        a, b = np.nonzero(~out)
-        yield rows[k + a], cols[first + b]
+        r1 = min(len(rows), k + max(1, _SCREEN_ROWS_PAIRS // width))
+        yield screened_pairs(rows[k:r1], cols, points, arrays, ANGLE_TOL, False)
         k = r1
 
 

@@ -451,8 +451,6 @@ def inner_disks(polygons: Sequence[Polygon], margin: float) -> Disks:
 _SECTORS = (64, 512)
 """Fewest and most angular sectors around each start in :func:`occluded`: about as many
 as segments per start (the table costs starts x sectors, finer sectors flag more)."""
-_COVER_PAIRS = 1 << 13
-"""(start, disk) pairs handled at once when the cover table is built."""
 _SEGMENTS_AT_ONCE = 1 << 13
 """Segments looked up in the cover table at once."""
 
@@ -474,8 +472,8 @@ def cover_table(disks: Disks, sources: FloatArray, sectors: int) -> FloatArray:
     Sector k of a source holds the directions at angles in [k w - pi, (k + 1) w - pi],
     w = 2 pi / ``sectors``. A segment from the source in that sector and longer than
     the table's entry passes through a disk (inf where no disk covers the sector);
-    shape (len(sources), sectors) [m]. Built ``_COVER_PAIRS`` (source, disk) pairs at
-    a time, so its temporaries stay small.
+    shape (len(sources), sectors) [m]. A compiled loop over (source, disk) pairs
+    (:func:`planners.kernels.cover_sectors`).
 
     Examples
     --------
@@ -484,13 +482,12 @@ def cover_table(disks: Disks, sources: FloatArray, sectors: int) -> FloatArray:
     >>> t[0, 32].item(), t[0, 0].item()  # straight ahead (angle 0) and behind
     (2.0, inf)
     """
-    table = np.full((len(sources), sectors), np.inf)
-    if not len(disks.radius):
-        return table
-    rows = max(1, _COVER_PAIRS // len(disks.radius))
-    for r0 in range(0, len(sources), rows):
-        table[r0 : r0 + rows] = _nearest_cover(disks, sources[r0 : r0 + rows], sectors)
-    return table
+    from planners.kernels import cover_sectors  # noqa: PLC0415 - numba only where graphs are built
+
+    centers = np.ascontiguousarray(disks.center, dtype=np.float64).reshape(-1, 2)
+    radii = np.ascontiguousarray(disks.radius, dtype=np.float64)
+    sources = np.ascontiguousarray(sources, dtype=np.float64).reshape(-1, 2)
+    return cover_sectors(centers, radii, sources, int(sectors))
 
 
 def _sectors_of(dx: FloatArray, dy: FloatArray, sectors: int) -> IntArray:
@@ -532,7 +529,8 @@ def occluded_pairs(
 
     ``table`` is :func:`cover_table` of every point: the segment is looked up from both
     ends (from j its direction is reversed, half a turn of sectors on). Only a filter,
-    like :func:`occluded`, which looks from the start alone and flags fewer.
+    like :func:`occluded`, which looks from the start alone and flags fewer. A compiled
+    loop (:func:`planners.kernels.occluded_by_cover`).
 
     Examples
     --------
@@ -541,22 +539,12 @@ def occluded_pairs(
     >>> occluded_pairs(cover_table(d, p, 64), p, np.array([0, 0]), np.array([1, 2]))
     array([ True, False])
     """
-    sectors = table.shape[1]
-    flat = table.ravel()
-    x, y = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
-    blocked = np.zeros(len(i), dtype=bool)
-    for s0 in range(0, len(i), _SEGMENTS_AT_ONCE):
-        ii, jj = i[s0 : s0 + _SEGMENTS_AT_ONCE], j[s0 : s0 + _SEGMENTS_AT_ONCE]
-        # take: numpy's indexing of a 2-D array is many times slower (geometry.take_rows)
-        dx = x.take(jj) - x.take(ii)
-        dy = y.take(jj) - y.take(ii)
-        sector = _sectors_of(dx, dy, sectors)
-        length = np.hypot(dx, dy)
-        back = (sector + sectors // 2) % sectors
-        blocked[s0 : s0 + len(ii)] = (length > flat.take(ii * sectors + sector)) | (
-            length > flat.take(jj * sectors + back)
-        )
-    return blocked
+    from planners.kernels import occluded_by_cover  # noqa: PLC0415 - numba only where graphs are built
+
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    i = np.ascontiguousarray(i, dtype=np.intp)
+    j = np.ascontiguousarray(j, dtype=np.intp)
+    return occluded_by_cover(table, points, i, j)
 
 
 def _nearest_cover(disks: Disks, sources: FloatArray, sectors: int) -> FloatArray:

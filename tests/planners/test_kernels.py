@@ -16,11 +16,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from planners import kernels
+from planners.space.expansion import configuration_space
+from planners.visibility import _graphs
 from planners.visibility._graphs import _Wedges
 from planners.visibility.incremental import _crossing_box, _outcodes
-from tests.conftest import SCENARIOS
+from tests.conftest import SCENARIOS, random_scenes
 from tests.planners.astar_reference import search
 from tests.planners.incremental_reference import crossing_box_reference
+from tests.planners.screen_reference import (
+    candidate_pairs_reference,
+    rows_against_reference,
+)
 
 
 @st.composite
@@ -136,6 +142,70 @@ def test_compiled_box_pairs_screen_at_the_tolerance_as_numpy_did(case):
         )
 
 
+def _pairs(blocks) -> tuple[list[int], list[int]]:
+    """All pairs of a run of blocks, in order, as two lists."""
+    blocks = list(blocks)
+    return (
+        [int(v) for b in blocks for v in b[0]],
+        [int(v) for b in blocks for v in b[1]],
+    )
+
+
+@settings(max_examples=200, deadline=None)
+@given(case=wedges_near_the_tolerance(), tangent=st.booleans(), wide=st.data())
+def test_compiled_screen_decides_at_the_tolerance_as_numpy_did(case, tangent, wide):
+    points, wedges = case
+    # Some wedges wider than pi (reflex vertices), some none at all (start and goal).
+    n = len(points)
+    narrow = np.array(wide.draw(st.lists(st.booleans(), min_size=n, max_size=n)))
+    bare = np.array(wide.draw(st.lists(st.booleans(), min_size=n, max_size=n)))
+    nxt, prv = wedges.nxt.copy(), wedges.prv.copy()
+    nxt[bare] = prv[bare] = 0.0
+    wedges = _Wedges(nxt, prv, narrow | tangent)  # the SVG screens narrow wedges only
+    nodes = np.arange(n, dtype=np.intp)
+    got = _pairs(_graphs._candidate_pairs(points, wedges, nodes, tangent=tangent))
+    want = _pairs(candidate_pairs_reference(points, wedges, nodes, tangent=tangent))
+    assert got == want
+
+
+@settings(max_examples=60, deadline=None)
+@given(scene=random_scenes(grid=True), tangent=st.booleans(), picks=st.data())
+def test_compiled_screen_lists_a_scenes_pairs_as_numpy_did(scene, tangent, picks):
+    space = configuration_space(
+        scene.obstacles, scene.robot.radius, scene.expansion, scene.boundary
+    )
+    border, q = _graphs._query(space, scene.start, scene.goal)
+    wedges = _graphs._query_wedges(border, q)
+    n = len(q.points)
+    keep = picks.draw(st.lists(st.booleans(), min_size=n, max_size=n))
+    nodes = np.flatnonzero(keep).astype(np.intp)
+    got = _pairs(_graphs._candidate_pairs(q.points, wedges, nodes, tangent=tangent))
+    want = _pairs(candidate_pairs_reference(q.points, wedges, nodes, tangent=tangent))
+    assert got == want
+    # Rows against columns, as the build ring by ring lists them.
+    cut = picks.draw(st.integers(0, len(nodes)))
+    rows, cols = nodes[:cut], nodes[cut // 2 :]
+    got = _pairs(_graphs._rows_against(q.points, wedges, rows, cols))
+    assert got == _pairs(rows_against_reference(q.points, wedges, rows, cols))
+
+
+def test_compiled_screen_hands_on_blocks_of_bounded_size(monkeypatch):
+    # Many rows, each screened call short: the pairs come in several blocks, in order.
+    monkeypatch.setattr(_graphs, "_SCREEN_ROWS_PAIRS", 7)
+    monkeypatch.setattr(_graphs, "_BLOCK_PAIRS", 10)
+    rng = np.random.default_rng(3)
+    points = rng.uniform(0, 5, (40, 2))
+    none = _Wedges(np.zeros((40, 2)), np.zeros((40, 2)), np.ones(40, bool))
+    nodes = np.arange(40, dtype=np.intp)
+    blocks = list(_graphs._candidate_pairs(points, none, nodes, tangent=False))
+    assert len(blocks) > 10
+    assert all(len(b[0]) < 10 + 40 for b in blocks)
+    i, j = _pairs(blocks)
+    assert list(zip(i, j, strict=True)) == [
+        (a, b) for a in range(40) for b in range(a + 1, 40)
+    ]
+
+
 def test_box_pairs_reads_the_outcodes_it_is_given():
     points = np.array([[0.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
     box = np.array([1.0, 1.0, 3.0, 3.0])
@@ -156,6 +226,7 @@ def test_warm_up_compiles_what_the_planners_call():
         "loops = [getattr(kernels, name) for name in kernels.__all__ if name != 'warm_up']\n"
         "before = [len(loop.signatures) for loop in loops]\n"
         f"scene = load_scene({str(SCENARIOS[0])!r})\n"
+        "plan_all(scene, ('svg',), memo=Memo())\n"  # the SVG's own screen, cold
         "memo = Memo()\n"
         "plans = plan_all(scene, ('vg', 'svg', 'dsb'), memo=memo)\n"
         "assert plans['vg'].status == 'ok' and plans['dsb'].status == 'reached'\n"
@@ -170,7 +241,7 @@ def test_warm_up_compiles_what_the_planners_call():
         "print(len(loops), before == after, min(before))\n"
     )
     count, same, least = _printed_by_a_fresh_python(code)
-    assert int(count) == 11  # every compiled loop of the module
+    assert int(count) == 14  # every compiled loop of the module
     assert same == "True"
     assert least == "1"  # the warm-up compiled each
 
@@ -198,3 +269,48 @@ def _printed_by_a_fresh_python(code):
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     )
     return out.stdout.split()
+
+
+def _directions(rng, count):
+    """Random directions, the axes and diagonals with signed zeros, tiny and huge ones."""
+    t = rng.uniform(-math.pi, math.pi, count)
+    scale = 10.0 ** rng.uniform(-150, 150, count)
+    special = [
+        (x, y)
+        for x in (0.0, -0.0, 1.0, -1.0, 1e-300, -3e200)
+        for y in (0.0, -0.0, 1.0, -1.0, 1e-300, 2e250)
+    ]
+    xs, ys = (scale * np.cos(t)).tolist(), (scale * np.sin(t)).tolist()
+    return [*zip(xs, ys, strict=True), *special]
+
+
+def test_rough_atan2_is_within_its_bound():
+    rng = np.random.default_rng(11)
+    worst = max(
+        abs(kernels.rough_atan2(y, x) - math.atan2(y, x))
+        for x, y in _directions(rng, 200_000)
+        if (x, y) != (0.0, 0.0)
+    )
+    assert worst < kernels.ATAN_ERROR / 5
+
+
+@given(
+    sectors=st.sampled_from([64, 128, 256, 512]),
+    k=st.integers(0, 511),
+    hair=st.integers(-3, 3),
+)
+def test_the_sector_is_the_c_librarys_even_on_its_sides(sectors, k, hair):
+    # A direction a few ulps from a sector's side (and the branch cut at k = 0): the
+    # rough angle cannot tell, so the C library's atan2 decides, as in the reference.
+    width = 2.0 * math.pi / sectors
+    angle = np.nextafter(
+        (k % sectors) * width - math.pi, math.inf if hair > 0 else -math.inf
+    )
+    for _ in range(abs(hair) - 1):
+        angle = np.nextafter(angle, math.inf if hair > 0 else -math.inf)
+    for dx, dy in [
+        (math.cos(angle), math.sin(angle)),
+        *_directions(np.random.default_rng(k), 50),
+    ]:
+        want = min(int((math.atan2(dy, dx) + math.pi) // width), sectors - 1)
+        assert kernels._sector(dx, dy, width, sectors) == want

@@ -29,6 +29,10 @@ from planners.visibility.sightlines import (
     sector_count,
 )
 from tests.conftest import random_scenes, reference_segment_free
+from tests.planners.cover_reference import (
+    cover_table_reference,
+    occluded_pairs_reference,
+)
 from tests.planners.march_reference import edge_grid_reference, march_reference
 
 EPS = 1e-9
@@ -309,27 +313,39 @@ def test_cover_table_matches_a_sector_by_sector_reference(
     want = _slow_cover(disks, source, sectors)
     # Sectors whose side lies within rounding of a cone's side may go either way: the
     # table must never claim more than the reference up to that, and agree elsewhere.
-    width = 2 * math.pi / sectors
     for k in range(sectors):
         # The same distance up to rounding (numpy's hypot against math's), or a sector
         # on a cone's side.
         if not math.isclose(got[k], want[k], rel_tol=1e-12):
-            lo = k * width - math.pi
-            sides = []
-            for (cx, cy), r in zip(
-                disks.center.tolist(), disks.radius.tolist(), strict=True
-            ):
-                dist = math.hypot(cx - source[0], cy - source[1])
-                if dist > r:
-                    mid = math.atan2(cy - source[1], cx - source[0])
-                    half = math.asin(r / dist)
-                    sides += [mid - half, mid + half]
-            gap = min(
-                abs(math.remainder(edge - side, 2 * math.pi))
-                for side in sides
-                for edge in (lo, lo + width)
-            )
-            assert gap < 1e-9, (k, got[k], want[k])
+            assert _side_gap(disks, source, k, sectors) < 1e-9, (k, got[k], want[k])
+
+
+def _side_gap(disks, source, k, sectors) -> float:
+    """Angle [rad] between a side of sector k of ``source`` and the nearest cone side."""
+    width = 2 * math.pi / sectors
+    lo = k * width - math.pi
+    sides = []
+    for (cx, cy), r in zip(disks.center.tolist(), disks.radius.tolist(), strict=True):
+        dist = math.hypot(cx - source[0], cy - source[1])
+        if dist > r:
+            mid = math.atan2(cy - source[1], cx - source[0])
+            half = math.asin(r / dist)
+            sides += [mid - half, mid + half]
+    return min(
+        (
+            abs(math.remainder(edge - side, 2 * math.pi))
+            for side in sides
+            for edge in (lo, lo + width)
+        ),
+        default=math.inf,
+    )
+
+
+def _direction_gap(d, sectors) -> float:
+    """Angle [rad] between direction d and the nearest side of a sector."""
+    width = 2 * math.pi / sectors
+    angle = math.atan2(d[1], d[0]) + math.pi
+    return abs(math.remainder(angle, width))
 
 
 def test_sector_count_grows_with_segments_per_start_within_bounds():
@@ -398,3 +414,61 @@ def test_compiled_grid_of_long_and_zero_length_edges():
     assert set(grid.edges.tolist()) == set(range(len(a)))
     per_edge = np.bincount(grid.edges, minlength=len(a))
     assert per_edge[0] > 10 and per_edge[1] >= 1
+
+
+def _same_cover_but_on_sides(disks, points, sectors):
+    """Hold the compiled cover to numpy's: equal but where an angle is within rounding.
+
+    The compiled loops take atan2 and asin from the C library, numpy its own arctan2,
+    which can differ in the last bit: a sector whose side is within rounding of a cone's
+    side may be covered in one and not the other, and a direction within rounding of a
+    sector's side may be looked up in either sector. Only a filter: the exact test
+    decides what it does not flag.
+    """
+    table = cover_table(disks, points, sectors)
+    want = cover_table_reference(disks, points, sectors)
+    for s, k in np.argwhere(table != want).tolist():
+        assert _side_gap(disks, points[s], k, sectors) < 1e-12, (s, k)
+    i, j = (k.ravel() for k in np.triu_indices(len(points), 1))
+    got = occluded_pairs(table, points, i, j)
+    for m in np.flatnonzero(got != occluded_pairs_reference(want, points, i, j)):
+        a, b = i[m], j[m]
+        d = points[b] - points[a]
+        assert (
+            _direction_gap(d, sectors) < 1e-12
+            or (table[a] != want[a]).any()
+            or (table[b] != want[b]).any()
+        ), (a, b)
+    return got
+
+
+@settings(max_examples=60, deadline=None)
+@given(scene=random_scenes(), picks=st.data())
+def test_compiled_cover_is_numpys_table_and_flags(scene, picks):
+    # Sources on a lattice (some inside disks, some on a disk's axis), on the scene's
+    # vertices, and the disks' own centres; every sector count the planners use.
+    space = configuration_space(
+        scene.obstacles, scene.robot.radius, scene.expansion, scene.boundary
+    )
+    disks = space.derive(_inner_disks)
+    lattice = [(x, y) for x in np.linspace(-1, 11, 7) for y in np.linspace(-1, 11, 7)]
+    points = np.vstack(
+        [lattice, space.derive(build_border).points, disks.center]
+    ).astype(np.float64)
+    sectors = picks.draw(st.sampled_from([64, 128, 256, 512]))
+    _same_cover_but_on_sides(disks, points, sectors)
+
+
+def test_compiled_cover_on_sector_sides_and_axes():
+    # Directions exactly along the axes and the diagonals, where the sector is decided
+    # by a rounding, and a cone whose side is a sector's side (from (3, 3), the disk at
+    # (2, 0): numpy's arctan2 and the C library's differ by an ulp there).
+    disks = Disks(
+        np.array([[2.0, 0.0], [0.0, 3.0], [-1.0, -1.0]]), np.array([1.0, 0.5, 2**0.5])
+    )
+    points = np.array(
+        [[0.0, 0.0], [4.0, 0.0], [0.0, 5.0], [-3.0, -3.0], [3.0, 3.0], [1.0, 0.0]]
+    )
+    for sectors in (64, 128, 512):
+        flags = _same_cover_but_on_sides(disks, points, sectors)
+        assert flags[0]  # (0, 0) -> (4, 0) passes through the disk at (2, 0)

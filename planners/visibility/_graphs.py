@@ -55,7 +55,9 @@ import functools
 import math
 import threading
 from collections import OrderedDict
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any, TypeVar
 
 import networkx as nx
 import numpy as np
@@ -69,6 +71,7 @@ from planners.visibility.sightlines import (
     Disks,
     EdgeGrid,
     Edges,
+    Marched,
     Segments,
     cover_table,
     crossings,
@@ -83,6 +86,7 @@ from planners.visibility.sightlines import (
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.intp]
+T = TypeVar("T")
 
 # Node pairs screened by one call of the compiled screen (a block of rows against the
 # columns after them): the screen has no temporaries, so this only bounds a block's size.
@@ -850,12 +854,15 @@ def _sights(
     pairs (i, j) of ``points``, already screened by the caller, are tested with the
     last block of border pairs (one exact test, not two). Returns the vertex visibility
     and, per extra pair, whether it is free.
+
+    On a big border (``_PIPELINED_VERTICES``) the work runs on two threads: this one
+    screens the pairs and decides the marched segments' pieces, a helper builds the
+    cover table and, block by block, looks the pairs up in it and marches the rest
+    (compiled loops, which let go of the interpreter). The blocks are taken in their
+    order, so the answer is the one a single thread gives.
     """
     n = len(border.points)
     found_i, found_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
-    # The disks' cover around every point, so that each pair is looked up from both of
-    # its ends (after the wedge screen about a quarter of the n - 1 others per vertex).
-    table = cover_table(cspace.derive(_inner_disks), points, sector_count(n / 4))
     rings = cspace.derive(_convex_ring_of)
     apart = bool(np.any(rings.ring >= 0))
     blocks = (
@@ -865,23 +872,131 @@ def _sights(
             border.points, border.wedges, np.arange(n, dtype=np.intp), tangent=False
         )
     )
+    disks = cspace.derive(_inner_disks)
+    # The disks' cover around every point, so that each pair is looked up from both of
+    # its ends (after the wedge screen about a quarter of the n - 1 others per vertex).
+    sectors = sector_count(n / 4)
     extra_free = np.zeros(0, dtype=bool)
-    for last, (bi, bj) in _last_marked(blocks):
-        count = len(bi)
-        i = np.concatenate([bi, extra_i]) if last else bi
-        j = np.concatenate([bj, extra_j]) if last else bj
-        ok = ~occluded_pairs(table, points, i, j)
-        test = np.flatnonzero(ok)
-        ok[test] = _exact_free_pairs(cspace, border, points, i[test], j[test])
-        if last:
-            extra_free = ok[count:]
-        found_i.append(bi[ok[:count]])
-        found_j.append(bj[ok[:count]])
+    with _Helper(n >= _PIPELINED_VERTICES) as helper:
+        if helper.threaded and len(
+            border.edge_a
+        ):  # built here, not on the helper's thread
+            border.grid, border.edges.length  # noqa: B018
+        table = helper.submit(cover_table, disks, points, sectors)
+        pending: list[tuple[bool, int, IntArray, IntArray, Future[_Looked]]] = []
+        for last, (bi, bj) in _last_marked(blocks):
+            i = np.concatenate([bi, extra_i]) if last else bi
+            j = np.concatenate([bj, extra_j]) if last else bj
+            looked = helper.submit(_look_up, table, border, points, i, j, cspace.eps)
+            pending.append((last, len(bi), bi, bj, looked))
+            while len(pending) > (0 if last else 1):  # one block ahead at most
+                was_last, count, pi, pj, job = pending.pop(0)
+                ok = _decided(cspace, border, points, pi, pj, extra_i, extra_j, job)
+                if was_last:
+                    extra_free = ok[count:]
+                found_i.append(pi[ok[:count]])
+                found_j.append(pj[ok[:count]])
     i, j = np.concatenate(found_i), np.concatenate(found_j)
     if apart:  # found ring by ring: back to row-major order
         order = np.argsort(i.astype(np.int64) * n + j)
         i, j = i[order], j[order]
     return Sight(n, i, j), extra_free
+
+
+_PIPELINED_VERTICES = 2000
+"""Border vertices from which :func:`_sights` runs on two threads (below, the helper
+thread would cost more than it saves)."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Looked:
+    """A block's pairs looked up in the cover table, the rest marched (:func:`_look_up`)."""
+
+    ok: BoolArray  # (k,) not flagged by the cover table
+    test: IntArray  # the indices of ok's True entries
+    segs: Segments | None  # those pairs' segments, when marched
+    marched: Marched | None
+
+
+def _look_up(  # noqa: PLR0917 - a job's arguments, passed by position
+    table: Future[FloatArray],
+    border: Border,
+    points: FloatArray,
+    i: IntArray,
+    j: IntArray,
+    eps: float,
+) -> _Looked:
+    """Flag the pairs the cover blocks; march the others through the edge grid.
+
+    What of :func:`_exact_free_pairs` needs no shapely: few segments against few edges
+    are left to the dense test, on the calling thread.
+    """
+    ok = ~occluded_pairs(table.result(), points, i, j)
+    test = np.flatnonzero(ok)
+    if len(test) * len(border.edge_a) <= _DENSE_LIMIT:
+        return _Looked(ok, test, None, None)
+    x, y = points[:, 0], points[:, 1]
+    ax, ay = x[i[test]], y[i[test]]
+    dx, dy = x[j[test]] - ax, y[j[test]] - ay
+    segs = Segments(ax, ay, dx, dy, np.hypot(dx, dy))
+    return _Looked(ok, test, segs, march(border.grid, border.edges, segs, eps))
+
+
+def _decided(  # noqa: PLR0917
+    cspace: ConfigurationSpace,
+    border: Border,
+    points: FloatArray,
+    bi: IntArray,
+    bj: IntArray,
+    extra_i: IntArray,
+    extra_j: IntArray,
+    job: Future[_Looked],
+) -> BoolArray:
+    """Finish a block looked up by :func:`_look_up`: which of its pairs are free.
+
+    The block's pairs, then the extra pairs when ``job`` was the last block's.
+    """
+    looked = job.result()
+    ok, test = looked.ok, looked.test
+    if looked.segs is None or looked.marched is None:
+        i = np.concatenate([bi, extra_i]) if len(ok) > len(bi) else bi
+        j = np.concatenate([bj, extra_j]) if len(ok) > len(bi) else bj
+        ok[test] = exact_free(
+            cspace, border, take_rows(points, i[test]), take_rows(points, j[test])
+        )
+    else:
+        marched = looked.marched
+        ok[test] = _decide_pieces(
+            cspace, looked.segs, ~marched.crossed, marched.touch_seg, marched.touch_t
+        )
+    return ok
+
+
+class _Helper:
+    """One helper thread for a call's duration, or none: then each job runs at once.
+
+    ``submit`` returns a :class:`concurrent.futures.Future` either way, so the caller
+    reads its answers in one way.
+    """
+
+    def __init__(self, threaded: bool) -> None:
+        self.threaded = threaded
+        self._pool = ThreadPoolExecutor(1, "sights") if threaded else None
+
+    def __enter__(self) -> _Helper:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def submit(self, fn: Callable[..., T], *args: Any) -> Future[T]:
+        """Run ``fn(*args)`` on the helper thread, or now."""
+        if self._pool is not None:
+            return self._pool.submit(fn, *args)
+        done: Future[T] = Future()
+        done.set_result(fn(*args))
+        return done
 
 
 def _point_of(q: _Query, node: int) -> tuple[float, float]:

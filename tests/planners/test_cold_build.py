@@ -14,11 +14,11 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from shapely import Polygon
 
-from planners.scene import Scene
+from planners.scene import Scene, load_scene
 from planners.space.expansion import ConfigurationSpace, configuration_space
 from planners.visibility import _graphs as visibility
 from planners.visibility import visibility_graph
-from tests.conftest import random_scenes, reference_segment_free
+from tests.conftest import SCENARIOS, random_scenes, reference_segment_free
 from tests.planners.test_visibility import candidate_search
 
 
@@ -183,3 +183,34 @@ def test_exact_free_pairs_is_the_exact_test_and_the_reference(kind, scene, picks
         for a, b in zip(i, j, strict=True)
     ]
     assert got.tolist() == want
+
+
+@settings(max_examples=40, deadline=None)
+@given(scene=random_scenes(grid=True), picks=st.data())
+def test_cold_build_on_two_threads_is_the_build_on_one(scene, picks):
+    # Every border pipelined (a helper thread looks up and marches each block): the
+    # same pairs, in the same order, and the same start and goal rows.
+    start, goal = _ends(scene, _fresh(scene, scene.start, scene.goal), picks)
+    one = _arrays(_fresh(scene, start, goal), start, goal)
+    before = visibility._PIPELINED_VERTICES
+    visibility._PIPELINED_VERTICES = 0
+    try:
+        two = _arrays(_fresh(scene, start, goal), start, goal)
+    finally:
+        visibility._PIPELINED_VERTICES = before
+    np.testing.assert_array_equal(one.i, two.i)
+    np.testing.assert_array_equal(one.j, two.j)
+    np.testing.assert_array_equal(one.kept, two.kept)
+
+
+def test_cold_build_on_two_threads_with_blocks_to_hand_on(monkeypatch):
+    # Small blocks: several in flight, the last with the start's and goal's rows.
+    scene = load_scene(SCENARIOS[5])
+    space = _fresh(scene, scene.start, scene.goal)
+    one = _arrays(space, scene.start, scene.goal)
+    monkeypatch.setattr(visibility, "_PIPELINED_VERTICES", 0)
+    monkeypatch.setattr(visibility, "_BLOCK_PAIRS", 64)
+    monkeypatch.setattr(visibility, "_SCREEN_ROWS_PAIRS", 64)
+    two = _arrays(_fresh(scene, scene.start, scene.goal), scene.start, scene.goal)
+    np.testing.assert_array_equal(one.i, two.i)
+    np.testing.assert_array_equal(one.j, two.j)

@@ -7,13 +7,17 @@ ARGS      ?=
 # Test workers (pytest-xdist): one per core; JOBS=0 runs the tests in this process.
 JOBS      ?= auto
 
-.PHONY: run test bench chromium snapshots lint clean
+.PHONY: run test durations bench chromium snapshots lint clean
 
 run: $(STAMP)          ## set up and start the interactive planner
 	$(PY) -m app $(ARGS)
 
 test: $(STAMP) chromium  ## set up (venv + Chromium) and run the whole test suite
-	$(PY) -m pytest -q -n $(JOBS) --dist loadfile $(ARGS)
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile --no-loadscope-reorder $(ARGS)
+
+durations: $(STAMP) chromium  ## run the suite and record each module's seconds (slowest run first)
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile --no-loadscope-reorder --junitxml=.durations.xml $(ARGS)
+	$(PY) tools/durations.py .durations.xml
 
 snapshots: $(STAMP) chromium  ## re-render the golden PNGs after an intended visual change
 	UPDATE_SNAPSHOTS=1 $(PY) -m pytest -q tests/test_snapshots.py

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import json
 import math
 import os
 import subprocess
@@ -23,6 +24,19 @@ from planners.visibility import segments_free
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "static_scenarios").glob("*.json"))
+DURATIONS = Path(__file__).with_name("durations.json")
+"""Seconds each slow test module took (``make durations`` writes it)."""
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Run the slowest test modules first, so that the parallel workers finish together.
+
+    ``make test`` hands whole modules to its workers in this order
+    (``--dist loadfile --no-loadscope-reorder``): longest first, each to the worker that
+    is free, leaves no long module alone at the end. Within a module the order stays.
+    """
+    seconds = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
+    items.sort(key=lambda item: -float(seconds.get(item.nodeid.split("::")[0], 0.0)))
 
 
 def run_module(

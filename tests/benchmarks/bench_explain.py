@@ -1,4 +1,4 @@
-"""How long Explain mode takes to explain each method (issues 13 and 15).
+"""How long Explain mode takes to explain each method.
 
 Run: ``python tests/benchmarks/bench_explain.py [--runs 5] [--scenario NAME ...] [--range R]
 [--student 8,16,24,32] [--big] [--peak]``

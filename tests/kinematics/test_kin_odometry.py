@@ -1,4 +1,4 @@
-"""Odometry: integrating the commanded wheel rates reproduces the trajectory (issue item 4)."""
+"""Odometry: integrating the commanded wheel rates reproduces the trajectory."""
 
 from __future__ import annotations
 

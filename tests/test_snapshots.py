@@ -30,7 +30,7 @@ import pytest
 from PIL import Image, ImageDraw, ImageFont
 
 from app import start_app
-from app.media.labels import Box
+from app.ui.labels import Box
 from app.media.pictures import Studio, open_studio
 from app.media.slides import Slide
 from planners.scene import Scene, load_scene, move_obstacle, save_scene

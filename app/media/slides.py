@@ -10,7 +10,7 @@ the size:
 - a camera that leaves room for a title strip at the top and, when the picture is wider
   than the scene, a legend column on the right (:func:`slide_camera`);
 - the labels (obstacle numbers, start and goal, the trace planners' events H, D, L, M of
-  Fig. 9.19), in pixels, placed by :func:`app.media.labels.place_labels` so that none overlaps
+  Fig. 9.19), in pixels, placed by :func:`app.ui.labels.place_labels` so that none overlaps
   another, a marker, the title or the legend.
 
 What it returns (:class:`Slide`) is drawn over the 3-D canvas by :data:`DRAW_OVERLAY_JS`,
@@ -47,7 +47,7 @@ from shapely import Polygon
 
 import planners
 from app.media.camera import TOP_FOV, CameraPose, frame_camera, picture_bounds
-from app.media.labels import Box, LabelRequest, Placement, label_size, place_labels
+from app.ui.labels import Box, LabelRequest, Placement, label_size, place_labels
 from app.media.slide_options import SlideOptions
 from app.ui.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
 from app.ui.view import (

@@ -21,7 +21,7 @@ MODULES = [
     "app.ui.style",
     "app.ui.view",
     "app.media.camera",
-    "app.media.labels",
+    "app.ui.labels",
     "app.media.slides",
     "app.media.video",
     "app.media.record",

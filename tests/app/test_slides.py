@@ -23,7 +23,7 @@ import planners
 from app import live, start_app
 from app.media.camera import frame_camera, picture_bounds
 from app.media.jobs import batch, run_with_browser
-from app.media.labels import Box
+from app.ui.labels import Box
 from app.media.pictures import open_studio
 from app.media.slides import (
     MOVING_ROUTE,

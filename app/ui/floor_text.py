@@ -257,7 +257,8 @@ class Keepouts:
 
 def point_box(at: Sequence[float], radius: float) -> FloorBox:
     """Return the box of a disk of ``radius`` around ``at`` [m]."""
-    return (at[0] - radius, at[1] - radius, at[0] + radius, at[1] + radius)
+    x, y = float(at[0]), float(at[1])
+    return (x - radius, y - radius, x + radius, y + radius)
 
 
 def scene_keepouts(

@@ -767,7 +767,7 @@ class _TraceLayer:
         # (PlannerView._render_event_labels): no label hides another's.
         self.labels = Labels(scene, f"/{name}/labels", 1.0, "center-center")
         self.leaders = Segments(
-            scene, f"/{name}/leaders", COLORS["marker_edge"], WIDTHS["outline"] * 0.6
+            scene, f"/{name}/leaders", COLORS["marker_edge"], WIDTHS["outline"]
         )
 
     def shown(self, frame: Frame) -> Any:

@@ -19,6 +19,8 @@ from shapely import Polygon
 import planners
 from app.session import robot
 from app.session.controller import LAYERS, Controller, Frame, Pending, RobotPose
+from app.ui.floor_text import floor_font
+from app.ui.labels import label_size
 from app.ui.panels import (
     floor_point,
     legend_html,
@@ -26,8 +28,6 @@ from app.ui.panels import (
     status_markdown,
     wheel_rate_plot_data,
 )
-from app.ui.floor_text import floor_font
-from app.ui.labels import label_size
 from app.ui.scoped import ScopedTarget
 from app.ui.style import planner_look
 from app.ui.view import (

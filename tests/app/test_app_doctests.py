@@ -27,6 +27,10 @@ MODULES = [
     "app.media.record",
     "app.media.record_live",
     "app.media.explain_pictures",
+    "app.media.explain_slides",
+    "app.media.export_html",
+    "app.ui.floor_text",
+    "app.explain.view",
 ]
 
 

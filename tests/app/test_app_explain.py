@@ -539,6 +539,24 @@ def test_cli_explain_writes_the_picture(tmp_path):
     assert done.stderr == "" and Path(out).is_file()
 
 
+def test_cli_explain_video_arguments_are_checked_before_anything_starts(tmp_path):
+    from tests.conftest import run_module
+
+    video = str(tmp_path / "steps.mp4")
+    one = run_module(
+        "app", "--scenario", "08", "--record", video, "--explain", "svg", "--step", "3"
+    )
+    assert one.returncode == 2 and "records every step" in one.stderr
+    odd = run_module(
+        "app", "--scenario", "08", "--record", video, "--explain", "svg",
+        "--width", "321",
+    )  # fmt: skip
+    assert odd.returncode == 2 and "even width" in odd.stderr
+    short = explain_record(SCENARIO, video, method="svg", fps=10, seconds=0.01)
+    assert short == 2
+    assert not Path(video).exists()
+
+
 class LongExplanation:
     """Its first SVG explanation runs until it is abandoned (as a big scene's would run
     for seconds); later ones are the real thing. Started on scenario 05 at version 1."""

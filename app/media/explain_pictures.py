@@ -284,7 +284,7 @@ def shoot_steps(
     )
     from app.media.pictures import settle  # noqa: PLC0415
 
-    shared = step_set(explanation, numbers)
+    shared = step_set(explanation, numbers, asked.options)
     planner_app = studio.app
     controller = planner_app.controller
     whole = picture_bounds(controller.scene)

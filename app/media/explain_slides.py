@@ -33,6 +33,7 @@ __all__ = [
     "TextBlock",
     "explain_layout",
     "role_legend",
+    "step_caption",
     "step_set",
     "step_title",
 ]
@@ -103,8 +104,14 @@ class StepSet:
     """Whether the flowchart of Fig. 9.15 is drawn (DSB)."""
 
 
-def step_set(explanation: Explanation, numbers: Iterable[int]) -> StepSet:
+def step_set(
+    explanation: Explanation,
+    numbers: Iterable[int],
+    options: SlideOptions = SlideOptions(),  # noqa: B008 - frozen
+) -> StepSet:
     """Return what the pictures of steps ``numbers`` (0-based) of ``explanation`` share.
+
+    ``options``: the pictures' (their captions depend on the title).
 
     Examples
     --------
@@ -120,7 +127,7 @@ def step_set(explanation: Explanation, numbers: Iterable[int]) -> StepSet:
     rows = [row for step in steps for row in step.detail]
     return StepSet(
         roles=tuple(role for role in ROLES if role in used),
-        captions=tuple(caption(explanation, n, SlideOptions()) for n in numbers),
+        captions=tuple(step_caption(explanation, n, options) for n in numbers),
         table=(
             max((len(step.detail) for step in steps), default=0),
             max((len(k) for k, _ in rows), default=0),
@@ -148,8 +155,16 @@ def step_title(explanation: Explanation, n: int, options: SlideOptions) -> str:
     return f"{name}, step {n + 1} of {len(explanation.steps)}"
 
 
-def caption(explanation: Explanation, n: int, options: SlideOptions) -> str:
-    """Return step ``n``'s caption: its sentence, after the step number when untitled."""
+def step_caption(explanation: Explanation, n: int, options: SlideOptions) -> str:
+    """Return step ``n``'s caption: its sentence, after the step number when untitled.
+
+    Examples
+    --------
+    >>> from planners.explain import Explanation, Step
+    >>> ex = Explanation("svg", "t", (Step("k", "a"), Step("k", "Step 1.")))
+    >>> step_caption(ex, 1, SlideOptions()), step_caption(ex, 1, SlideOptions(title=""))
+    ('Step 1.', '2/2 Step 1.')
+    """
     text = explanation.step(n).text
     if options.title == "":
         return f"{n + 1}/{len(explanation.steps)} {text}"
@@ -300,13 +315,13 @@ def explain_layout(
     -------
     ExplainSlide
     """
-    steps = steps or step_set(explanation, [n])
+    steps = steps or step_set(explanation, [n], options)
     step = explanation.step(n)
     font = font_px(height)
     margin = round(font / 2)
     title = step_title(explanation, n, options)
     title_box, _, top = title_strip(title, options, font, width, margin)
-    text = caption(explanation, n, options)
+    text = step_caption(explanation, n, options)
     caption_block = _caption(
         text, others=steps.captions, font=font, size=(width, height), margin=margin
     )

@@ -11,6 +11,7 @@ Examples::
     python -m app --scenario 06 --export-html run.html                # no Python needed
     python -m app --scenario 05 --snapshot step3.png --explain svg --step 3
     python -m app --scenario 06 --snapshot dsb/ --explain dsb --step all --sensor-range 0.6
+    python -m app --scenario 05 --record svg.mp4 --explain svg --step-seconds 5
 """
 
 from __future__ import annotations
@@ -21,6 +22,10 @@ import argparse
 import dataclasses
 import sys
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from app.media.slide_options import SlideOptions
 
 # The app (viser, the planners) is imported in main() once the command line is read:
 # --snapshot launches the browser first and imports the app while it starts.
@@ -117,7 +122,8 @@ def _media_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="record the robot following the path, at the trajectory's real time; a "
         "scenario with moving obstacles (09, 10) is recorded live: the DSB robot sensing "
-        "as it drives while they move (no --follow)",
+        "as it drives while they move (no --follow); with --explain, every step of the "
+        "method, --step-seconds each",
     )
     group.add_argument(
         "--fps",
@@ -175,6 +181,8 @@ def _media(args: argparse.Namespace) -> int | None:
             options=options,
         )
     scenario = args.scenario or DEFAULT_SCENARIO
+    if args.record is not None and args.explain is not None:
+        return _explain_video(args, scenario, options)
     if args.record is not None:
         from app.media import record  # noqa: PLC0415
 
@@ -201,19 +209,50 @@ def _media(args: argparse.Namespace) -> int | None:
     return None
 
 
+def _explain_video(
+    args: argparse.Namespace, scenario: str, options: SlideOptions
+) -> int:
+    """``--record OUT --explain METHOD``: every step of the method, a few seconds each."""
+    from app.media import explain_pictures  # noqa: PLC0415 - needs playwright
+    from app.media.jobs import fail  # noqa: PLC0415
+
+    if args.step is not None and str(args.step).strip().lower() != "all":
+        return fail("--record --explain records every step: leave out --step", 2)
+    return explain_pictures.explain_record(
+        scenario,
+        args.record,
+        method=args.explain,
+        obstacle=args.obstacle,
+        sensor_range=args.sensor_range,
+        width=args.width,
+        height=args.height,
+        fps=args.fps,
+        seconds=args.step_seconds,
+        options=options,
+    )
+
+
 def _explain_arguments(parser: argparse.ArgumentParser) -> None:
-    # Explain mode's pictures: app.media.explain_pictures.
+    # Explain mode's pictures, pages and videos: app.media.explain_pictures.
     parser.add_argument(
         "--explain",
         choices=("expansion", "vg", "svg", "dsb"),
         default=None,
-        help="snapshot: draw a step of this method's explanation",
+        help="snapshot / record: draw this method's explanation step by step",
     )
     parser.add_argument(
         "--step",
-        default="1",
-        help="snapshot with --explain: step number from 1, or 'all' (OUT is then a "
-        "folder of numbered pictures)",
+        default=None,
+        help="snapshot with --explain: step number from 1 (default 1), or 'all' (OUT "
+        "is then a folder of numbered pictures and index.html, a page to step through)",
+    )
+    parser.add_argument(
+        "--step-seconds",
+        type=float,
+        default=4.0,
+        metavar="S",
+        help="--explain: how long each step is shown in a video, or by the page's "
+        "Play (default 4 s)",
     )
     parser.add_argument(
         "--obstacle",
@@ -225,7 +264,7 @@ def _explain_arguments(parser: argparse.ArgumentParser) -> None:
         "--sensor-range",
         type=float,
         default=None,
-        help="snapshot with --explain: the scene's sensor range R [m]",
+        help="--explain: the scene's sensor range R [m]",
     )
 
 
@@ -273,17 +312,20 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     if args.snapshot is not None:
         from app.media import explain_pictures  # noqa: PLC0415 - needs playwright
+        from app.media.slide_options import SlideOptions  # noqa: PLC0415
 
         return explain_pictures.explain_snapshots(
             scenario,
             args.snapshot,
             method=args.explain,
-            step=args.step,
+            step=1 if args.step is None else args.step,
             obstacle=args.obstacle,
             sensor_range=args.sensor_range,
             width=args.width,
             height=args.height,
             view=args.view,
+            options=SlideOptions(legend=not args.no_legend, title=args.title),
+            seconds=args.step_seconds,
         )
 
     try:

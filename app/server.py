@@ -20,7 +20,6 @@ import dataclasses
 import functools
 import io
 import ipaddress
-import math
 import os
 import re
 import socket
@@ -46,6 +45,7 @@ from app.live import LivePanels, LiveRun, MotionPaths, add_live_panel
 from app.session import robot as robot_model
 from app.session.controller import Controller
 from app.session.files import ScenesFolder, is_map_file, map_scene
+from app.ui.floor_text import first_camera
 from app.ui.panels import Panels
 from app.ui.scoped import ScopedTarget
 from app.ui.text import one_line
@@ -556,17 +556,9 @@ def _configure(server: viser.ViserServer, scene: Scene) -> None:
 
 
 def _frame_camera(server: viser.ViserServer, scene: Scene) -> None:
-    """Point new browsers' cameras at the whole floor, slightly tilted so it reads as 3-D.
-
-    The floor is framed left of centre: the control panel floats over the right side.
-    """
-    x0, y0, x1, y1 = floor_bounds(scene)
-    w, h = max(x1 - x0, 1.0), max(y1 - y0, 1.0)
-    fov = math.radians(50.0)
-    distance = max(1.2 * w, 1.55 * h)
-    cx, cy = (x0 + x1) / 2 + 0.12 * w, (y0 + y1) / 2
-    server.initial_camera.fov = fov
-    server.initial_camera.look_at = (cx, cy, 0.0)
-    # About 20 degrees from straight down, seen from the -y side.
-    server.initial_camera.position = (cx, cy - 0.36 * distance, 0.94 * distance)
-    server.initial_camera.up = (0.0, 0.0, 1.0)
+    """Point new browsers' cameras at the whole floor (:func:`app.ui.floor_text.first_camera`)."""
+    camera = first_camera(floor_bounds(scene))
+    server.initial_camera.fov = camera.fov
+    server.initial_camera.look_at = camera.look_at
+    server.initial_camera.position = camera.position
+    server.initial_camera.up = camera.up

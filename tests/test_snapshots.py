@@ -30,9 +30,9 @@ import pytest
 from PIL import Image, ImageDraw, ImageFont
 
 from app import start_app
-from app.media.labels import Box
 from app.media.pictures import Studio, open_studio
 from app.media.slides import Slide
+from app.ui.labels import Box
 from planners.scene import Scene, load_scene, move_obstacle, save_scene
 from tests.browser import use_browser
 

@@ -584,9 +584,6 @@ class ExplainPanel:
         self._saved_layers: dict[str, bool] | None = None
         self._layers: Mapping[str, bool] = {}
         self._scene: Scene | None = None
-        self.caption_bounds: tuple[float, float, float, float] | None = None
-        """Where the caption goes: the top-left of these bounds (xmin, ymin, xmax, ymax)
-        [m] when set (a picture that frames part of the scene), else the scene's."""
         self._lock = threading.RLock()  # guards the folders, the layers saved, _shown
         self._folders: tuple[ExplainFolder, ...] = ()
         self._shown: tuple[Step | None, Explanation | None] = (None, None)
@@ -673,22 +670,21 @@ class ExplainPanel:
 
     # ---------------------------------------------------------------- drawing
 
+    def draw_text(self, on: bool) -> None:
+        """Draw the step's caption and labels in the scene (True, the app), or not (a picture draws its own)."""
+        with self._lock:
+            self._view.draw_text(on)
+            step, explanation = self._shown
+            self._draw(step, explanation)
+
     def _draw(self, step: Step | None, explanation: Explanation | None) -> None:
-        scene, box = self._scene, self.caption_bounds
-        at = (
-            (box[0], box[3], 0.12)
-            if box is not None
-            else _caption_at(scene)
-            if scene is not None
-            else None
-        )
         n = self.explainer.step
         if step is None or explanation is None:
             step, explanation = None, None
             self._view.show(None)
         else:
             caption = f"{n + 1}/{len(explanation.steps)}  {step.text}"
-            self._view.show(step, caption, at)
+            self._view.show(step, caption, self._scene)
         with self._lock:
             self._shown = (step, explanation)
             words = self._words()
@@ -709,20 +705,3 @@ def _safely(show: Callable[..., None], *args: Any) -> None:
         show(*args)
     except Exception:
         logger.exception("an Explain folder failed to update")
-
-
-def _caption_at(scene: Scene) -> tuple[float, float, float]:
-    """Top-left corner of the scene (walls, or obstacles, start and goal) [m]."""
-    if scene.boundary is not None:
-        x0, _, _, y1 = scene.boundary.bounds
-    else:
-        xs = [x for o in scene.obstacles for x, _ in o.exterior.coords] + [
-            scene.start[0],
-            scene.goal[0],
-        ]
-        ys = [y for o in scene.obstacles for _, y in o.exterior.coords] + [
-            scene.start[1],
-            scene.goal[1],
-        ]
-        x0, y1 = min(xs), max(ys)
-    return (float(x0), float(y1), 0.12)

@@ -20,15 +20,20 @@ at ``t_k`` as ``--record`` films it (:func:`_live_page`).
 
 Nothing in the page is fetched from the network: the fonts, scripts and styles are in
 the file (the test opens it from disk with the network cut off).
+
+:func:`step_page` makes the other page: the pictures of an explanation's steps
+(:mod:`app.media.explain_pictures`) in one file, to click or play through offline.
 """
 
 from __future__ import annotations
 
-__all__ = ["export_html", "export_page", "page_legend_html"]
+__all__ = ["export_html", "export_page", "page_legend_html", "step_page"]
 
+import base64
+import json
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -252,3 +257,106 @@ def export_html(
         write_file(path, page.encode("utf-8"))
 
     return exit_code(job)
+
+
+def step_page(
+    title: str, steps: Sequence[tuple[bytes, str]], *, seconds: float = 4.0
+) -> str:
+    """Return one self-contained page that walks through ``steps`` (PNG, text).
+
+    Each picture fills the window (its text is the picture's alternative text). The
+    buttons, the arrow keys, Page Up / Down, Home and End (or a presenter's remote, which
+    sends those) go from step to step; *Play* (or the space bar) shows the next step
+    every ``seconds`` and stops at the last. The pictures are inside the file (PNG as
+    data URLs): the page needs no server and no network. Every text is escaped.
+
+    Examples
+    --------
+    >>> page = step_page("<b>SVG</b>", [(b"png", "Step 1: a < b")])
+    >>> "&lt;b&gt;SVG&lt;/b&gt;" in page, "Step 1: a &lt; b" in page, "<b>" in page
+    (True, True, False)
+    """
+    figures = "".join(
+        f'<img class="step" alt="{html_text(text)}" title="{html_text(text)}" '
+        f'src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}"'
+        f"{' hidden' if k else ''}>"
+        for k, (png, text) in enumerate(steps)
+    )
+    return (
+        _STEP_PAGE.replace("%TITLE%", html_text(title))
+        .replace("%COUNT%", str(len(steps)))
+        .replace("%MS%", json.dumps(round(seconds * 1000)))
+        .replace("%FIGURES%", figures)
+    )
+
+
+_STEP_PAGE = """<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>%TITLE%</title>
+<style>
+html, body { margin: 0; height: 100%; background: #fff; color: #111;
+  font: 16px/1.4 "DejaVu Sans", sans-serif; }
+main { position: fixed; inset: 0 0 3em 0; display: flex; align-items: center;
+  justify-content: center; }
+img.step { max-width: 100%; max-height: 100%; object-fit: contain; }
+img.step[hidden] { display: none; }
+nav { position: fixed; left: 0; right: 0; bottom: 0; height: 3em; display: flex;
+  align-items: center; gap: 0.5em; padding: 0 1em; border-top: 1px solid #ccc;
+  background: #f6f6f6; }
+nav button { font: inherit; min-width: 3em; }
+nav input { flex: 1; }
+#where { min-width: 7em; text-align: right; font-variant-numeric: tabular-nums; }
+</style></head>
+<body>
+<main>%FIGURES%</main>
+<nav aria-label="steps">
+  <button id="first" title="first step (Home)">|&lt;</button>
+  <button id="back" title="previous step (left arrow)">&lt;</button>
+  <button id="play" title="play / pause (space)">Play</button>
+  <button id="next" title="next step (right arrow)">&gt;</button>
+  <button id="last" title="last step (End)">&gt;|</button>
+  <input id="slider" type="range" min="1" max="%COUNT%" value="1" aria-label="step">
+  <span id="where">1 / %COUNT%</span>
+</nav>
+<script>
+(() => {
+  const steps = [...document.querySelectorAll("img.step")];
+  const slider = document.getElementById("slider");
+  const where = document.getElementById("where");
+  const play = document.getElementById("play");
+  const every = %MS%;
+  let at = 0, timer = null;
+  const show = (k) => {
+    at = Math.max(0, Math.min(steps.length - 1, k));
+    steps.forEach((img, i) => { img.hidden = i !== at; });
+    slider.value = at + 1;
+    where.textContent = (at + 1) + " / " + steps.length;
+    if (location.hash !== "#" + (at + 1)) history.replaceState(null, "", "#" + (at + 1));
+  };
+  const stop = () => { clearInterval(timer); timer = null; play.textContent = "Play"; };
+  const start = () => {
+    if (at === steps.length - 1) show(0);
+    play.textContent = "Pause";
+    timer = setInterval(() => { if (at < steps.length - 1) show(at + 1); else stop(); },
+                        every);
+  };
+  const go = (k) => { stop(); show(k); };
+  document.getElementById("first").onclick = () => go(0);
+  document.getElementById("back").onclick = () => go(at - 1);
+  document.getElementById("next").onclick = () => go(at + 1);
+  document.getElementById("last").onclick = () => go(steps.length - 1);
+  play.onclick = () => (timer ? stop() : start());
+  slider.oninput = () => go(Number(slider.value) - 1);
+  document.addEventListener("keydown", (e) => {
+    if (e.target === slider) return;  // the slider's own keys move it (oninput)
+    const keys = {ArrowRight: at + 1, PageDown: at + 1, ArrowLeft: at - 1,
+                  PageUp: at - 1, Home: 0, End: steps.length - 1};
+    if (e.key in keys) { go(keys[e.key]); e.preventDefault(); }
+    else if (e.key === " ") { (timer ? stop() : start()); e.preventDefault(); }
+  });
+  show(Number(location.hash.slice(1)) - 1 || 0);
+})();
+</script>
+</body></html>
+"""

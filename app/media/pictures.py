@@ -140,11 +140,14 @@ class Studio:
         view: str = "top",
         options: SlideOptions = SlideOptions(),  # noqa: B008
         slide: Slide | None = None,
+        extras: Sequence[tuple[str, Any]] = (),
     ) -> Slide:
         """Lay out the picture of what the app shows now and draw its overlay.
 
         ``slide``: a layout made elsewhere (a recording of moving obstacles,
-        :mod:`app.media.record_live`) to use instead.
+        :mod:`app.media.record_live`; an Explain step, :mod:`app.media.explain_slides`)
+        to use instead. ``extras``: (script, argument) pairs evaluated in the page after
+        the overlay is drawn (an Explain step's caption, table and flowchart).
         """
         if slide is None:
             slide = _layout(self.app, self.width, self.height, view, options)
@@ -159,6 +162,8 @@ class Studio:
         self.wait_idle()
         page = self.shown.page
         page.evaluate(DRAW_OVERLAY_JS, slide.overlay_spec())
+        for script, argument in extras:
+            page.evaluate(script, argument)
         page.evaluate(RECOMPILE_MATERIALS_JS)
         size = page.viewport_size
         if size is None or (size["width"], size["height"]) != (self.width, self.height):

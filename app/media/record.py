@@ -22,6 +22,7 @@ __all__ = [
     "FORMATS",
     "LIVE_FOLLOW",
     "check_until",
+    "check_video",
     "record",
     "record_live_video",
     "record_video",
@@ -171,10 +172,10 @@ def record_live_video(
     return Recording(path, fps, times, end, base.camera, width, height, live=film.trace)
 
 
-def _check(
+def check_video(
     out: Path, width: int, height: int, fps: float, until: float | None
 ) -> str | None:
-    """Return the one-line problem with the arguments, or None."""
+    """Return the one-line problem with a video's file, size, frame rate and end, or None."""
     if out.suffix.lower() not in FORMATS:
         return f"{out}: the video must end in {' or '.join(FORMATS)}"
     for name, value in (("width", width), ("height", height)):
@@ -233,7 +234,7 @@ def record(
     the app fails. Errors are one line on stderr.
     """
     path = Path(out)
-    problem = _check(path, width, height, fps, until)
+    problem = check_video(path, width, height, fps, until)
     if problem is None and follow is not None:
         import planners  # noqa: PLC0415
 

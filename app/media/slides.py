@@ -10,7 +10,7 @@ the size:
 - a camera that leaves room for a title strip at the top and, when the picture is wider
   than the scene, a legend column on the right (:func:`slide_camera`);
 - the labels (obstacle numbers, start and goal, the trace planners' events H, D, L, M of
-  Fig. 9.19), in pixels, placed by :func:`app.media.labels.place_labels` so that none overlaps
+  Fig. 9.19), in pixels, placed by :func:`app.ui.labels.place_labels` so that none overlaps
   another, a marker, the title or the legend.
 
 What it returns (:class:`Slide`) is drawn over the 3-D canvas by :data:`DRAW_OVERLAY_JS`,
@@ -23,16 +23,22 @@ from __future__ import annotations
 
 __all__ = [
     "DRAW_OVERLAY_JS",
+    "LEGEND_FONT",
     "LegendRow",
     "Slide",
     "SlideOptions",
+    "floor_fit",
     "font_px",
+    "label_requests",
     "layout",
     "legend_rows",
+    "legend_size",
     "line_scale",
+    "perspective_clear_of",
     "project",
     "relabel",
     "slide_camera",
+    "title_strip",
 ]
 
 import dataclasses
@@ -47,8 +53,8 @@ from shapely import Polygon
 
 import planners
 from app.media.camera import TOP_FOV, CameraPose, frame_camera, picture_bounds
-from app.media.labels import Box, LabelRequest, Placement, label_size, place_labels
 from app.media.slide_options import SlideOptions
+from app.ui.labels import Box, LabelRequest, Placement, label_size, place_labels
 from app.ui.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
 from app.ui.view import (
     EVENT_CROSS,
@@ -65,7 +71,8 @@ _MOVING_TEXT = "moving obstacle's route"
 _FONT_SHARE = 0.03
 """Label font size as a share of the picture's height (32 px at 1080, 15 px at 500)."""
 _MIN_FONT = 11.0
-_LEGEND_FONT = 0.8  # of the label font
+LEGEND_FONT = 0.8
+"""The legend's font size, as a share of the label font."""
 _TITLE_FONT = 1.2
 _TEXT_WIDTH = 0.62  # [em] per character of DejaVu Sans, an upper estimate
 _BOLD_WIDTH = 0.72  # [em] per character of DejaVu Sans Bold ("m" alone is 1.04)
@@ -77,9 +84,13 @@ class LegendRow:
 
     swatches: tuple[tuple[str, str], ...]
     """(``#rrggbb``, ``"line"`` | ``"thin"`` | ``"dashed"`` | ``"box"`` | ``"fill"`` |
-    ``"disk"``) pairs; ``"fill"`` is a translucent box (the expanded obstacles are drawn
-    at 40 % opacity), ``"dashed"`` a thin dashed line as wide as two swatches."""
+    ``"disk"`` | ``"ring"``) pairs; ``"fill"`` is a translucent box (the expanded
+    obstacles are drawn at 40 % opacity), ``"dashed"`` a thin dashed line as wide as two
+    swatches, ``"ring"`` a circle's outline (a point ringed)."""
     text: str
+    dim: bool = False
+    """Drawn faint: what a sequence of pictures shows, but not this one (an Explain
+    step's legend lists the roles of every step of the sequence)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,6 +112,8 @@ class Slide:
     """The rows, the box and the number of columns of the legend."""
     stamp: Box | None = None
     """Where a video frame's time goes (:attr:`SlideOptions.time_stamp`), else None."""
+    legend_font: float | None = None
+    """The legend's font size [px]; None: :data:`LEGEND_FONT` of the label font."""
 
     def overlay_spec(self) -> dict[str, Any]:
         """Return the JSON object :data:`DRAW_OVERLAY_JS` draws."""
@@ -125,12 +138,16 @@ class Slide:
             "legend": (
                 {
                     "rows": [
-                        {"swatches": [list(s) for s in row.swatches], "text": row.text}
+                        {
+                            "swatches": [list(s) for s in row.swatches],
+                            "text": row.text,
+                            "dim": row.dim,
+                        }
                         for row in self.legend[0]
                     ],
                     "box": _box_list(self.legend[1]),
                     "columns": self.legend[2],
-                    "font": self.font_px * _LEGEND_FONT,
+                    "font": self.legend_font or self.font_px * LEGEND_FONT,
                 }
                 if self.legend
                 else None
@@ -305,7 +322,7 @@ def legend_rows(
     return tuple(rows)
 
 
-def _legend_size(
+def legend_size(
     rows: Sequence[LegendRow], font: float, columns: int = 1
 ) -> tuple[float, float]:
     """Width and height [px] of the legend box (:data:`DRAW_OVERLAY_JS` draws it so).
@@ -372,13 +389,13 @@ def layout(
     font = font_px(height)
     margin = round(font / 2)
     title_text = scene.name or "" if options.title is None else options.title
-    title_box, stamp_box, top = _title_strip(title_text, options, font, width, margin)
+    title_box, stamp_box, top = title_strip(title_text, options, font, width, margin)
     rows = (
         legend_rows(plans, layers, registry, moving=bool(scene.motions))
         if options.legend
         else ()
     )
-    legend_font = font * _LEGEND_FONT
+    legend_font = font * LEGEND_FONT
     bounds = picture_bounds(scene) if bounds is None else bounds
     full = Box(margin, top, width - margin, height - margin)
     legend_box, columns, area = _place_legend(
@@ -388,7 +405,7 @@ def layout(
     if view == "top":
         camera = slide_camera(bounds, width, height, area)
     else:
-        camera = _perspective_clear_of(bounds, width, height, reserved)
+        camera = perspective_clear_of(bounds, width, height, reserved)
     slide = Slide(
         width=width,
         height=height,
@@ -431,7 +448,7 @@ def relabel(
         if b is not None
     ]
     requests, markers, colors = (
-        _label_requests(scene, plans, layers, slide.camera, size, registry=registry)
+        label_requests(scene, plans, layers, slide.camera, size, registry=registry)
         if options.labels
         else ([], [], {})
     )
@@ -468,7 +485,7 @@ def _bold_width(text: str) -> float:
     return len(text) * _BOLD_WIDTH + wide * 0.35
 
 
-def _title_strip(
+def title_strip(
     title: str, options: SlideOptions, font: float, width: int, margin: int
 ) -> tuple[Box | None, Box | None, int]:
     """Place the title (left) and the time stamp (right) in the top strip.
@@ -507,24 +524,24 @@ def _place_legend(
     """
     if not rows:
         return None, 1, full
-    lw, lh = _legend_size(rows, font)
+    lw, lh = legend_size(rows, font)
     if view != "top":
         return Box(full.x1 - lw, full.y0, full.x1, full.y0 + lh), 1, full
     side = Box(full.x0, full.y0, full.x1 - lw - margin, full.y1)
     choices = [
         (
-            _fit(bounds, side),
+            floor_fit(bounds, side),
             side,
             Box(side.x1 + margin, full.y0, full.x1, full.y0 + lh),
             1,
         )
     ]
     for columns in range(len(rows), 0, -1):
-        bw, bh = _legend_size(rows, font, columns)
+        bw, bh = legend_size(rows, font, columns)
         if bw <= full.width:
             below = Box(full.x0, full.y0, full.x1, full.y1 - bh - margin)
             legend = Box(full.x0, below.y1 + margin, full.x0 + bw, full.y1)
-            choices.append((_fit(bounds, below), below, legend, columns))
+            choices.append((floor_fit(bounds, below), below, legend, columns))
             break
     fit, area, legend, columns = max(choices, key=lambda c: c[0])
     if fit <= 0:  # no room beside or below: over the scene's top-right corner
@@ -532,7 +549,7 @@ def _place_legend(
     return legend, columns, area
 
 
-def _perspective_clear_of(
+def perspective_clear_of(
     bounds: tuple[float, float, float, float],
     width: int,
     height: int,
@@ -570,7 +587,7 @@ def _perspective_clear_of(
     return camera
 
 
-def _fit(bounds: tuple[float, float, float, float], area: Box) -> float:
+def floor_fit(bounds: tuple[float, float, float, float], area: Box) -> float:
     """Pixels per metre when ``bounds`` fill ``area``."""
     xmin, ymin, xmax, ymax = bounds
     if area.width <= 0 or area.height <= 0:
@@ -580,7 +597,7 @@ def _fit(bounds: tuple[float, float, float, float], area: Box) -> float:
     )
 
 
-def _label_requests(
+def label_requests(
     scene: Scene,
     plans: Mapping[str, Any],
     layers: Mapping[str, bool],
@@ -755,22 +772,25 @@ DRAW_OVERLAY_JS = """(spec) => {
         for (const row of g.rows) {
             const r = document.createElement('div');
             r.style.cssText = 'display:flex;align-items:center;white-space:nowrap;height:' +
-                (1.45 * lf) + 'px;';
+                (1.45 * lf) + 'px;' + (row.dim ? 'opacity:0.35;' : '');
             const sw = document.createElement('span');
             sw.style.cssText = 'display:inline-flex;align-items:center;gap:' + (0.2 * lf) +
                 'px;width:' + (3.2 * lf) + 'px;margin-right:' + (0.5 * lf) + 'px;flex:none;';
             for (const [color, kind] of row.swatches) {
                 const s = document.createElement('span');
                 const h = {line: 0.32, thin: 0.12, dashed: 0.16, box: 0.9, fill: 0.9,
-                           disk: 0.9}[kind] * lf;
+                           disk: 0.9, ring: 0.9}[kind] * lf;
                 const dash = (0.3 * lf) + 'px';
+                const round = kind === 'disk' || kind === 'ring';
                 s.style.cssText = 'display:inline-block;flex:none;background:' +
                     (kind === 'dashed' ? 'repeating-linear-gradient(90deg,' + color +
                      ' 0 ' + dash + ',transparent ' + dash + ' calc(2 * ' + dash + '))'
-                     : color) +
-                    ';width:' + (kind === 'disk' ? h : (kind === 'dashed' ? 3 : 1.4) * lf) +
+                     : kind === 'ring' ? 'transparent' : color) +
+                    ';width:' + (round ? h : (kind === 'dashed' ? 3 : 1.4) * lf) +
                     'px;height:' + h + 'px;' +
                     (kind === 'disk' ? 'border-radius:50%;border:1px solid #222;' : '') +
+                    (kind === 'ring' ? 'box-sizing:border-box;border-radius:50%;' +
+                     'border:' + (0.16 * lf) + 'px solid ' + color + ';' : '') +
                     (kind === 'fill' ? 'opacity:0.45;' : '');
                 sw.appendChild(s);
             }

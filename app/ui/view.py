@@ -21,14 +21,13 @@ __all__ = [
     "Segments",
     "SensingPicture",
     "circle_segments",
-    "clear_of_markers",
     "disk_mesh",
     "event_labels",
     "floor_bounds",
     "lift",
     "lift_segments",
+    "live_keepouts",
     "marker_size",
-    "merge_labels",
     "path_to_segments",
     "polygon_to_mesh",
     "polygons_of",
@@ -56,6 +55,13 @@ import planners
 from app.session.controller import Frame, Handle, RobotPose
 from app.session.robot import RobotModel
 from app.ui.backdrop import backdrop_of
+from app.ui.floor_text import (
+    FloorLabel,
+    Keepouts,
+    floor_font,
+    place_events,
+    scene_keepouts,
+)
 from app.ui.scoped import ScopedTarget
 from app.ui.style import COLORS, HEIGHTS, WIDTHS, PlannerLook, planner_look
 from app.ui.thinning import edges_to_draw
@@ -603,7 +609,12 @@ def _same(old: object, new: object) -> bool:
 
 
 class Labels:
-    """A pool of labels; only grows, hides what it does not need."""
+    """A pool of labels; only grows, hides what it does not need.
+
+    Sized on the screen (``scale``: 12 px a unit, viser's "screen" mode), or, once
+    :meth:`size_in_metres` is called, in the scene's metres (viser's "scene" mode: the
+    projector text of :mod:`app.ui.floor_text`).
+    """
 
     def __init__(
         self,
@@ -616,9 +627,21 @@ class Labels:
         self.prefix = prefix
         self.scale = scale
         self.anchor = anchor
+        self.height: float | None = None
+        """Font size [m] in "scene" mode; None: sized on the screen."""
         self.handles: list[viser.LabelHandle] = []
         self.shown: dict[int, tuple[str | None, tuple[float, ...] | None, bool]] = {}
         self.hidden = False  # a picture draws its own labels (PlannerView.present)
+
+    def size_in_metres(self, height: float) -> None:
+        """Size every label of the pool ``height`` metres (viser's "scene" mode)."""
+        height = float(height)
+        if height == self.height:
+            return
+        self.height = height
+        for handle in self.handles:
+            handle.font_size_mode = "scene"
+            handle.font_scene_height = height
 
     def set(
         self, items: Sequence[tuple[str, npt.ArrayLike]], visible: bool = True
@@ -629,7 +652,9 @@ class Labels:
                 self.scene.add_label(
                     f"{self.prefix}/{len(self.handles)}",
                     "",
+                    font_size_mode="screen" if self.height is None else "scene",
                     font_screen_scale=self.scale,
+                    font_scene_height=self.height or 0.075,
                     anchor=self.anchor,  # type: ignore[arg-type]
                     visible=False,
                 )
@@ -738,28 +763,42 @@ class _TraceLayer:
         self.marks = Segments(
             scene, f"/{name}/marks", COLORS["marker_edge"], WIDTHS["outline"]
         )
-        self.labels = Labels(scene, f"/{name}/labels", 1.0, "bottom-left")
+        # Sized in metres and placed with every trace's events at once
+        # (PlannerView._render_event_labels): no label hides another's.
+        self.labels = Labels(scene, f"/{name}/labels", 1.0, "center-center")
+        self.leaders = Segments(
+            scene, f"/{name}/leaders", COLORS["marker_edge"], WIDTHS["outline"]
+        )
 
-    def render(
-        self,
-        frame: Frame,
-        markers: tuple[tuple[float, float], ...],
-        marker_size: float,
-        changed: Callable[[str, Any], bool],
-    ) -> None:
-        """Draw the frame's result of this planner (nothing is sent if it is unchanged)."""
+    def shown(self, frame: Frame) -> Any:
+        """Return the frame's result of this planner when its layer is on, else None."""
+        result = frame.plans.get(self.name)
+        return result if frame.layers.get(f"{self.name}_path", True) else None
+
+    def show_labels(self, placed: Sequence[FloorLabel], font: float) -> None:
+        """Draw this planner's event labels where they were placed, with their leaders."""
+        z = self.look.path_height + 0.05
+        self.labels.size_in_metres(font)
+        self.labels.set([(p.request.text, (*p.centre, z)) for p in placed])
+        leaders = [p.leader for p in placed if p.leader is not None]
+        self.leaders.set(
+            lift_segments(np.asarray(leaders, dtype=np.float64), z - 0.01)
+            if leaders
+            else _NO_SEGMENTS,
+            bool(leaders) and not self.labels.hidden,
+        )
+
+    def render(self, frame: Frame, changed: Callable[[str, Any], bool]) -> None:
+        """Draw the frame's result of this planner (nothing is sent if it is unchanged).
+
+        The path and the crosses depend only on the result: a goal dragged while the
+        DSB result lags re-sends no path. The labels are drawn by :meth:`show_labels`.
+        """
         result = frame.plans.get(self.name)
         show = frame.layers.get(f"{self.name}_path", True) and result is not None
         events = event_labels(result) if show else []
         z = self.look.path_height
-        # The labels also depend on where the markers are (they keep clear of them);
-        # the path and the crosses only on the result: a goal dragged while the DSB
-        # result lags re-sends no path.
-        key = (result, show, markers, marker_size)
         stale = frame.stale
-        if changed(f"{self.name}_labels", key):
-            labels = clear_of_markers(merge_labels(events, 0.2), markers, marker_size)
-            self.labels.set([(text, (*at, z + 0.05)) for text, at in labels], show)
         if not changed(self.name, (result, show, stale)):
             return
         segments = (
@@ -1036,9 +1075,9 @@ class PlannerView:
         self._render_expansion(frame)
         for graph in self.graphs.values():
             graph.render(frame, self._changed)
-        markers = (scene.start, scene.goal)
         for trace in self.traces.values():
-            trace.render(frame, markers, marker_size(radius), self._changed)
+            trace.render(frame, self._changed)
+        self._render_event_labels(frame)
         self._render_markers(frame, radius)
         self._render_handles(frame)
         self._render_selection(frame)
@@ -1066,6 +1105,25 @@ class PlannerView:
             else [],
             show,
         )
+
+    def _render_event_labels(self, frame: Frame) -> None:
+        """Place the events of every trace planner at once, clear of the fixed marks."""
+        scene = frame.scene
+        results = tuple((name, t.shown(frame)) for name, t in self.traces.items())
+        key = (results, scene.start, scene.goal, scene.robot.radius, scene.obstacles)
+        if not self._changed("event_labels", key):
+            return
+        bounds = floor_bounds(scene)
+        font = floor_font(bounds)
+        placed = place_events(
+            [(name, event_labels(result)) for name, result in results],
+            font=font,
+            area=bounds,
+            cross=EVENT_CROSS,
+            keepouts=live_keepouts(scene, font),
+        )
+        for name, trace in self.traces.items():
+            trace.show_labels(placed[name], font)
 
     def _render_floor_map(self, frame: Frame) -> None:
         """Lay the occupancy map the scene was imported from on the floor (or take it away)."""
@@ -1330,11 +1388,12 @@ class PlannerView:
                 pool.shown.clear()  # the next render sends every label's state again
                 for handle in pool.handles:
                     handle.visible = labels and handle.visible
+            for trace in self.traces.values():
+                trace.leaders.handle.visible = labels and trace.leaders.handle.visible
             for label in self.marker_labels.values():
                 label.visible = labels
         self._last.pop("obstacles", None)
-        for name in self.traces:
-            self._last.pop(f"{name}_labels", None)
+        self._last.pop("event_labels", None)
 
     def set_layer_flags(self, robot: bool, sensing: bool) -> None:
         """Remember the robot and sensing layer toggles for :meth:`render_robot`."""
@@ -1348,52 +1407,6 @@ class PlannerView:
 def marker_size(radius: float) -> float:
     """Radius [m] of the start and goal markers: the robot's footprint, or a dot."""
     return max(radius, 0.12)
-
-
-def clear_of_markers(
-    labels: Sequence[tuple[str, tuple[float, float]]],
-    markers: Iterable[tuple[float, float]],
-    radius: float,
-) -> list[tuple[str, tuple[float, float]]]:
-    """Move the labels that fall on a start or goal marker to its lower right.
-
-    An event at the start (the robot senses an obstacle before it moves, "H1") would put
-    its label on the marker, where the two hide each other. The label's corner moves to
-    the marker's bounding box, so its text (anchored at its bottom left) runs beside the
-    marker; the event's cross stays where the event is.
-
-    Examples
-    --------
-    >>> clear_of_markers([("H1", (1.0, 1.0)), ("L1", (3.0, 1.0))], [(1.0, 1.05)], 0.2)
-    [('H1', (1.2, 0.8500000000000001)), ('L1', (3.0, 1.0))]
-    """
-    centres = list(markers)
-    out = []
-    for text, at in labels:
-        on = [c for c in centres if math.dist(at, c) <= radius]
-        out.append((text, (on[0][0] + radius, on[0][1] - radius) if on else at))
-    return out
-
-
-def merge_labels(
-    labels: Sequence[tuple[str, tuple[float, float]]], distance: float
-) -> list[tuple[str, tuple[float, float]]]:
-    """Join labels closer than ``distance`` [m] into one ("H2 M2"), so none hides another.
-
-    Examples
-    --------
-    >>> merge_labels([("H2", (1.0, 1.0)), ("M2", (1.05, 1.0)), ("L2", (3.0, 1.0))], 0.2)
-    [('H2 M2', (1.0, 1.0)), ('L2', (3.0, 1.0))]
-    """
-    merged: list[tuple[str, tuple[float, float]]] = []
-    for text, at in labels:
-        for k, (other, where) in enumerate(merged):
-            if math.dist(at, where) < distance:
-                merged[k] = (f"{other} {text}", where)
-                break
-        else:
-            merged.append((text, at))
-    return merged
 
 
 def event_labels(result: Any) -> list[tuple[str, tuple[float, float]]]:
@@ -1478,6 +1491,22 @@ def _cross(at: Sequence[float] | FloatArray, size: float, z: float) -> FloatArra
             [[x - size, y + size, z], [x + size, y - size, z]],
         ]
     )
+
+
+def live_keepouts(scene: Any, font: float) -> Keepouts:
+    """Return what the live view's placed labels keep clear of in ``scene``.
+
+    The start and goal disks with their names, and the obstacles' numbers when they are
+    drawn (:data:`MAX_NUMBERED_OBSTACLES`), at ``font`` [m]
+    (:func:`app.ui.floor_text.scene_keepouts`).
+    """
+    numbers = (
+        [(str(i + 1), _label_point(o, 0.0)[:2]) for i, o in enumerate(scene.obstacles)]
+        if len(scene.obstacles) <= MAX_NUMBERED_OBSTACLES
+        else []
+    )
+    ends = [("start", scene.start), ("goal", scene.goal)]
+    return scene_keepouts(ends, marker_size(scene.robot.radius), numbers, font)
 
 
 def _label_point(polygon: Polygon, z: float) -> tuple[float, float, float]:

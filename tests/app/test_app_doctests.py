@@ -21,12 +21,16 @@ MODULES = [
     "app.ui.style",
     "app.ui.view",
     "app.media.camera",
-    "app.media.labels",
+    "app.ui.labels",
     "app.media.slides",
     "app.media.video",
     "app.media.record",
     "app.media.record_live",
     "app.media.explain_pictures",
+    "app.media.explain_slides",
+    "app.media.export_html",
+    "app.ui.floor_text",
+    "app.explain.view",
 ]
 
 

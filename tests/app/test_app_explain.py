@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import base64
 import dataclasses
+import html
 import importlib
 import itertools
 import math
@@ -22,7 +24,12 @@ from app import start_app
 from app.explain import panel as explain_panel
 from app.explain.panel import HIDDEN_LAYERS, Explainer, flowchart_html, table_html
 from app.explain.view import ROLE_LOOKS, role_segments
-from app.media.explain_pictures import explain_snapshots, parse_step, step_bounds
+from app.media.explain_pictures import (
+    explain_record,
+    explain_snapshots,
+    parse_step,
+    step_bounds,
+)
 from app.session.big import BIG_SCENE_VERTICES
 from app.session.frames import Frame
 from app.session.scheduler import Failed, Pending
@@ -478,6 +485,34 @@ def test_one_step_and_all_steps_pictures(tmp_path):
     # Each step draws something else.
     assert all(not np.array_equal(a, b) for a, b in itertools.pairwise(images))
     assert np.asarray(Image.open(one)).shape[:2] == (200, 320)
+    # The page to step through holds every picture, in order, and each step's text.
+    page = (folder / "index.html").read_text()
+    for picture in pictures:
+        assert base64.b64encode(picture.read_bytes()).decode() in page
+    assert page.count('<img class="step"') == len(pictures)
+    assert html.escape(lines[1][4:]) in page
+
+
+def test_every_step_into_a_video(tmp_path):
+    out = tmp_path / "svg.gif"
+    scenario = ROOT / "static_scenarios" / "01_two_convex.json"
+    with use_browser():
+        code = explain_record(
+            scenario, out, method="svg", width=320, height=200, fps=10, seconds=0.2
+        )
+    assert code == 0
+    steps = len(planners.explain_svg(load_scene(scenario)).steps)
+    with Image.open(out) as video:
+        # Pillow keeps a frame repeated as one frame shown as long: each step is one
+        # picture shown 0.2 s (two frames at 10 frames a second).
+        assert video.n_frames == steps
+        frames, durations = [], []
+        for k in range(video.n_frames):
+            video.seek(k)
+            durations.append(video.info["duration"])
+            frames.append(np.asarray(video.convert("RGB")))
+    assert durations == [200] * steps
+    assert all(not np.array_equal(a, b) for a, b in itertools.pairwise(frames))
 
 
 def test_cli_explain_writes_the_picture(tmp_path):
@@ -502,6 +537,24 @@ def test_cli_explain_writes_the_picture(tmp_path):
     )
     assert done.returncode == 0, done.stderr
     assert done.stderr == "" and Path(out).is_file()
+
+
+def test_cli_explain_video_arguments_are_checked_before_anything_starts(tmp_path):
+    from tests.conftest import run_module
+
+    video = str(tmp_path / "steps.mp4")
+    one = run_module(
+        "app", "--scenario", "08", "--record", video, "--explain", "svg", "--step", "3"
+    )
+    assert one.returncode == 2 and "records every step" in one.stderr
+    odd = run_module(
+        "app", "--scenario", "08", "--record", video, "--explain", "svg",
+        "--width", "321",
+    )  # fmt: skip
+    assert odd.returncode == 2 and "even width" in odd.stderr
+    short = explain_record(SCENARIO, video, method="svg", fps=10, seconds=0.01)
+    assert short == 2
+    assert not Path(video).exists()
 
 
 class LongExplanation:

@@ -5,6 +5,7 @@ These tests FAIL (never skip) when Chromium cannot start.
 
 from __future__ import annotations
 
+import io
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -179,3 +180,110 @@ def _drag_the_goal_while_explaining(page: Any, planner: Any) -> None:
     ready(planner)
     assert planner.controller.frame.layers["svg_edges"]
     assert browser_segments(page, "current") is None
+
+
+# The label font of viser's client (label/GlyphAtlas.ts), measured by the browser itself.
+_MEASURE_JS = """(texts) => document.fonts.ready.then(() => {
+    const ctx = document.createElement('canvas').getContext('2d');
+    ctx.font = '100px -apple-system, BlinkMacSystemFont, "Segoe UI", "Roboto", ' +
+               '"Helvetica Neue", Arial, sans-serif';
+    return texts.map(t => {
+        const m = ctx.measureText(t);
+        return [m.width / 100, (m.fontBoundingBoxAscent + m.fontBoundingBoxDescent) / 100];
+    });
+})"""
+
+
+def _text_lines(pixels: np.ndarray, box: tuple[int, int, int, int]) -> list[int]:
+    """Heights [px] of the runs of rows holding dark text pixels inside ``box``."""
+    x0, y0, x1, y1 = box
+    dark = (pixels[y0:y1, x0:x1].max(axis=2) < 80).sum(axis=1) > 2
+    runs, start = [], None
+    for k, on in enumerate([*dark, False]):
+        if on and start is None:
+            start = k
+        elif not on and start is not None:
+            runs.append(k - start)
+            start = None
+    return runs
+
+
+def test_the_live_caption_and_labels_read_from_the_back_of_the_hall(browser):
+    """DSB step 20 of 06 with R = 0.6 m at 1920 x 1080, in the first view of the scene.
+
+    What the browser drew: the caption's lines in the screenshot, each at least 2 % of
+    the screen's height (the caption was one line of about 10 px); and every label's text
+    as the browser's own font measures it fits the box the placer kept for it (the boxes
+    are apart: tests/app/test_floor_text.py), so no label covers another.
+    """
+    from PIL import Image
+
+    from app.media.camera import CameraPose
+    from app.media.slides import project
+    from app.ui.floor_text import floor_caption, floor_font
+    from app.ui.labels import label_size
+    from app.ui.view import floor_bounds
+
+    app = start_app("06_four_obstacles_sensor", port=0, print_url=False)
+    try:
+        app.controller.edits.set_sensor_range(0.6)
+        assert app.wait_idle(30)
+        app.explain.choose("dsb")
+        ready(app)
+        app.explain.explainer.go(19)
+        ready(app)
+        page = browser.new_page(
+            viewport={"width": 1920, "height": 1080}, device_scale_factor=1
+        )
+        page.goto(f"{app.url}?fixedDpr=1")
+        page.wait_for_function(
+            "() => window.__viserMutable && "
+            "('/explain/caption/0' in window.__viserMutable.nodeRefFromName)",
+            timeout=60_000,
+        )
+        page.add_style_tag(content="body * { visibility: hidden !important; } "
+                           "canvas { visibility: visible !important; }")  # fmt: skip
+        page.evaluate("() => document.fonts.ready.then(() => true)")
+        client = next(iter(app.server.get_clients().values()))
+        camera = client.camera
+        pose = CameraPose(
+            tuple(camera.position), tuple(camera.look_at), tuple(camera.up_direction),
+            camera.fov, 0.1, 1000.0,
+        )  # fmt: skip
+        scene = app.controller.scene
+        bounds = floor_bounds(scene)
+        font = floor_font(bounds)
+        explanation = app.explain.explainer.explanation
+        text = f"20/{len(explanation.steps)}  {explanation.steps[19].text}"
+        caption = floor_caption(text, font, bounds)
+        x0, y0, x1, y1 = caption.box
+        corners = project(pose, 1920, 1080, [[x0, y0, 0.12], [x1, y1, 0.12]])
+        box = (
+            max(0, int(corners[:, 0].min())),
+            max(0, int(corners[:, 1].min()) - 4),
+            min(1920, int(corners[:, 0].max()) + 1),
+            min(1080, int(corners[:, 1].max()) + 4),
+        )
+        # The client draws a label once its glyphs are rasterized: wait until it has.
+        lines: list[int] = []
+
+        def drawn() -> bool:
+            settle(page, 2)
+            shot = Image.open(io.BytesIO(page.screenshot())).convert("RGB")
+            lines[:] = _text_lines(np.asarray(shot), box)
+            return len(lines) == len(caption.lines)
+
+        assert wait_until(drawn, 30), (lines, caption.lines)
+        assert all(h >= 0.02 * 1080 for h in lines), lines
+        # Every label's text, in the browser's font, fits the box kept for it.
+        labels = [h.text for h in app.explain._view._labels.handles if h.visible]
+        assert any(t.startswith("O_") for t in labels), labels
+        for label, (width, height) in zip(
+            labels, page.evaluate(_MEASURE_JS, labels), strict=True
+        ):
+            kept_w, kept_h = label_size(label, 1.0)
+            pad = 0.2 * height  # viser's background: a fifth of a line
+            assert width + pad <= kept_w and height + pad <= kept_h, (label, width)
+        page.close()
+    finally:
+        app.stop()

@@ -19,6 +19,8 @@ from shapely import Polygon
 import planners
 from app.session import robot
 from app.session.controller import LAYERS, Controller, Frame, Pending, RobotPose
+from app.ui.floor_text import floor_font
+from app.ui.labels import label_size
 from app.ui.panels import (
     floor_point,
     legend_html,
@@ -32,6 +34,7 @@ from app.ui.view import (
     PlannerView,
     circle_segments,
     event_labels,
+    floor_bounds,
     path_to_segments,
     polygon_to_mesh,
     prism_mesh,
@@ -332,10 +335,19 @@ def test_view_draws_a_dsb_frame(server):
     )
     labels = [h for h in view.traces["dsb"].labels.handles if h.visible]
     assert [h.text for h in labels] == ["H1", "L1"]
-    # An event at the start: its label moves beside the start marker, not onto it.
-    size = max(scene.robot.radius, 0.12)
-    assert_allclose(labels[0].position[:2], np.add(scene.start, (size, -size)))
-    assert_allclose(labels[1].position[:2], (3.0, 1.5))
+    # Sized in metres for a projector; each beside its event (the one at the start
+    # beside the start marker, not on it) and clear of both events' crosses.
+    font = floor_font(floor_bounds(scene))
+    assert all(h.font_size_mode == "scene" for h in labels)
+    assert all(h.font_scene_height == pytest.approx(font) for h in labels)
+    radius = max(scene.robot.radius, 0.12)
+    start = shapely.Point(scene.start).buffer(radius)
+    for handle, at in zip(labels, [scene.start, (3.0, 1.5)], strict=True):
+        w, h = label_size(handle.text, font)
+        x, y = handle.position[:2]
+        box = shapely.box(x - w / 2, y - h / 2, x + w / 2, y + h / 2)
+        assert not box.intersects(start)
+        assert 0 < box.distance(shapely.Point(at)) < radius + 1.5 * font
     sensing = {"center": (2.0, 1.0), "radius": 2.0, "seen": np.array([[[3.0, 1.0], [3.0, 2.0]]]),
                "tangents": np.array([[[2.0, 1.0], [3.0, 2.0]]])}  # fmt: skip
     pose = RobotPose(t=1.0, duration=5.0, xy=(2.0, 1.0), phi=0.0, wheel_angles=(), wheel_rates=(),

@@ -1,4 +1,4 @@
-"""The label placer (app.media.labels): no two boxes overlap, none covers a marker, all inside.
+"""The label placer (app.ui.labels): no two boxes overlap, none covers a marker, all inside.
 
 The properties check every result against slow references that share no code with the
 placer: overlap as a positive shapely intersection area, "inside" against the picture
@@ -14,7 +14,7 @@ import shapely
 from hypothesis import given
 from hypothesis import strategies as st
 
-from app.media.labels import Box, LabelRequest, label_size, place_labels
+from app.ui.labels import Box, LabelRequest, label_size, place_labels
 
 PICTURE = (640.0, 400.0)
 

@@ -23,7 +23,6 @@ import planners
 from app import live, start_app
 from app.media.camera import frame_camera, picture_bounds
 from app.media.jobs import batch, run_with_browser
-from app.media.labels import Box
 from app.media.pictures import open_studio
 from app.media.slides import (
     MOVING_ROUTE,
@@ -34,6 +33,7 @@ from app.media.slides import (
     project,
     slide_camera,
 )
+from app.ui.labels import Box
 from planners.scene import load_scene
 from tests.browser import use_browser
 

@@ -1,4 +1,4 @@
-"""Label placement for pictures: every label near what it names, none over another.
+"""Label placement: every label near what it names, none over another.
 
 A picture for a slide names things with small text boxes: the obstacles' numbers, the
 start and the goal, and the events of the trace planners (H, D, L, M of DSB and Bug2,
@@ -14,7 +14,11 @@ radius); one that finds no place at all in the picture is returned in
 gets a leader line (:attr:`PlacedLabel.leader`).
 
 Text boxes are measured for a monospaced font (:data:`CHAR_WIDTH` of the font size per
-character), so the box the placer reserves is the box the picture draws.
+character), so the box the placer reserves is the box the picture draws; a longer text (a
+caption) is broken into lines of that font by :func:`wrap_text`.
+
+The placer works in any unit with y down: the pictures place in pixels; the app's live
+view places on the floor in metres (:mod:`app.ui.floor_labels`).
 """
 
 from __future__ import annotations
@@ -27,10 +31,12 @@ __all__ = [
     "Placement",
     "label_size",
     "place_labels",
+    "wrap_text",
 ]
 
 import dataclasses
 import math
+import textwrap
 from collections.abc import Iterable, Sequence
 
 CHAR_WIDTH = 0.6021
@@ -147,6 +153,26 @@ def label_size(text: str, font_px: float) -> tuple[float, float]:
     width = len(text) * CHAR_WIDTH * font_px + 2 * PAD * font_px
     height = LINE_HEIGHT * font_px + 2 * PAD * font_px
     return (round(width, 3), round(height, 3))
+
+
+def wrap_text(text: str, width: float, font_px: float) -> tuple[str, ...]:
+    """Break ``text`` into lines no wider than ``width`` in the monospaced font.
+
+    Lines break at spaces; a word longer than a line is cut across lines, so no line is
+    ever wider than ``width`` and nothing is left out (at least one character a line).
+
+    Examples
+    --------
+    >>> wrap_text("Step 1: the common tangents", 10 * CHAR_WIDTH * 10, 10)
+    ('Step 1:', 'the common', 'tangents')
+    >>> wrap_text("", 100, 10)
+    ('',)
+    """
+    chars = max(1, math.floor(width / (CHAR_WIDTH * font_px) + 1e-9))
+    lines = textwrap.wrap(
+        " ".join(text.split()), chars, break_long_words=True, break_on_hyphens=False
+    )
+    return tuple(lines) or ("",)
 
 
 # Directions tried around an anchor, nearest-looking first: upper right (where a reader

@@ -855,11 +855,12 @@ def _sights(
     last block of border pairs (one exact test, not two). Returns the vertex visibility
     and, per extra pair, whether it is free.
 
-    On a big border (``_PIPELINED_VERTICES``) the work runs on two threads: this one
-    screens the pairs and decides the marched segments' pieces, a helper builds the
-    cover table and, block by block, looks the pairs up in it and marches the rest
-    (compiled loops, which let go of the interpreter). The blocks are taken in their
-    order, so the answer is the one a single thread gives.
+    On a big border (``_PIPELINED_VERTICES``) the work runs on two threads: each builds
+    half the cover table; then this one screens the pairs and decides the marched
+    segments' pieces, and a helper, block by block, looks the pairs up in the table and
+    marches the rest (compiled loops, which let go of the interpreter). A block that
+    comes while the helper is still busy is looked up here. The blocks are taken in
+    their order, so the answer is the one a single thread gives.
     """
     n = len(border.points)
     found_i, found_j = [np.zeros(0, dtype=np.intp)], [np.zeros(0, dtype=np.intp)]
@@ -878,16 +879,18 @@ def _sights(
     sectors = sector_count(n / 4)
     extra_free = np.zeros(0, dtype=bool)
     with _Helper(n >= _PIPELINED_VERTICES) as helper:
-        if helper.threaded and len(
-            border.edge_a
-        ):  # built here, not on the helper's thread
+        if helper.threaded and len(border.edge_a):  # built here, not on the helper's
             border.grid, border.edges.length  # noqa: B018
-        table = helper.submit(cover_table, disks, points, sectors)
+        table = _cover_on_both(helper, disks, points, sectors)
         pending: list[tuple[bool, int, IntArray, IntArray, Future[_Looked]]] = []
         for last, (bi, bj) in _last_marked(blocks):
             i = np.concatenate([bi, extra_i]) if last else bi
             j = np.concatenate([bj, extra_j]) if last else bj
-            looked = helper.submit(_look_up, table, border, points, i, j, cspace.eps)
+            # The helper looks the block up, unless it is still busy with the one
+            # before: then this thread does, and neither waits for the other.
+            busy = any(not job.done() for *_, job in pending)
+            run = helper.now if busy else helper.submit
+            looked = run(_look_up, table, border, points, i, j, cspace.eps)
             pending.append((last, len(bi), bi, bj, looked))
             while len(pending) > (0 if last else 1):  # one block ahead at most
                 was_last, count, pi, pj, job = pending.pop(0)
@@ -919,7 +922,7 @@ class _Looked:
 
 
 def _look_up(  # noqa: PLR0917 - a job's arguments, passed by position
-    table: Future[FloatArray],
+    table: FloatArray,
     border: Border,
     points: FloatArray,
     i: IntArray,
@@ -931,7 +934,7 @@ def _look_up(  # noqa: PLR0917 - a job's arguments, passed by position
     What of :func:`_exact_free_pairs` needs no shapely: few segments against few edges
     are left to the dense test, on the calling thread.
     """
-    ok = ~occluded_pairs(table.result(), points, i, j)
+    ok = ~occluded_pairs(table, points, i, j)
     test = np.flatnonzero(ok)
     if len(test) * len(border.edge_a) <= _DENSE_LIMIT:
         return _Looked(ok, test, None, None)
@@ -972,6 +975,18 @@ def _decided(  # noqa: PLR0917
     return ok
 
 
+def _cover_on_both(
+    helper: _Helper, disks: Disks, points: FloatArray, sectors: int
+) -> FloatArray:
+    """Build the cover table of ``points``: its first half on the helper thread, if any."""
+    if not helper.threaded:
+        return cover_table(disks, points, sectors)
+    half = len(points) // 2
+    first = helper.submit(cover_table, disks, points[:half], sectors)
+    rest = cover_table(disks, points[half:], sectors)
+    return np.vstack([first.result(), rest])
+
+
 class _Helper:
     """One helper thread for a call's duration, or none: then each job runs at once.
 
@@ -994,6 +1009,11 @@ class _Helper:
         """Run ``fn(*args)`` on the helper thread, or now."""
         if self._pool is not None:
             return self._pool.submit(fn, *args)
+        return self.now(fn, *args)
+
+    @staticmethod
+    def now(fn: Callable[..., T], *args: Any) -> Future[T]:
+        """Run ``fn(*args)`` on this thread; its answer as a done future."""
         done: Future[T] = Future()
         done.set_result(fn(*args))
         return done

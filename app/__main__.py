@@ -24,6 +24,8 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from app.media.slide_options import STEP_SECONDS  # the standard library's alone
+
 if TYPE_CHECKING:
     from app.media.slide_options import SlideOptions
 
@@ -249,10 +251,10 @@ def _explain_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--step-seconds",
         type=float,
-        default=4.0,
+        default=STEP_SECONDS,
         metavar="S",
         help="--explain: how long each step is shown in a video, or by the page's "
-        "Play (default 4 s)",
+        f"Play (default {STEP_SECONDS:g} s)",
     )
     parser.add_argument(
         "--obstacle",

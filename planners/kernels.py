@@ -32,7 +32,8 @@ The rules that keep the compiled loops exactly the code they replace:
   sector unless the direction is within ``ATAN_ERROR`` of a side;
 - tests hold each loop to the code it replaced, kept in the tests
   (``tests/planners/march_reference.py``, ``astar_reference.py``,
-  ``incremental_reference.py``, ``sweep_reference.py``; and networkx's A*), on random
+  ``incremental_reference.py``, ``screen_reference.py``, ``cover_reference.py``,
+  ``sweep_reference.py``; and networkx's A*), on random
   and degenerate scenes, result for result;
 - ``cache=True``: compiled once per machine (about 20 s for all of them), then loaded
   from ``__pycache__`` (or numba's user cache where that is read-only) in a fraction of

@@ -152,7 +152,6 @@ class ExplainView:
             scene, "/explain/leaders", COLORS["marker_edge"], WIDTHS["outline"]
         )
         self._caption = Labels(scene, "/explain/caption", anchor="bottom-left")
-        self._drawn = False  # whether the 3-D labels and caption are drawn at all
 
     def draw_text(self, on: bool) -> None:
         """Draw the caption and labels in the scene (True), or not: a picture draws its own."""
@@ -163,7 +162,6 @@ class ExplainView:
                 for handle in pool.handles:
                     handle.visible = on and handle.visible
             self._leaders.handle.visible = on and self._leaders.handle.visible
-            self._drawn = on
 
     def show(
         self, step: Step | None, caption: str = "", scene: Scene | None = None

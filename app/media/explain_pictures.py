@@ -45,7 +45,7 @@ from app.media.jobs import (
     start_quietly,
     write_file,
 )
-from app.media.slide_options import SlideOptions
+from app.media.slide_options import STEP_SECONDS, SlideOptions
 from planners.explain import METHODS
 
 if TYPE_CHECKING:
@@ -54,9 +54,6 @@ if TYPE_CHECKING:
     from app.media.explain_slides import ExplainSlide
     from app.media.pictures import Studio
     from planners.explain import Explanation
-
-STEP_SECONDS = 4.0
-"""How long a step stays on screen in a video or a page playing by itself [s]."""
 
 
 def parse_step(text: str | int) -> int | None:

@@ -33,6 +33,7 @@ import base64
 import json
 import math
 import os
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -48,6 +49,7 @@ from app.media.jobs import (
 )
 from app.media.pictures import wait_drawn
 from app.media.record import LIVE_FOLLOW, check_until
+from app.media.slide_options import STEP_SECONDS
 from app.media.slides import legend_rows
 from app.media.video import MAX_FPS, RECORD_FPS, frame_times
 from app.ui.text import html_text
@@ -260,7 +262,7 @@ def export_html(
 
 
 def step_page(
-    title: str, steps: Sequence[tuple[bytes, str]], *, seconds: float = 4.0
+    title: str, steps: Sequence[tuple[bytes, str]], *, seconds: float = STEP_SECONDS
 ) -> str:
     """Return one self-contained page that walks through ``steps`` (PNG, text).
 
@@ -282,12 +284,14 @@ def step_page(
         f"{' hidden' if k else ''}>"
         for k, (png, text) in enumerate(steps)
     )
-    return (
-        _STEP_PAGE.replace("%TITLE%", html_text(title))
-        .replace("%COUNT%", str(len(steps)))
-        .replace("%MS%", json.dumps(round(seconds * 1000)))
-        .replace("%FIGURES%", figures)
-    )
+    fields = {
+        "TITLE": html_text(title),
+        "COUNT": str(len(steps)),
+        "MS": json.dumps(round(seconds * 1000)),
+        "FIGURES": figures,
+    }
+    # One pass: a field's text is never read again (a title "%MS%" stays as it is).
+    return re.sub(r"%(TITLE|COUNT|MS|FIGURES)%", lambda m: fields[m[1]], _STEP_PAGE)
 
 
 _STEP_PAGE = """<!DOCTYPE html>

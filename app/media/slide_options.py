@@ -7,9 +7,12 @@ browser first, :func:`app.media.jobs.run_with_browser`). :mod:`app.media.slides`
 
 from __future__ import annotations
 
-__all__ = ["SlideOptions"]
+__all__ = ["STEP_SECONDS", "SlideOptions"]
 
 import dataclasses
+
+STEP_SECONDS = 4.0
+"""How long an Explain step stays on screen in a video or a page playing by itself [s]."""
 
 
 @dataclasses.dataclass(frozen=True)

@@ -54,7 +54,14 @@ from shapely import Polygon
 import planners
 from app.media.camera import TOP_FOV, CameraPose, frame_camera, picture_bounds
 from app.media.slide_options import SlideOptions
-from app.ui.labels import Box, LabelRequest, Placement, label_size, place_labels
+from app.ui.labels import (
+    FONT_SHARE,
+    Box,
+    LabelRequest,
+    Placement,
+    label_size,
+    place_labels,
+)
 from app.ui.style import COLORS, HEIGHTS, PURPLE, hex_color, planner_look
 from app.ui.view import (
     EVENT_CROSS,
@@ -68,8 +75,6 @@ from planners.scene import Scene
 MOVING_ROUTE = PURPLE
 """Colour of a moving obstacle's dashed route, as :mod:`app.live` draws it."""
 _MOVING_TEXT = "moving obstacle's route"
-_FONT_SHARE = 0.03
-"""Label font size as a share of the picture's height (32 px at 1080, 15 px at 500)."""
 _MIN_FONT = 11.0
 LEGEND_FONT = 0.8
 """The legend's font size, as a share of the label font."""
@@ -170,7 +175,7 @@ def font_px(height: int) -> float:
     >>> font_px(1080), font_px(500)
     (32.0, 15.0)
     """
-    return float(max(_MIN_FONT, round(_FONT_SHARE * height)))
+    return float(max(_MIN_FONT, round(FONT_SHARE * height)))
 
 
 def line_scale(height: int) -> float:

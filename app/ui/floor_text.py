@@ -26,10 +26,14 @@ __all__ = [
     "FirstCamera",
     "FloorLabel",
     "FloorRequest",
+    "Keepouts",
     "first_camera",
     "floor_caption",
     "floor_font",
+    "place_events",
     "place_on_floor",
+    "point_box",
+    "scene_keepouts",
 ]
 
 import dataclasses
@@ -37,6 +41,7 @@ import math
 from collections.abc import Sequence
 
 from app.ui.labels import (
+    FONT_SHARE,
     LINE_HEIGHT,
     PAD,
     Box,
@@ -45,10 +50,6 @@ from app.ui.labels import (
     place_labels,
     wrap_text,
 )
-
-FONT_SHARE = 0.03
-"""Font size of the live view's projector text, as a share of the floor height the first
-camera shows (a slide picture's labels are 3 % of the picture's height)."""
 
 _FIRST_FOV = math.radians(50.0)
 _PX = 32.0  # the placer's unit: one font size is this many of its "pixels"

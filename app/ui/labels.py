@@ -18,13 +18,14 @@ character), so the box the placer reserves is the box the picture draws; a longe
 caption) is broken into lines of that font by :func:`wrap_text`.
 
 The placer works in any unit with y down: the pictures place in pixels; the app's live
-view places on the floor in metres (:mod:`app.ui.floor_labels`).
+view places on the floor in metres (:mod:`app.ui.floor_text`).
 """
 
 from __future__ import annotations
 
 __all__ = [
     "CHAR_WIDTH",
+    "FONT_SHARE",
     "Box",
     "LabelRequest",
     "PlacedLabel",
@@ -38,6 +39,10 @@ import dataclasses
 import math
 import textwrap
 from collections.abc import Iterable, Sequence
+
+FONT_SHARE = 0.03
+"""Label and caption size as a share of a picture's height (32 px at 1080, 15 px at 500);
+the live view's text, of the floor height its first camera shows."""
 
 CHAR_WIDTH = 0.6021
 """Advance of one character of DejaVu Sans Mono (the pictures' label font) [em]."""

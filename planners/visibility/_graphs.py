@@ -531,12 +531,49 @@ def _exact_free_pairs(
     The marched segments are made from the points' coordinate columns (the same
     numbers as :meth:`Segments.of` on the gathered rows, without gathering (N, 2) rows).
     """
+    marching = _march_pairs(border, points, i, j, cspace.eps)
+    return _finish(cspace, border, points, marching)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Marching:
+    """Segments points[i] -> points[j] on their way through the exact test.
+
+    Marched through the edge grid (on any thread), or, few segments against few edges,
+    left to the dense test (``segs`` and ``marched`` None).
+    """
+
+    i: IntArray
+    j: IntArray
+    segs: Segments | None
+    marched: Marched | None
+
+
+def _march_pairs(
+    border: Border, points: FloatArray, i: IntArray, j: IntArray, eps: float
+) -> _Marching:
+    """March segments points[i] -> points[j], unless the dense test is the cheaper."""
     if len(i) * len(border.edge_a) <= _DENSE_LIMIT:
-        return exact_free(cspace, border, take_rows(points, i), take_rows(points, j))
+        return _Marching(i, j, None, None)
     x, y = points[:, 0], points[:, 1]
     ax, ay = x[i], y[i]
     dx, dy = x[j] - ax, y[j] - ay
-    return _marched_free(cspace, border, Segments(ax, ay, dx, dy, np.hypot(dx, dy)))
+    segs = Segments(ax, ay, dx, dy, np.hypot(dx, dy))
+    return _Marching(i, j, segs, march(border.grid, border.edges, segs, eps))
+
+
+def _finish(
+    cspace: ConfigurationSpace, border: Border, points: FloatArray, m: _Marching
+) -> BoolArray:
+    """Tell which of the segments on their way are free (shapely: the caller's thread)."""
+    if m.segs is None or m.marched is None:
+        return exact_free(
+            cspace, border, take_rows(points, m.i), take_rows(points, m.j)
+        )
+    crossed = m.marched
+    return _decide_pieces(
+        cspace, m.segs, ~crossed.crossed, crossed.touch_seg, crossed.touch_t
+    )
 
 
 def _marched_free(
@@ -887,14 +924,14 @@ def _sights(
             i = np.concatenate([bi, extra_i]) if last else bi
             j = np.concatenate([bj, extra_j]) if last else bj
             # The helper looks the block up, unless it is still busy with the one
-            # before: then this thread does, and neither waits for the other.
+            # before: then this thread does it rather than wait.
             busy = any(not job.done() for *_, job in pending)
             run = helper.now if busy else helper.submit
             looked = run(_look_up, table, border, points, i, j, cspace.eps)
             pending.append((last, len(bi), bi, bj, looked))
             while len(pending) > (0 if last else 1):  # one block ahead at most
                 was_last, count, pi, pj, job = pending.pop(0)
-                ok = _decided(cspace, border, points, pi, pj, extra_i, extra_j, job)
+                ok = _decided(cspace, border, points, job)
                 if was_last:
                     extra_free = ok[count:]
                 found_i.append(pi[ok[:count]])
@@ -913,12 +950,11 @@ thread would cost more than it saves)."""
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class _Looked:
-    """A block's pairs looked up in the cover table, the rest marched (:func:`_look_up`)."""
+    """A block's pairs looked up in the cover table, the rest on their way (:func:`_look_up`)."""
 
     ok: BoolArray  # (k,) not flagged by the cover table
     test: IntArray  # the indices of ok's True entries
-    segs: Segments | None  # those pairs' segments, when marched
-    marched: Marched | None
+    marching: _Marching  # those pairs
 
 
 def _look_up(  # noqa: PLR0917 - a job's arguments, passed by position
@@ -931,48 +967,20 @@ def _look_up(  # noqa: PLR0917 - a job's arguments, passed by position
 ) -> _Looked:
     """Flag the pairs the cover blocks; march the others through the edge grid.
 
-    What of :func:`_exact_free_pairs` needs no shapely: few segments against few edges
-    are left to the dense test, on the calling thread.
+    What of :func:`_exact_free_pairs` needs no shapely, so it may run on the helper.
     """
     ok = ~occluded_pairs(table, points, i, j)
     test = np.flatnonzero(ok)
-    if len(test) * len(border.edge_a) <= _DENSE_LIMIT:
-        return _Looked(ok, test, None, None)
-    x, y = points[:, 0], points[:, 1]
-    ax, ay = x[i[test]], y[i[test]]
-    dx, dy = x[j[test]] - ax, y[j[test]] - ay
-    segs = Segments(ax, ay, dx, dy, np.hypot(dx, dy))
-    return _Looked(ok, test, segs, march(border.grid, border.edges, segs, eps))
+    return _Looked(ok, test, _march_pairs(border, points, i[test], j[test], eps))
 
 
-def _decided(  # noqa: PLR0917
-    cspace: ConfigurationSpace,
-    border: Border,
-    points: FloatArray,
-    bi: IntArray,
-    bj: IntArray,
-    extra_i: IntArray,
-    extra_j: IntArray,
-    job: Future[_Looked],
+def _decided(
+    cspace: ConfigurationSpace, border: Border, points: FloatArray, job: Future[_Looked]
 ) -> BoolArray:
-    """Finish a block looked up by :func:`_look_up`: which of its pairs are free.
-
-    The block's pairs, then the extra pairs when ``job`` was the last block's.
-    """
+    """Finish a block looked up by :func:`_look_up`: which of its pairs are free."""
     looked = job.result()
-    ok, test = looked.ok, looked.test
-    if looked.segs is None or looked.marched is None:
-        i = np.concatenate([bi, extra_i]) if len(ok) > len(bi) else bi
-        j = np.concatenate([bj, extra_j]) if len(ok) > len(bi) else bj
-        ok[test] = exact_free(
-            cspace, border, take_rows(points, i[test]), take_rows(points, j[test])
-        )
-    else:
-        marched = looked.marched
-        ok[test] = _decide_pieces(
-            cspace, looked.segs, ~marched.crossed, marched.touch_seg, marched.touch_t
-        )
-    return ok
+    looked.ok[looked.test] = _finish(cspace, border, points, looked.marching)
+    return looked.ok
 
 
 def _cover_on_both(

@@ -545,32 +545,3 @@ def occluded_pairs(
     i = np.ascontiguousarray(i, dtype=np.intp)
     j = np.ascontiguousarray(j, dtype=np.intp)
     return occluded_by_cover(table, points, i, j)
-
-
-def _nearest_cover(disks: Disks, sources: FloatArray, sectors: int) -> FloatArray:
-    """Per source and sector, the nearest distance to a disk whose cone holds the sector."""
-    width = 2.0 * np.pi / sectors
-    cx = disks.center[None, :, 0] - sources[:, 0:1]
-    cy = disks.center[None, :, 1] - sources[:, 1:2]
-    dist = np.hypot(cx, cy)
-    seen = dist > disks.radius[None, :]  # the source is outside the disk
-    half = np.arcsin(np.minimum(disks.radius[None, :] / np.maximum(dist, 1e-300), 1.0))
-    mid = np.arctan2(cy, cx) + np.pi  # in [0, 2 pi]
-    # Sectors k with [k w, (k + 1) w] inside the cone (mid - half, mid + half).
-    first = np.ceil((mid - half) / width)
-    last = np.floor((mid + half) / width) - 1
-    count = np.where(seen, np.maximum(last - first + 1, 0), 0).astype(np.intp)
-    row, disk = np.nonzero(count)
-    count = count[row, disk]
-    sector = (
-        np.repeat(first[row, disk].astype(np.intp), count) + _ramp(count)
-    ) % sectors
-    near = np.full(len(sources) * sectors, np.inf)
-    # On flat indices: numpy's fast path for ufunc.at (a 2-D index is several times
-    # slower). The minimum does not depend on the order.
-    np.minimum.at(
-        near,
-        np.repeat(row * sectors, count) + sector,
-        np.repeat(dist[row, disk], count),
-    )
-    return near.reshape(len(sources), sectors)

@@ -7,6 +7,8 @@ build in steps it replaces (vertex visibility first, then each row on its own).
 """
 
 import dataclasses
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -204,13 +206,27 @@ def test_cold_build_on_two_threads_is_the_build_on_one(scene, picks):
 
 
 def test_cold_build_on_two_threads_with_blocks_to_hand_on(monkeypatch):
-    # Small blocks: several in flight, the last with the start's and goal's rows.
+    # Small blocks: several in flight, the last with the start's and goal's rows. The
+    # helper is slowed, so blocks that come while it is busy are looked up by the
+    # caller: both threads look blocks up, and the graph is still the one-thread graph.
     scene = load_scene(SCENARIOS[5])
-    space = _fresh(scene, scene.start, scene.goal)
-    one = _arrays(space, scene.start, scene.goal)
+    one = _arrays(_fresh(scene, scene.start, scene.goal), scene.start, scene.goal)
+    looked_up_on: list[str] = []
+    look_up = visibility._look_up
+
+    def slow_on_the_helper(*args):
+        looked_up_on.append(threading.current_thread().name)
+        if threading.current_thread() is not threading.main_thread():
+            time.sleep(0.02)
+        return look_up(*args)
+
+    monkeypatch.setattr(visibility, "_look_up", slow_on_the_helper)
     monkeypatch.setattr(visibility, "_PIPELINED_VERTICES", 0)
     monkeypatch.setattr(visibility, "_BLOCK_PAIRS", 64)
     monkeypatch.setattr(visibility, "_SCREEN_ROWS_PAIRS", 64)
     two = _arrays(_fresh(scene, scene.start, scene.goal), scene.start, scene.goal)
+    assert threading.main_thread().name in looked_up_on
+    assert any(name.startswith("sights") for name in looked_up_on)
     np.testing.assert_array_equal(one.i, two.i)
     np.testing.assert_array_equal(one.j, two.j)
+    np.testing.assert_array_equal(one.kept, two.kept)

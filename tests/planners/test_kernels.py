@@ -297,7 +297,7 @@ def test_rough_atan2_is_within_its_bound():
 @given(
     sectors=st.sampled_from([64, 128, 256, 512]),
     k=st.integers(0, 511),
-    hair=st.integers(-3, 3),
+    hair=st.sampled_from([-3, -2, -1, 1, 2, 3]),
 )
 def test_the_sector_is_the_c_librarys_even_on_its_sides(sectors, k, hair):
     # A direction a few ulps from a sector's side (and the branch cut at k = 0): the

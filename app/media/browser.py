@@ -310,6 +310,7 @@ def open_page(
     timeout: float = 60.0,
     url: str | None = None,
     css: str | None = None,
+    dpr: float = 1.0,
 ) -> Iterator[AppPage]:
     """Open a running app in a fresh browser context; wait until its scene is loaded.
 
@@ -331,6 +332,10 @@ def open_page(
     css
         A style sheet the page has from its first paint (e.g. :data:`HIDE_GUI_CSS`),
         so that what it hides is never drawn.
+    dpr
+        Canvas pixels per CSS pixel, fixed (viser's ``fixedDpr``): 1 for pictures; less
+        draws a coarser scene in the same layout (the page, the panel and the mouse are
+        where they are at 1) at a fraction of the cost.
 
     Yields
     ------
@@ -353,7 +358,7 @@ def open_page(
         if css is not None:
             page.add_init_script(_STYLE_SCRIPT % json.dumps(css))
         try:
-            page.goto(_page_address(url or planner_app.url))
+            page.goto(_page_address(url or planner_app.url, dpr))
             client = _wait_loaded(server, page, known, deadline)
         except PlaywrightError as error:
             raise SnapshotError(f"the browser failed: {first_line(error)}") from None
@@ -363,9 +368,9 @@ def open_page(
             context.close()
 
 
-def _page_address(url: str) -> str:
+def _page_address(url: str, dpr: float = 1.0) -> str:
     address = f"{url.rstrip('/')}/" if "?" not in url else url
-    return address + ("&" if "?" in address else "?") + "fixedDpr=1"
+    return address + ("&" if "?" in address else "?") + f"fixedDpr={dpr:g}"
 
 
 _LOADED_JS = """names => {

@@ -19,6 +19,8 @@ from app import start_app
 from app.session.controller import TOOLS
 from tests.app.app_helpers import TopCamera, mouse_drag, settle, shown_mesh, wait_until
 
+DPR = 0.5  # a coarser canvas in the same layout: these tests read the scene, not pixels
+
 WIDTH, HEIGHT = 1280, 800
 # Straight down at the floor of 01_two_convex (10 m x 8 m), left of the panel.
 CAMERA = TopCamera(
@@ -40,7 +42,7 @@ def open_page(browser: Any, planner: Any) -> Any:
     page = browser.new_page(
         viewport={"width": WIDTH, "height": HEIGHT}, device_scale_factor=1
     )
-    page.goto(f"{planner.url}?fixedDpr=1")
+    page.goto(f"{planner.url}?fixedDpr={DPR}")
     page.wait_for_function(
         "() => window.__viserMutable && ('/handles/goal' in window.__viserMutable.nodeRefFromName)"
         " && ('/vg/path' in window.__viserMutable.nodeRefFromName)",

@@ -25,6 +25,7 @@ from tests.app.app_helpers import TopCamera, mouse_drag, settle, wait_until
 from tests.browser import use_browser
 
 WIDTH, HEIGHT = 1280, 800
+DPR = 0.5  # a coarser canvas in the same layout: the test reads the scene, not pixels
 CAMERA = TopCamera(
     look_at=(7.0, 4.0), height=14.0, fov_deg=50.0, width=WIDTH, px_height=HEIGHT
 )
@@ -97,8 +98,8 @@ def test_watcher_sees_the_presenter_drag_and_edits_only_its_own_copy(browser, pl
     room, shared = planner.classroom, planner.controller
     tolerance = 3 * CAMERA.metres_per_pixel()
     with (
-        open_page(planner, browser, url=planner.presenter_url) as pres,
-        open_page(planner, browser) as watch,
+        open_page(planner, browser, url=planner.presenter_url, dpr=DPR) as pres,
+        open_page(planner, browser, dpr=DPR) as watch,
     ):
         assert room.mode(pres.client.client_id) == "presenter"
         assert room.mode(watch.client.client_id) == "watching"
@@ -153,7 +154,7 @@ def test_watcher_sees_the_presenter_drag_and_edits_only_its_own_copy(browser, pl
 
         # Another student, watching, tries to drag the goal with the mouse: nothing moves
         # (its mouse turns its camera: there is no gizmo to hold).
-        with open_page(planner, browser) as other:
+        with open_page(planner, browser, dpr=DPR) as other:
             assert room.mode(other.client.client_id) == "watching"
             goal, version = shared.scene.goal, shared.version
             _drag(other.page, goal, (5.0, 1.0))

@@ -31,6 +31,8 @@ from tests.app.test_app_browser import CAMERA, choose, settle
 from tests.app.test_app_explain_browser import browser_segments
 from tests.browser import use_browser
 
+DPR = 0.5  # a coarser canvas in the same layout: these tests read the scene, not pixels
+
 
 @pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
@@ -95,8 +97,8 @@ def _shots(pages: dict[str, Any], both_name: str = "both") -> None:
 def test_two_presenter_pages_share_explain_and_the_live_robot(browser, planner):
     room, explainer, live = planner.classroom, planner.explain.explainer, planner.live
     url = planner.presenter_url
-    with open_page(planner, browser, url=url) as laptop:
-        with open_page(planner, browser, url=url) as projector:
+    with open_page(planner, browser, url=url, dpr=DPR) as laptop:
+        with open_page(planner, browser, url=url, dpr=DPR) as projector:
             pages = {"laptop": laptop.page, "projector": projector.page}
             for p in (laptop, projector):
                 assert room.mode(p.client.client_id) == "presenter"
@@ -135,7 +137,7 @@ def test_two_presenter_pages_share_explain_and_the_live_robot(browser, planner):
         assert current is not None and len(current) > 0
         # The projector's page is opened again: it shows the running robot and step 2,
         # and its buttons work.
-        with open_page(planner, browser, url=url) as again:
+        with open_page(planner, browser, url=url, dpr=DPR) as again:
             assert wait_until(lambda: "2 presenter browsers" in _text(again.page), 20)
             assert _moves_on(again.page)
             _open_explain(again.page)

@@ -28,6 +28,8 @@ from app.server import SCENARIO_DIR
 from tests.app.app_helpers import classroom_client, wait_until
 from tests.browser import use_browser
 
+DPR = 0.5  # a coarser canvas in the same layout: these tests read the scene, not pixels
+
 
 @pytest.fixture(scope="module")
 def browser() -> Iterator[Any]:
@@ -75,7 +77,7 @@ def test_the_presenters_page_shows_a_students_markup_as_text(browser, listener):
     try:
         app.classroom.set_open(True)
         with (
-            open_page(app, browser, url=app.presenter_url) as pres,
+            open_page(app, browser, url=app.presenter_url, dpr=DPR) as pres,
             classroom_client(app) as student,
         ):
             page = pres.page

@@ -66,7 +66,6 @@ from app.ui.labels import (
     CHAR_WIDTH,
     Box,
     LabelRequest,
-    Placement,
     place_labels,
     wrap_text,
 )
@@ -344,9 +343,6 @@ def explain_layout(
         camera=camera,
         font_px=font,
         line_scale=line_scale(height),
-        labels=Placement((), ()),
-        label_colors=(),
-        markers=(),
         title=(title, title_box) if title_box is not None else None,
         legend=(rows, aside.legend, aside.columns) if aside.legend else None,
         legend_font=aside.font,
@@ -548,18 +544,22 @@ def _column(parts: _Parts, full: Box, *, beside: bool) -> _Aside:
     sizes = [s for s in (parts.legend(), parts.table()) if s is not None]
     width = max([w for w, _ in sizes] + [parts.flow_width()])
     x = full.x1 - width
-    y = full.y0
-    legend = parts.legend()
-    legend_box = None
-    if legend is not None:
-        legend_box = Box(x, y, x + legend[0], y + legend[1])
-        y = legend_box.y1 + parts.margin
+    legend_box, y = _legend_at(parts, x, full.y0)
     table = parts.table_at(x, y)
     if table is not None:
         y = table.box.y1 + parts.margin
     flow = parts.flowchart_at(x, y, width)
     area = Box(full.x0, full.y0, x - parts.margin, full.y1) if beside else full
     return _Aside(area, parts.font, legend_box, 1, table, flow)
+
+
+def _legend_at(parts: _Parts, x: float, y: float) -> tuple[Box | None, float]:
+    """Put the legend's top left at (x, y); return its box (None: no legend) and the y below."""
+    legend = parts.legend()
+    if legend is None:
+        return None, y
+    box = Box(x, y, x + legend[0], y + legend[1])
+    return box, box.y1 + parts.margin
 
 
 def _two_columns(parts: _Parts, full: Box) -> _Aside | None:
@@ -570,12 +570,7 @@ def _two_columns(parts: _Parts, full: Box) -> _Aside | None:
     width = max([w for w, _ in sizes], default=0.0)
     flow_x = full.x1 - parts.flow_width()
     x = flow_x - parts.margin - width
-    y = full.y0
-    legend = parts.legend()
-    legend_box = None
-    if legend is not None:
-        legend_box = Box(x, y, x + legend[0], y + legend[1])
-        y = legend_box.y1 + parts.margin
+    legend_box, y = _legend_at(parts, x, full.y0)
     table = parts.table_at(x, y)
     flow = parts.flowchart_at(flow_x, full.y0, parts.flow_width())
     area = Box(full.x0, full.y0, x - parts.margin, full.y1)

@@ -107,14 +107,15 @@ class Slide:
     camera: CameraPose
     font_px: float
     line_scale: float
-    labels: Placement
-    label_colors: tuple[str, ...]
-    """Border colour of each placed label (an event's planner, black otherwise)."""
-    markers: tuple[Box, ...]
-    """The boxes no label covers: the start and goal disks, the events' crosses."""
     title: tuple[str, Box] | None
     legend: tuple[tuple[LegendRow, ...], Box, int] | None
     """The rows, the box and the number of columns of the legend."""
+    labels: Placement = dataclasses.field(default_factory=lambda: Placement((), ()))
+    """The placed labels; none until the scene's are placed."""
+    label_colors: tuple[str, ...] = ()
+    """Border colour of each placed label (an event's planner, black otherwise)."""
+    markers: tuple[Box, ...] = ()
+    """The boxes no label covers: the start and goal disks, the events' crosses."""
     stamp: Box | None = None
     """Where a video frame's time goes (:attr:`SlideOptions.time_stamp`), else None."""
     legend_font: float | None = None
@@ -417,9 +418,6 @@ def layout(
         camera=camera,
         font_px=font,
         line_scale=line_scale(height),
-        labels=Placement((), ()),
-        markers=(),
-        label_colors=(),
         title=(title_text, title_box) if title_box is not None else None,
         legend=(rows, legend_box, columns) if legend_box is not None else None,
         stamp=stamp_box,

@@ -67,19 +67,21 @@ def test_live_robot_turns_away_from_a_new_obstacle_before_touching_it(browser, h
     live = hall.live
     page.get_by_role("button", name="Start live").click()
     assert wait_until(lambda: live.state is not None and live.state.t > 1.0, 30)
-    # The lecturer drops a block on the robot's way, well ahead of it (beyond R = 2 m):
-    # at x = 6.5, which the robot (from x = 1) is far from however long the click takes
-    # on a loaded machine (a frame can take a second there, and it keeps driving).
+    # The lecturer pauses the robot, drops a block on its way 3 m ahead of it (beyond
+    # R = 2 m) and lets it go on. Paused, because a click on a loaded machine takes
+    # seconds of driving: the block could land on the robot.
+    live.stop()
+    assert wait_until(lambda: not live.running, 20)
     choose(page, TOOLS["drag"], TOOLS["block"])
     assert wait_until(lambda: hall.controller.frame.tool == "block")
-    click(page, (6.5, 4.0))
-    assert wait_until(lambda: len(hall.controller.scene.obstacles) == 2, 20)
-    block = hall.controller.scene.obstacles[-1]
     state = live.state
     assert state is not None
+    click(page, (min(state.pose[0] + 3.0, 6.5), 4.0))
+    assert wait_until(lambda: len(hall.controller.scene.obstacles) == 2, 20)
+    block = hall.controller.scene.obstacles[-1]
+    assert live.state is not None and live.state.t == state.t  # it waited there
     added_at = state.t
-    # Ahead of the robot when it came, clear of it by more than its radius.
-    assert block.bounds[0] - state.pose[0] > 1.0, (state.pose, block.bounds)
+    live.start()
     if SHOTS:
         page.screenshot(path=os.path.join(SHOTS, "live_1_block.png"))
     # (Mid-way for the picture: a loaded machine may already have reached the goal.)

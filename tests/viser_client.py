@@ -15,7 +15,7 @@ scene node its last position and visibility, per owner scope ("" is the broadcas
 
 from __future__ import annotations
 
-__all__ = ["ViserClient"]
+__all__ = ["ViserClient", "camera_message", "decode_batch"]
 
 import collections
 import contextlib
@@ -33,7 +33,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 
-def _camera_message() -> dict[str, Any]:
+def camera_message() -> dict[str, Any]:
     # The server reports a client as connected after its first camera message.
     return {
         "type": "ViewerCameraMessage",
@@ -107,7 +107,7 @@ class ViserClient:
         self._on_message = on_message
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
-        self.send(_camera_message())
+        self.send(camera_message())
 
     # ------------------------------------------------------------------ sending
 
@@ -215,12 +215,38 @@ class ViserClient:
     # ------------------------------------------------------------------ reading
 
     def uuid(self, label: str, kind: str = "") -> str:
-        """Return the uuid of the GUI element labelled ``label`` (of type ``kind``)."""
+        """Return the uuid of the GUI element labelled ``label`` (of type ``kind``).
+
+        An element the page draws comes first: one whose containers all reached this
+        browser. Elements it holds but does not draw (the class's watcher panel, in a
+        presenter's browser) are found only when no drawn one has the label.
+        """
         with self._lock:
-            for uuid, element in self.gui.items():
-                if element["label"] == label and kind in element["type"]:
-                    return uuid
+            found = [
+                uuid
+                for uuid, element in self.gui.items()
+                if element["label"] == label and kind in element["type"]
+            ]
+            drawn = [uuid for uuid in found if self._drawn(uuid)]
+        if drawn or found:
+            return (drawn or found)[0]
         raise KeyError(f"no GUI element {label!r} ({kind or 'any type'})")
+
+    def labels(self) -> set[str]:
+        """Return the labels of the GUI elements the page draws (see :meth:`uuid`)."""
+        with self._lock:
+            return {e["label"] for u, e in self.gui.items() if self._drawn(u)}
+
+    def _drawn(self, uuid: str) -> bool:
+        # Called with the lock held: up the containers to the root, each one known.
+        seen = set()
+        while uuid != "root":
+            element = self.gui.get(uuid)
+            if element is None or uuid in seen:
+                return False
+            seen.add(uuid)
+            uuid = element.get("container", "root")
+        return True
 
     def element(self, label: str, kind: str = "") -> dict[str, Any]:
         """Return the GUI element labelled ``label`` (a copy of its last state)."""
@@ -229,12 +255,13 @@ class ViserClient:
             return dict(self.gui[uuid])
 
     def html(self) -> list[str]:
-        """Return the content of every HTML/markdown element, in creation order."""
+        """Return the content of every HTML/markdown element drawn, in creation order."""
         with self._lock:
             return [
                 str(e["props"].get("content", e["props"].get("_markdown", "")))
-                for e in self.gui.values()
+                for u, e in self.gui.items()
                 if e["type"] in ("GuiHtmlMessage", "GuiMarkdownMessage")
+                and self._drawn(u)
             ]
 
     def wait_for(self, test: Callable[[], bool], timeout: float = 30.0) -> bool:
@@ -328,6 +355,7 @@ class ViserClient:
                 "label": props.get("label", ""),
                 "props": props,
                 "value": message.get("value"),
+                "container": str(message.get("container_uuid", "root")),
             }
 
     def _apply_scene(self, kind: str, message: dict[str, Any]) -> None:

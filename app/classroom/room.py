@@ -87,6 +87,8 @@ from typing import Any, cast
 import viser
 
 from app.classroom.audience import Audience
+from app.classroom.watch import WatchPanel
+from app.classroom.wire import share_encoding, stop_sharing
 from app.explain.panel import ExplainPanel
 from app.guard.door import Bucket
 from app.guard.gate import GatedController, Refusals
@@ -106,6 +108,9 @@ logger = logging.getLogger(__name__)
 
 PRESENTER_PATH = "/presenter/"
 """Websocket path prefix of the presenter's browser; the token follows it."""
+
+PANEL_ORDER = 0.0
+"""Where a seat's own panel sits: below its banner and buttons (negative orders)."""
 
 SWITCHES = (4, 0.5)
 """How often a seat may make a copy or follow again (each builds or closes a whole
@@ -204,7 +209,12 @@ class Seat:
     buttons: Any = None
     """Its classroom buttons (copy / follow), or the presenter's switch."""
     panels: Panels | None = None
-    """Its control panel (built after the banner, so the banner is on top)."""
+    """Its own control panel, while it presents, edits or works on a copy; a watcher
+    sees the class's one panel instead (:mod:`app.classroom.watch`)."""
+    panel_box: Any = None
+    """The container its own panel hangs from (removed with the panel)."""
+    watching: bool = False
+    """Whether its browser shows the class's one watcher panel."""
     own: PlannerView | None = None
     """Its own 3-D view with live gizmos (while it edits the presenter's scene or its
     own copy), else None."""
@@ -218,6 +228,8 @@ class Seat:
     """Client-scoped hidden nodes over the presenter's broadcast drawings (a copy)."""
     explain: PrivateExplain | None = None
     """The Explain mode of its own copy (drawn in its scope only), else None."""
+    building: threading.Lock = dataclasses.field(default_factory=threading.Lock)
+    """Held while its own panel is built or removed."""
     switches: Bucket = dataclasses.field(
         default_factory=lambda: Bucket(SWITCHES[1], SWITCHES[0], time.monotonic())
     )
@@ -347,6 +359,18 @@ class Classroom:
         """Edits refused because the browser may not edit (crafted or not)."""
         self.audience = Audience()
         """The followers' views, drawn by the presenter's session."""
+        self.watch = WatchPanel(
+            server,
+            controller,
+            titles=self._titles,
+            registry=controller.registry,
+            refusals=self.refusals,
+            never=STUDENT_NEVER,
+        )
+        """The watchers' one panel (app.classroom.watch), drawn at a bounded rate."""
+        self.audience.add(self.watch.panels, deferred=True)
+        self.encoding = share_encoding(server)
+        """Each broadcast window encoded once for every browser (app.classroom.wire)."""
         self.pool = WorkerPool(_slow_fn(controller), size=copy_workers)
         """The slow-lane workers every private copy shares."""
         self.big_pool = WorkerPool(
@@ -412,9 +436,8 @@ class Classroom:
         path = connection_path(self.server, client.client_id)
         presenter = is_presenter_path(path, self.token)
         seat = Seat(client, presenter)
-        seat.panels = Panels(
-            client, self._titles, self.controller.registry, self._folder
-        )
+        if presenter or self._open:
+            self._ensure_panels(seat)  # a watcher's is the class's one panel
         with self._lock:
             if presenter and not is_presenter_path(path, self.token):
                 # The secret was replaced while this seat was built: it presents no more.
@@ -469,11 +492,21 @@ class Classroom:
         self._refresh_banners()
 
     def set_open(self, value: bool) -> None:
-        """Let every follower edit the presenter's scene (a lab session), or take it back."""
+        """Let every follower edit the presenter's scene (a lab session), or take it back.
+
+        Each follower gets a panel of its own to edit with, built outside the lock.
+        """
         with self._lock:
             self._open = bool(value)
-            for seat in self._seats.values():
-                if not seat.presenter and seat.private is None:
+            followers = [
+                s for s in self._seats.values() if not s.presenter and s.private is None
+            ]
+        if value:
+            for seat in followers:
+                self._ensure_panels(seat)
+        with self._lock:
+            for seat in followers:
+                if self._seats.get(seat.client_id) is seat and seat.private is None:
                     self._leave_audience(seat)
                     self._follow(seat)
         self._refresh_banners()
@@ -490,6 +523,7 @@ class Classroom:
             return False
         if not self._switch_allowed(seat):
             return False
+        self._ensure_panels(seat)
         snapshot = self.controller.frame
         private = Controller(
             [],
@@ -531,7 +565,8 @@ class Classroom:
             seat.client.scene.add_frame(root, show_axes=False, visible=False)
             for root in self._roots
         )
-        panels = _panels(seat)
+        # Built before the lock, unless a lab just ended and took it back meanwhile.
+        panels = self._ensure_panels(seat)
         seat.private, seat.explain = private, explain
         gated = GatedController(
             private, lambda: seat.private is private, self.refusals, never=STUDENT_NEVER
@@ -624,6 +659,7 @@ class Classroom:
             if seat.explain is not None:
                 seat.explain.close()
         self.audience.close()
+        stop_sharing(self.server)
         self.pool.close()
         self.big_pool.close()
 
@@ -631,27 +667,59 @@ class Classroom:
 
     def _follow(self, seat: Seat) -> None:
         """Attach a seat to the presenter's session, editing or watching as allowed."""
-        panels = _panels(seat)
         cid = seat.client_id
+        if not self.may_edit(cid):
+            self._drop_own_view(seat)
+            self._drop_panels(seat)
+            if not seat.watching:
+                seat.watching = True
+                self.watch.show(seat.client)
+            return
+        self._stop_watching(seat)
+        panels = self._ensure_panels(seat)
         never = frozenset() if seat.presenter else STUDENT_NEVER
         gated = GatedController(
             self.controller, lambda: self.may_edit(cid), self.refusals, never
         )
         panels.attach(cast(Controller, gated))
-        editable = self.may_edit(cid)
-        _lock(panels, editable=editable, presenter=seat.presenter)
-        if editable and seat.own is None:
+        _lock(panels, editable=True, presenter=seat.presenter)
+        if seat.own is None:
             seat.own = self._own_view(seat, self._shared_drag(cid))
-        if not editable:
-            self._drop_own_view(seat)
-        if seat.own is not None:
-            self.audience.add(seat.own, first=seat.presenter)
+        self.audience.add(seat.own, first=seat.presenter)
         # A follower's panel is drawn at a bounded rate; the presenter's at once.
         self.audience.add(panels, first=seat.presenter, deferred=not seat.presenter)
 
     def _leave_audience(self, seat: Seat) -> None:
         self.audience.remove(*(v for v in (seat.own, seat.panels) if v is not None))
         self._drop_own_view(seat)
+        self._stop_watching(seat)
+
+    def _stop_watching(self, seat: Seat) -> None:
+        if seat.watching:
+            seat.watching = False
+            self.watch.hide(seat.client)
+
+    def _ensure_panels(self, seat: Seat) -> Panels:
+        """Build the seat's own panel if it has none (slow: outside the lock if possible)."""
+        with seat.building:
+            if seat.panels is None:
+                box = seat.client.gui.add_folder(None, order=PANEL_ORDER)
+                with box:
+                    panels = Panels(
+                        seat.client,
+                        self._titles,
+                        self.controller.registry,
+                        self._folder,
+                    )
+                seat.panels, seat.panel_box = panels, box
+            return seat.panels
+
+    def _drop_panels(self, seat: Seat) -> None:
+        """Remove the seat's own panel (it watches with the class's one)."""
+        with seat.building:
+            box, seat.panel_box, seat.panels = seat.panel_box, None, None
+        if box is not None:
+            box.remove()
 
     def _own_view(self, seat: Seat, on_drag: Callable[..., None]) -> PlannerView:
         """Build a 3-D view with live gizmos in the seat's own scope; hide the shared one."""
@@ -766,11 +834,6 @@ class Classroom:
 def _lock(panels: Panels, *, editable: bool, presenter: bool) -> None:
     """Enable a panel's controls as its seat may use them (saving: the presenter only)."""
     panels.lock(not editable, saving=presenter)
-
-
-def _panels(seat: Seat) -> Panels:
-    assert seat.panels is not None, "a seat's panel is built on connect"
-    return seat.panels
 
 
 _MASK_SECRET = (

@@ -9,7 +9,8 @@ what the planner's page sends in normal use:
 
 - **an allow-list of message types** (:data:`ALLOWED`): the camera, widget values, the
   gizmos, a click on the floor, an upload. Anything else is dropped unread;
-- **widget values the widget offers**: a dropdown's value is one of its options, a
+- **widget values the widget offers**, on a widget the page shows and has not
+  disabled: a dropdown's value is one of its options, a
   button group's one of its buttons, a slider's a finite number in its range, a
   checkbox's a bool, a text at most :data:`MAX_TEXT` characters; only ``value`` is set;
 - **uploads checked before they are buffered**: declared size at most
@@ -48,6 +49,8 @@ __all__ = [
     "Door",
     "Rates",
     "message_limit",
+    "offers",
+    "usable",
 ]
 
 import collections
@@ -428,7 +431,7 @@ class Door:
         if set(message.updates) != {"value"}:
             return "value"
         handle = self._handle(client_id, message.uuid)
-        if handle is None:
+        if handle is None or not usable(handle):
             return "widget"
         value = _VALUE.decode(message.updates["value"])
         if not offers(handle, value):
@@ -452,7 +455,7 @@ class Door:
         if size < 0 or parts < 0 or len(name) > 255 or len(transfer) > 64:
             return "malformed"
         handle = self._handle(client_id, message.source_component_uuid)
-        if not isinstance(handle, viser.GuiUploadButtonHandle):
+        if not isinstance(handle, viser.GuiUploadButtonHandle) or not usable(handle):
             return "widget"
         if size > MAX_UPLOAD_BYTES:
             self._say(
@@ -511,6 +514,17 @@ class Door:
             self._tell(client_id, words)
         except Exception:
             logger.exception("could not tell a browser why its action was refused")
+
+
+def usable(handle: Any) -> bool:
+    """Whether a page lets its user touch widget ``handle``: shown and not disabled.
+
+    A watcher's panel (:mod:`app.classroom.watch`) is one set of disabled widgets
+    shared by the class: no value for them is let through, whoever sends it.
+    """
+    return bool(getattr(handle, "visible", True)) and not getattr(
+        handle, "disabled", False
+    )
 
 
 def offers(handle: Any, value: Any) -> bool:  # noqa: PLR0911

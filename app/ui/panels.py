@@ -173,6 +173,9 @@ class Panels:
     folder
         The scenes folder (``--scenes-dir``), or None: then the panel offers only
         downloads, uploads and the shipped scenarios.
+    floor_clicks
+        Whether a click on the floor goes to the controller's tools (False: a panel
+        nobody edits with, the classroom's watcher panel, asks no browser for clicks).
     """
 
     def __init__(
@@ -181,8 +184,11 @@ class Panels:
         scenarios: Mapping[str, str],
         registry: Mapping[str, PlannerSpec] = planners.REGISTRY,
         folder: ScenesFolder | None = None,
+        *,
+        floor_clicks: bool = True,
     ) -> None:
         self.server = server
+        self._floor_clicks = floor_clicks
         self._folder = folder
         self.controller: Controller | None = None
         self._latest_version: Callable[[], int] = lambda: -1
@@ -476,6 +482,9 @@ class Panels:
         )
         self._on(self.speed, lambda v, c: c.playback.set_speed(float(v)))
         self._on(self.time, lambda v, c: c.playback.set_robot_time(float(v)))
+
+        if not self._floor_clicks:
+            return
 
         @self.server.scene.on_click()
         def _(event: Any) -> None:

@@ -203,8 +203,8 @@ def classroom_client(app: Any, presenter: bool = False) -> Iterator[ViserClient]
 
 
 def has_label(c: ViserClient, label: str) -> bool:
-    """Whether ``c`` has received a GUI element labelled ``label``."""
-    return any(e["label"] == label for e in c.gui.values())
+    """Whether ``c``'s page draws a GUI element labelled ``label``."""
+    return label in c.labels()
 
 
 def settle(page: Any, frames: int = 3) -> None:

@@ -251,6 +251,12 @@ def test_a_wrong_token_watches(planner):
         c.close()
 
 
+def refusals(app) -> int:
+    """Edits refused so far, by the door (a widget nobody may use) or by the gate."""
+    assert app.door is not None
+    return app.classroom.refusals.count + sum(app.door.refused.values())
+
+
 def _crafted_edits(c: ViserClient, owner: str) -> None:
     """Every kind of edit a browser can send, for the panel of client ``c``."""
     c.set_gui(c.uuid("Radius [m]"), 0.55)
@@ -272,14 +278,14 @@ def test_crafted_edits_from_a_watcher_are_refused_on_the_server(planner):
     with client(planner, presenter=True) as pres, client(planner) as watch:
         scene, version = _state(planner)
         ui = planner.controller._state.ui
-        refused = room.refusals.count
-        # The watcher's own (disabled) widgets, gizmo names in every scope it may claim,
+        refused = refusals(planner)
+        # The watcher's (disabled) widgets, gizmo names in every scope it may claim,
         # and the presenter's widgets' ids (another connection's: viser never routes them).
         for owner in ("", str(watch.client_id), str(pres.client_id)):
             _crafted_edits(watch, owner)
         for uuid in list(pres.gui):
             watch.set_gui(uuid, 0.5)
-        assert wait_until(lambda: room.refusals.count >= refused + 8, 20)
+        assert wait_until(lambda: refusals(planner) >= refused + 8, 20)
         assert planner.wait_idle(30)
         assert planner.controller.scene == scene
         assert planner.controller.version == version
@@ -474,21 +480,22 @@ def test_a_student_never_writes_the_scenes_folder_even_on_a_copy(tmp_path):
     assert room is not None
     try:
         with client(app, presenter=True) as pres, client(app) as student:
-            assert student.wait_for(
-                lambda: student.element("Save to the scenes folder")["props"][
-                    "disabled"
-                ]
-            )
+            # A watcher's panel (the class's one) has no scenes folder at all.
+            assert pres.wait_for(lambda: "Save to the scenes folder" in pres.labels())
+            assert student.wait_for(lambda: "Radius [m]" in student.labels())
+            assert "Save to the scenes folder" not in student.labels()
 
-            def try_save(c: ViserClient, name: str) -> None:
-                c.set_gui(c.uuid("Save as"), name)
-                c.set_gui(c.uuid("Save to the scenes folder"), True)
+            def try_save(c: ViserClient, name: str, panel: ViserClient) -> None:
+                c.set_gui(panel.uuid("Save as"), name)
+                c.set_gui(panel.uuid("Save to the scenes folder"), True)
 
-            refused = room.refusals.count
-            try_save(student, "watching")  # watching
+            refused = refusals(app)
+            try_save(student, "watching", pres)  # watching: the presenter's widgets
             pres.set_gui(pres.uuid("Let everyone edit"), True)
             assert wait_until(lambda: room.mode(student.client_id) == "together", 20)
-            try_save(student, "together")  # editing together
+            assert student.wait_for(lambda: "Save as" in student.labels())
+            assert student.element("Save to the scenes folder")["props"]["disabled"]
+            try_save(student, "together", student)  # editing together
             pres.set_gui(pres.uuid("Let everyone edit"), False)
             student.set_gui(student.uuid("Make my own copy"), True)
             assert wait_until(lambda: room.mode(student.client_id) == "private", 20)
@@ -497,10 +504,10 @@ def test_a_student_never_writes_the_scenes_folder_even_on_a_copy(tmp_path):
                 lambda: not student.element("Radius [m]")["props"]["disabled"]
             )
             assert student.element("Save to the scenes folder")["props"]["disabled"]
-            try_save(student, "private")  # on its own copy
-            assert wait_until(lambda: room.refusals.count >= refused + 3, 20)
+            try_save(student, "private", student)  # on its own copy
+            assert wait_until(lambda: refusals(app) >= refused + 3, 20)
             assert sorted(p.name for p in tmp_path.rglob("*")) == ["scenes"]
-            try_save(pres, "lecture")
+            try_save(pres, "lecture", pres)
             assert wait_until((folder / "lecture.json").is_file, 20)
             assert sorted(p.name for p in folder.iterdir()) == ["lecture.json"]
     finally:
@@ -563,7 +570,8 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
     # The presenter's browser left while explaining: it left the audience, and the last
     # presenter's Explain folder gone, Explain went off, gave the plans' layers back and
     # hid its drawing.
-    assert wait_until(lambda: len(room.audience) == 0, 20)
+    # Only the class's one watcher panel is left (app.classroom.watch).
+    assert wait_until(lambda: len(room.audience) == 1, 20)
     explainer = planner.explain.explainer
     assert wait_until(lambda: explainer.method == "off", 20)
     assert explainer.wait_ready(30) and planner.wait_idle(30)

@@ -113,14 +113,14 @@ def run_clients(args: argparse.Namespace) -> int:
     students = [ViserClient(args.port) for _ in range(args.copies)]
     everyone = [presenter, *watchers, *students]
     for c in everyone:
-        assert c.wait_for(lambda c=c: _seated(c), 120), "no panel"
+        assert c.wait_for(lambda c=c: seated(c), 120), "no panel"
     for s in students:
         s.set_gui(s.uuid("Make my own copy"), True)
     for s in students:
-        assert s.wait_for(lambda s=s: _own_id(s) is not None, 120), "no copy"
+        assert s.wait_for(lambda s=s: own_id(s) is not None, 120), "no copy"
     _say({"ready": True})
     _expect("go")
-    sent = _drag_students(students, args)
+    sent = drag_students(students, args)
     goal = json.loads(_expect("report"))
     # Wait (bounded) until every watcher has the presenter's final goal: "ends on".
     deadline = time.monotonic() + 20.0
@@ -139,7 +139,7 @@ def run_clients(args: argparse.Namespace) -> int:
             ],
             "watcher_receipts": [received.get(k, []) for k in range(args.watchers)],
             "students_last": [s[-1][1] if s else None for s in sent],
-            "students": [_own_id(s) for s in students],
+            "students": [own_id(s) for s in students],
             "cpu_s": time.process_time(),
             "messages": sum(c.received for c in everyone),
         }
@@ -150,22 +150,22 @@ def run_clients(args: argparse.Namespace) -> int:
 
 
 def _has(c: Any, label: str) -> bool:
-    return any(e["label"] == label for e in c.gui.values())
+    return label in c.labels()
 
 
-def _seated(c: Any) -> bool:
+def seated(c: Any) -> bool:
     """Whether a client has its whole seat: the panel, then its classroom buttons."""
     return _has(c, "Radius [m]") and (
         _has(c, "Make my own copy") or _has(c, "Let everyone edit")
     )
 
 
-def _own_id(c: Any) -> str | None:
+def own_id(c: Any) -> str | None:
     owners = {owner for owner, name in c.nodes if owner and name.startswith("/own")}
     return next(iter(owners)) if owners else None
 
 
-def _drag_students(students: list[Any], args: argparse.Namespace) -> list[list[Any]]:
+def drag_students(students: list[Any], args: argparse.Namespace) -> list[list[Any]]:
     """Every student drags its own goal in a loop at ``student_rate`` for ``duration``."""
     sent: list[list[Any]] = [[] for _ in students]
     period = 1.0 / args.student_rate
@@ -173,7 +173,7 @@ def _drag_students(students: list[Any], args: argparse.Namespace) -> list[list[A
     loop = drag_positions(planners.load_scene(resolve_scenario(SCENARIO)[1]), n)
 
     def drag(k: int) -> None:
-        s, owner = students[k], str(_own_id(students[k]))
+        s, owner = students[k], str(own_id(students[k]))
         # The presenter's loop around the goal (a valid goal all along), each student
         # starting at another point of it.
         points = np.roll(loop, 7 * k, axis=0)
@@ -264,7 +264,7 @@ def rss_mb(pid: int | None = None) -> float:
     return 0.0
 
 
-def _cpu_s(pids: list[int]) -> float:
+def cpu_s(pids: list[int]) -> float:
     """CPU time (user + system) of processes [s] (Linux /proc; 0 for a vanished one)."""
     total = 0.0
     for pid in pids:
@@ -320,7 +320,7 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         connect_s = time.perf_counter() - t_connect
         probes, recorders = _watch_copies(room, copies)
         _warm_up(app, controller)
-        cpu0 = (time.process_time(), _cpu_s(worker_pids(app)))
+        cpu0 = (time.process_time(), cpu_s(worker_pids(app)))
         clients.send("go")
         points = drag_positions(controller.scene, args.events)
         sent = mouse_drag(controller, ("goal",), points, args.rate)
@@ -330,7 +330,7 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         clients.send(f"report {json.dumps(list(controller.scene.goal))}")
         report = clients.read()
         _wait_copies_settle(probes, report)
-        cpu = (time.process_time() - cpu0[0], _cpu_s(worker_pids(app)) - cpu0[1])
+        cpu = (time.process_time() - cpu0[0], cpu_s(worker_pids(app)) - cpu0[1])
         rss_after = rss_mb()
         return _summary(
             watchers=watchers,

@@ -131,7 +131,7 @@ def _has(c: ViserClient, label: str) -> bool:
     return any(e["label"] == label for e in c.gui.values())
 
 
-def _own_id(c: ViserClient) -> str | None:
+def own_id(c: ViserClient) -> str | None:
     with c._lock:
         owners = {owner for owner, name in c.nodes if owner and name.startswith("/own")}
     return next(iter(owners)) if owners else None
@@ -236,8 +236,8 @@ def round_(tree: Path, name: str, seconds: float) -> dict[str, Any]:
             server.open_to_everyone()
         presenter = seated(server.port, f"/presenter/{server.token}")
         watcher = seated(server.port, on_message=heard)
-        presenter.wait_for(lambda: _own_id(presenter) is not None, 30)
-        owner = _own_id(presenter) or ""
+        presenter.wait_for(lambda: own_id(presenter) is not None, 30)
+        owner = own_id(presenter) or ""
         rss_before = server.rss_mb()
         stop = threading.Event()
         thread = threading.Thread(target=attack(name, server, stop), daemon=True)

@@ -58,6 +58,9 @@ class EdgeDrawing:
     """Edges to draw, shape (k, 2, 2) [m], in the planner's order."""
     total: int
     """Edges of the graph."""
+    at_ends: npt.NDArray[np.bool_]
+    """Per edge drawn, whether it has an end at the start or the goal node, shape (k,):
+    the edges a drag of the start or the goal changes (the others stay as they are)."""
 
     @property
     def thinned(self) -> bool:
@@ -104,15 +107,25 @@ def edges_to_draw(result: Any, all_edges: bool, limit: int = THIN_ABOVE) -> Edge
     >>> d = edges_to_draw(r, all_edges=False, limit=2)
     >>> len(d.segments), d.total, d.thinned
     (2, 3, True)
+    >>> d.at_ends.tolist()  # edge 0-1 joins start and goal, 1-2 leaves the goal
+    [True, True]
     """
     arrays = result.arrays
     total = len(arrays.i)
+    ends = _at_ends(arrays)
     if all_edges or total <= limit:
-        return EdgeDrawing(arrays.segments(), total)
+        return EdgeDrawing(arrays.segments(), total, ends)
     keep = _at_path(result)
     points = np.asarray(arrays.points, dtype=np.float64)
     segments = np.stack([points[arrays.i[keep]], points[arrays.j[keep]]], axis=1)
-    return EdgeDrawing(segments, total)
+    return EdgeDrawing(segments, total, ends[keep])
+
+
+def _at_ends(arrays: Any) -> npt.NDArray[np.bool_]:
+    """Per edge of the graph, whether one of its nodes is the start or the goal."""
+    i, j = np.asarray(arrays.i), np.asarray(arrays.j)
+    ends = [arrays.start, arrays.goal]
+    return np.isin(i, ends) | np.isin(j, ends)
 
 
 def edges_counted(result: Any, all_edges: bool, limit: int = THIN_ABOVE) -> EdgeCount:

@@ -16,6 +16,7 @@ __all__ = [
     "MAX_NUMBERED_OBSTACLES",
     "MAX_VERTEX_HANDLES",
     "STALE_RGB",
+    "GraphEdges",
     "Labels",
     "PlannerView",
     "Segments",
@@ -698,6 +699,64 @@ def _place(node: Any, position: tuple[float, float, float]) -> None:
 HandleCallback = Callable[[Handle, tuple[float, float], str], None]
 
 
+class GraphEdges:
+    """A graph's edges on two nodes: those at the start or the goal, and the rest.
+
+    Dragging the start or the goal changes only the edges at them: the other node, most
+    of the graph, is sent again only when its edges change (by value), so a drag sends
+    a browser a few edges per frame instead of the whole graph. Both nodes have the same
+    colour and width: the picture is one layer of edges.
+    """
+
+    def __init__(
+        self,
+        scene: viser.SceneApi,
+        name: str,
+        color: tuple[int, int, int],
+        thickness: float,
+    ) -> None:
+        self.rest = Segments(scene, name, color, thickness, "screen")
+        """The edges between obstacles' vertices."""
+        self.ends = Segments(scene, name + "_ends", color, thickness, "screen")
+        """The edges with an end at the start or the goal."""
+        self._rest: tuple[FloatArray, bool] | None = None  # what ``rest`` shows
+
+    @property
+    def visible(self) -> bool:
+        """Whether the browsers draw any edge of the graph."""
+        return any(layer.handle.visible for layer in self.layers)
+
+    @property
+    def layers(self) -> tuple[Segments, Segments]:
+        """Both nodes' layers (the rest first)."""
+        return self.rest, self.ends
+
+    def set(
+        self, segments: FloatArray, at_ends: npt.NDArray[np.bool_], visible: bool
+    ) -> None:
+        """Draw ``segments`` ((N, 2, 3) [m]); ``at_ends`` marks the start's and goal's."""
+        rest = segments[~at_ends] if len(segments) else segments
+        shown = self._rest
+        if (
+            shown is None
+            or shown[1] != visible
+            or shown[0].shape != rest.shape
+            or not np.array_equal(shown[0], rest)
+        ):
+            self.rest.set(rest, visible)
+            self._rest = (rest, visible)
+        self.ends.set(segments[at_ends] if len(segments) else segments, visible)
+
+    def points(self) -> FloatArray:
+        """Return the edges the browsers draw, shape (N, 2, 3): the rest, then the ends'."""
+        parts = [
+            np.asarray(layer.handle.points)
+            for layer in self.layers
+            if layer.handle.visible
+        ]
+        return np.concatenate(parts) if parts else np.zeros((0, 2, 3), np.float32)
+
+
 class _GraphLayer:
     """A graph planner's edges and shortest path (VG, SVG: section 9.4, 9.5)."""
 
@@ -706,8 +765,8 @@ class _GraphLayer:
         self.look = look
         # Graph edges are thin lines of constant pixel width: readable at any zoom, and
         # cheaper to draw than world-width ribbons (which matters in software WebGL).
-        self.edges = Segments(
-            scene, f"/{name}/edges", look.edges or look.path, look.edges_px, "screen"
+        self.edges = GraphEdges(
+            scene, f"/{name}/edges", look.edges or look.path, look.edges_px
         )
         self.path = Segments(scene, f"/{name}/path", look.path, look.path_width)
         self.stale = False  # drawn grey (an older scene's result)
@@ -729,20 +788,21 @@ class _GraphLayer:
             # An older scene's plans, kept while a big scene is computed, are grey.
             self.stale = frame.stale
             for layer, color in (
-                (self.edges, self.look.edges),
+                *((edges, self.look.edges) for edges in self.edges.layers),
                 (self.path, self.look.path),
             ):
                 rgb = STALE_RGB if frame.stale else (color or self.look.path)
                 layer.handle.colors = np.asarray(rgb, dtype=np.uint8)
         # A big graph is thinned unless its "edges: all" layer is on (app.ui.thinning).
-        self.edges.set(
-            lift_segments(
-                edges_to_draw(result, all_edges).segments, self.look.edges_height
+        if show_edges and result is not None:
+            drawing = edges_to_draw(result, all_edges)
+            self.edges.set(
+                lift_segments(drawing.segments, self.look.edges_height),
+                drawing.at_ends,
+                show_edges,
             )
-            if show_edges and result is not None
-            else _NO_SEGMENTS,
-            show_edges,
-        )
+        else:
+            self.edges.set(_NO_SEGMENTS, np.zeros(len(_NO_SEGMENTS), bool), show_edges)
         self.path.set(
             path_to_segments(result.path, self.look.path_height)
             if show_path and result is not None
@@ -1381,7 +1441,8 @@ class PlannerView:
                 gizmo.disable_sliders = True
                 gizmo.disable_rotations = True
             for graph in self.graphs.values():
-                graph.edges.handle.thickness = graph.look.edges_px * line_scale
+                for layer in graph.edges.layers:
+                    layer.handle.thickness = graph.look.edges_px * line_scale
             pools = [self.obstacle_labels, *(t.labels for t in self.traces.values())]
             for pool in pools:
                 pool.hidden = not labels

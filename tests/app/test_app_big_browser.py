@@ -118,7 +118,7 @@ def frame_layer(controller: Any, key: str) -> bool:
 def controller_view_points(app: Any) -> int:
     """Edges the 3-D view sent for the VG layer (the server's copy of the node)."""
     view = app.controller.views._views[0]
-    return len(view.graphs["vg"].edges.handle.points)
+    return len(view.graphs["vg"].edges.points())
 
 
 def _blue(picture: np.ndarray) -> int:

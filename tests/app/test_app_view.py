@@ -197,9 +197,9 @@ def test_view_layers_hold_exactly_what_was_planned(drawn):
         path_to_segments(svg.path)[:, :, :2],
         atol=1e-5,
     )
-    assert len(view.graphs["vg"].edges.handle.points) == vg.graph.number_of_edges()
-    assert len(view.graphs["svg"].edges.handle.points) == svg.graph.number_of_edges()
-    assert view.graphs["vg"].edges.handle.visible and view.obstacles.shown()
+    assert len(view.graphs["vg"].edges.points()) == vg.graph.number_of_edges()
+    assert len(view.graphs["svg"].edges.points()) == svg.graph.number_of_edges()
+    assert view.graphs["vg"].edges.visible and view.obstacles.shown()
     vertices, faces = shown_mesh(view.obstacles)
     top = faces[np.all(np.isclose(vertices[faces][:, :, 2], 0.4, atol=1e-6), axis=1)]
     assert mesh_area(vertices, top) == pytest.approx(
@@ -234,7 +234,7 @@ def test_view_follows_edits_and_hides_what_has_no_path(drawn):
         not view.graphs["vg"].path.handle.visible
         and not view.graphs["svg"].path.handle.visible
     )
-    assert not view.graphs["vg"].edges.handle.visible
+    assert not view.graphs["vg"].edges.visible
     controller.undo()
     assert controller.wait_idle(10)
     assert view.graphs["vg"].path.handle.visible
@@ -242,7 +242,7 @@ def test_view_follows_edits_and_hides_what_has_no_path(drawn):
     controller.set_layer("vg_edges", False)
     controller.set_layer("expanded", False)
     assert controller.wait_idle(10)
-    assert not view.graphs["vg"].edges.handle.visible and not view.expanded_fill.shown()
+    assert not view.graphs["vg"].edges.visible and not view.expanded_fill.shown()
 
 
 def _gizmo_drag(

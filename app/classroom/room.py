@@ -228,6 +228,8 @@ class Seat:
     """Client-scoped hidden nodes over the presenter's broadcast drawings (a copy)."""
     explain: PrivateExplain | None = None
     """The Explain mode of its own copy (drawn in its scope only), else None."""
+    shown: tuple[str, bool] | None = None
+    """The mode and lab switch its banner shows (a student's banner shows no counts)."""
     building: threading.Lock = dataclasses.field(default_factory=threading.Lock)
     """Held while its own panel is built or removed."""
     switches: Bucket = dataclasses.field(
@@ -710,6 +712,7 @@ class Classroom:
                         self._titles,
                         self.controller.registry,
                         self._folder,
+                        saving=seat.presenter,
                     )
                 seat.panels, seat.panel_box = panels, box
             return seat.panels
@@ -825,8 +828,11 @@ class Classroom:
             mode = self.mode(seat.client_id)
             if not mode or seat.banner is None or seat.buttons is None:
                 continue  # its banner and buttons are being built
+            if not seat.presenter and seat.shown == (mode, self._open):
+                continue  # a student's banner shows no counts: nothing new for it
             try:
                 _set_banner(seat, mode, counts, self._open)
+                seat.shown = (mode, self._open)
             except Exception:
                 logger.exception("could not update a browser's banner")
 

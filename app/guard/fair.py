@@ -67,6 +67,9 @@ class FairExecutor(concurrent.futures.Executor):
         Most tasks a non-priority browser may have waiting.
     key_of
         Which browser a task's arguments belong to.
+    idle_seconds
+        How long a thread waits for a task before it ends: a class that leaves gives
+        its threads back.
     """
 
     def __init__(
@@ -75,8 +78,11 @@ class FairExecutor(concurrent.futures.Executor):
         priority: Callable[[Hashable], bool] = lambda key: True,
         max_queued: int = 32,
         key_of: Callable[[tuple[Any, ...]], Hashable] = client_of,
+        idle_seconds: float = 2.0,
     ) -> None:
         self._workers = max(1, workers)
+        self._idle_seconds = idle_seconds
+        self._started = 0
         self._priority = priority
         self._max_queued = max_queued
         self._key_of = key_of
@@ -134,7 +140,7 @@ class FairExecutor(concurrent.futures.Executor):
             return sum(len(q) for q in self._queues.values())
 
     def threads(self) -> int:
-        """Return how many worker threads were started."""
+        """Return how many worker threads run now."""
         with self._cond:
             return len(self._threads)
 
@@ -152,8 +158,9 @@ class FairExecutor(concurrent.futures.Executor):
             self._cond.notify()
         elif len(self._threads) < self._workers:
             thread = threading.Thread(
-                target=self._work, name=f"fair-{len(self._threads)}", daemon=True
+                target=self._work, name=f"fair-{self._started}", daemon=True
             )
+            self._started += 1
             self._threads.append(thread)
             thread.start()
 
@@ -182,9 +189,14 @@ class FairExecutor(concurrent.futures.Executor):
                     if self._shutdown:
                         return
                     self._idle += 1
-                    self._cond.wait()
+                    woken = self._cond.wait(self._idle_seconds)
                     self._idle -= 1
                     taken = self._take()
+                    if taken is None and not woken and not self._shutdown:
+                        # Nothing to do for a while: this thread ends (a task that
+                        # comes later starts another).
+                        self._threads.remove(threading.current_thread())
+                        return
             key, (future, fn, args, kwargs) = taken
             self._run(future, fn, args, kwargs)
             with self._cond:

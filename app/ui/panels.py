@@ -176,6 +176,9 @@ class Panels:
     floor_clicks
         Whether a click on the floor goes to the controller's tools (False: a panel
         nobody edits with, the classroom's watcher panel, asks no browser for clicks).
+    saving
+        Whether saving to the scenes folder may ever be enabled (False: a student's
+        panel, whose save widgets are disabled from the moment they exist).
     """
 
     def __init__(
@@ -186,9 +189,11 @@ class Panels:
         folder: ScenesFolder | None = None,
         *,
         floor_clicks: bool = True,
+        saving: bool = True,
     ) -> None:
         self.server = server
         self._floor_clicks = floor_clicks
+        self._saving = saving
         self._folder = folder
         self.controller: Controller | None = None
         self._latest_version: Callable[[], int] = lambda: -1
@@ -247,9 +252,14 @@ class Panels:
         )
         self.folder_open = gui.add_button("Open from the scenes folder")
         self.folder_name = gui.add_text(
-            "Save as", "my scene", hint="A plain name: letters, digits, spaces, _ - ."
+            "Save as",
+            "my scene",
+            hint="A plain name: letters, digits, spaces, _ - .",
+            disabled=not self._saving,
         )
-        self.folder_save = gui.add_button("Save to the scenes folder")
+        self.folder_save = gui.add_button(
+            "Save to the scenes folder", disabled=not self._saving
+        )
 
     def _build_settings(self, gui: Any) -> None:
         # The editing tools, the robot and planning settings, the layers.

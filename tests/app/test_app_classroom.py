@@ -493,8 +493,15 @@ def test_a_student_never_writes_the_scenes_folder_even_on_a_copy(tmp_path):
             try_save(student, "watching", pres)  # watching: the presenter's widgets
             pres.set_gui(pres.uuid("Let everyone edit"), True)
             assert wait_until(lambda: room.mode(student.client_id) == "together", 20)
-            assert student.wait_for(lambda: "Save as" in student.labels())
-            assert student.element("Save to the scenes folder")["props"]["disabled"]
+            # Its own panel now, to edit with; the save button greyed out from the start.
+            assert student.wait_for(
+                lambda: (
+                    "Save as" in student.labels()
+                    and student.element("Save to the scenes folder")["props"][
+                        "disabled"
+                    ]
+                )
+            )
             try_save(student, "together", student)  # editing together
             pres.set_gui(pres.uuid("Let everyone edit"), False)
             student.set_gui(student.uuid("Make my own copy"), True)

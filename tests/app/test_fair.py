@@ -61,6 +61,26 @@ def test_the_presenter_goes_before_a_flooding_seat():
     pool.shutdown()
 
 
+def test_idle_threads_end_and_a_later_task_starts_one_again():
+    """A class that leaves gives its threads back; the pool still serves the next."""
+    pool = FairExecutor(workers=4, priority=lambda key: False, idle_seconds=0.05)
+    gate = threading.Event()
+    futures = [pool.submit(lambda event: gate.wait(), _event(k)) for k in range(4)]
+    deadline = time.monotonic() + 10
+    while pool.threads() < 4 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert pool.threads() == 4
+    gate.set()
+    for f in futures:
+        f.result(timeout=10)
+    while pool.threads() > 0 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert pool.threads() == 0
+    assert not [t for t in threading.enumerate() if t.name.startswith("fair-")]
+    assert pool.submit(lambda event: event.client_id * 2, _event(21)).result(10) == 42
+    pool.shutdown()
+
+
 def test_a_seats_waiting_tasks_are_bounded_and_dropped_quietly():
     gate, started = threading.Event(), threading.Event()
     pool = FairExecutor(workers=1, priority=lambda key: False, max_queued=5)
@@ -97,11 +117,18 @@ def test_the_browser_of_a_callback():
 @given(
     st.lists(st.tuples(st.integers(0, 4), st.integers(0, 3)), min_size=1, max_size=60),
     st.integers(1, 4),
+    st.sampled_from([2.0, 0.0005]),
 )
-def test_every_task_runs_once_in_its_browsers_order(tasks, workers):
-    """Against the obvious reference: run each browser's list in order, in one thread."""
+def test_every_task_runs_once_in_its_browsers_order(tasks, workers, idle):
+    """Against the obvious reference: run each browser's list in order, in one thread.
+
+    With threads that end after half a millisecond without work too: a task that
+    arrives as a thread gives up is still run.
+    """
     priority = {0}
-    pool = FairExecutor(workers=workers, priority=lambda key: key in priority)
+    pool = FairExecutor(
+        workers=workers, priority=lambda key: key in priority, idle_seconds=idle
+    )
     ran: dict[int, list[int]] = {}
     active: dict[int, int] = {}
     overlap = []

@@ -24,6 +24,7 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from app.classroom.capacity import COPIES_PER_CORE, SEATS_PER_CORE, Capacity
 from app.media.slide_options import STEP_SECONDS  # the standard library's alone
 
 if TYPE_CHECKING:
@@ -72,6 +73,22 @@ def _parser() -> argparse.ArgumentParser:
         metavar="N",
         help="presenter mode: worker processes the students' private copies share "
         "for DSB, and as many for big scenes' graphs (default 1)",
+    )
+    parser.add_argument(
+        "--max-seats",
+        type=int,
+        default=None,
+        metavar="N",
+        help="presenter mode: most browsers besides the presenter's; more are told the "
+        f"class is full (default: {SEATS_PER_CORE} per core)",
+    )
+    parser.add_argument(
+        "--max-copies",
+        type=int,
+        default=None,
+        metavar="N",
+        help="presenter mode: most students' copies at once; more are told how to run "
+        f"the planner on their laptop (default: {COPIES_PER_CORE} per core)",
     )
     parser.add_argument(
         "--snapshot",
@@ -339,6 +356,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             scenes_dir=args.scenes_dir,
             presenter=args.presenter,
             copy_workers=args.copy_workers,
+            capacity=_capacity(args),
         )
     except (ScenarioError, FolderError) as error:
         print(f"error: {error}", file=sys.stderr)
@@ -350,6 +368,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         app.stop()
     return 0
+
+
+def _capacity(args: argparse.Namespace) -> Capacity:
+    """Return the class's capacity: this machine's, with what the command line sets."""
+    machine = Capacity.of_machine()
+    return Capacity(
+        seats=machine.seats if args.max_seats is None else args.max_seats,
+        copies=machine.copies if args.max_copies is None else args.max_copies,
+    )
 
 
 if __name__ == "__main__":

@@ -38,6 +38,7 @@ from app.classroom import (
     new_token,
     presenter_url,
 )
+from app.classroom.capacity import Capacity
 from app.explain.panel import ExplainPanel
 from app.guard.door import Door, message_limit
 from app.guard.fair import FairExecutor
@@ -238,6 +239,7 @@ def start_app(
     scenes_dir: str | os.PathLike[str] | None = None,
     presenter: bool | None = None,
     copy_workers: int = 1,
+    capacity: Capacity | None = None,
 ) -> PlannerApp:
     """Start the planner's viser server with the full scene drawn.
 
@@ -261,6 +263,9 @@ def start_app(
         loopback (a classroom), off on loopback (one person edits, as always).
     copy_workers
         In presenter mode, the most worker processes the private copies share.
+    capacity
+        In presenter mode, the most browsers and copies the class may have
+        (:mod:`app.classroom.capacity`); None: what this machine serves.
 
     Returns
     -------
@@ -314,6 +319,7 @@ def start_app(
                 workers=copy_workers,
                 door=door,
                 floor_map=floor_map,
+                capacity=capacity,
             )
             door.set_priority(app.classroom.is_presenter_connection)
         else:
@@ -395,6 +401,7 @@ def _wire_classroom(
     workers: int,
     door: Door,
     floor_map: Any = None,
+    capacity: Capacity | None = None,
 ) -> PlannerApp:
     """Wire the presenter's session: one shared view; panels per browser (app.classroom)."""
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
@@ -427,6 +434,7 @@ def _wire_classroom(
         tools=functools.partial(_presenter_tools, explain, LivePanels(live)),
         broadcast_roots=("/explain", "/live"),
         on_token=functools.partial(_new_token, server, door, host),
+        capacity=capacity,
     )
     return PlannerApp(
         server=server,

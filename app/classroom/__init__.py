@@ -5,26 +5,37 @@
 - :mod:`app.classroom.wire`: one encoding of each broadcast window for every browser;
 - :mod:`app.classroom.watch`: the watchers' one shared panel;
 - :mod:`app.classroom.capacity`: how many seats and copies the server takes, and the load.
+
+The names below load their module when first used: ``python -m app`` reads
+:mod:`app.classroom.capacity` (the standard library's alone) before viser is imported.
 """
 
-from app.classroom.audience import Audience
-from app.classroom.room import (
-    PRESENTER_PATH,
-    Classroom,
-    PresenterTools,
-    PrivateExplain,
-    Seat,
-    banner_html,
-    close_connection,
-    connection_path,
-    is_presenter_path,
-    new_token,
-    presenter_url,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from app.classroom.audience import Audience
+    from app.classroom.capacity import Capacity
+    from app.classroom.room import (
+        PRESENTER_PATH,
+        Classroom,
+        PresenterTools,
+        PrivateExplain,
+        Seat,
+        banner_html,
+        close_connection,
+        connection_path,
+        is_presenter_path,
+        new_token,
+        presenter_url,
+    )
 
 __all__ = [
     "PRESENTER_PATH",
     "Audience",
+    "Capacity",
     "Classroom",
     "PresenterTools",
     "PrivateExplain",
@@ -36,3 +47,26 @@ __all__ = [
     "new_token",
     "presenter_url",
 ]
+
+_WHERE = {
+    "Audience": "app.classroom.audience",
+    "Capacity": "app.classroom.capacity",
+    **{
+        name: "app.classroom.room"
+        for name in __all__
+        if name not in ("Audience", "Capacity")
+    },
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'app.classroom' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *__all__])

@@ -77,6 +77,7 @@ import dataclasses
 import functools
 import itertools
 import logging
+import os
 import secrets
 import threading
 import time
@@ -87,8 +88,9 @@ from typing import Any, cast
 import viser
 
 from app.classroom.audience import Audience
+from app.classroom.capacity import Capacity, Load, full_html, load_text, no_copy_html
 from app.classroom.watch import WatchPanel
-from app.classroom.wire import share_encoding, stop_sharing
+from app.classroom.wire import mute, share_encoding, stop_sharing
 from app.explain.panel import ExplainPanel
 from app.guard.door import Bucket
 from app.guard.gate import GatedController, Refusals
@@ -138,8 +140,19 @@ MODES = {
         "Your edits reach no one else, and the presenter's edits do not reach you. "
         "Press <b>Follow the presenter again</b> to go back.",
     ),
+    "full": ("#6b6b6b", "The class is full", "Every seat of this class is taken."),
 }
 """Seat mode -> (banner colour, title, what it means)."""
+
+
+FETCH_LABEL = "Download the presenter's scene (.json)"
+"""The button beside a refusal: the scene to open in one's own planner."""
+
+LOAD_SECONDS = 2.0
+"""How often the lecturer's banner shows the class's load again."""
+
+SLOW_BYTES = 256 * 1024
+"""A browser with this much waiting in its socket is on a slow connection."""
 
 
 def new_token() -> str:
@@ -228,6 +241,12 @@ class Seat:
     """Client-scoped hidden nodes over the presenter's broadcast drawings (a copy)."""
     explain: PrivateExplain | None = None
     """The Explain mode of its own copy (drawn in its scope only), else None."""
+    full: bool = False
+    """Whether it came when every seat was taken (it gets no scene, only a message)."""
+    note: Any = None
+    """A message under its buttons (the class is full, no copy for now), else None."""
+    fetch: Any = None
+    """The button beside that message: the presenter's scene, to open at home."""
     shown: tuple[str, bool] | None = None
     """The mode and lab switch its banner shows (a student's banner shows no counts)."""
     building: threading.Lock = dataclasses.field(default_factory=threading.Lock)
@@ -326,6 +345,9 @@ class Classroom:
         Scene roots a private copy's browser hides (what the tools draw for everyone).
     on_token
         Called with the new token after :meth:`rotate_token` (the app prints the URL).
+    capacity
+        Most browsers and copies (:mod:`app.classroom.capacity`; this machine's by
+        default).
     """
 
     def __init__(
@@ -341,8 +363,11 @@ class Classroom:
         tools: Callable[[viser.ClientHandle], PresenterTools] | None = None,
         broadcast_roots: tuple[str, ...] = (),
         on_token: Callable[[str], None] | None = None,
+        capacity: Capacity | None = None,
     ) -> None:
         self.server = server
+        self.capacity = capacity or Capacity.of_machine()
+        """Most browsers and copies the classroom takes."""
         self.controller = controller
         """The presenter's session."""
         self.token = token
@@ -383,6 +408,12 @@ class Classroom:
         """How many copies' explanations may compute at once (in this process)."""
         self._copies = itertools.count(1)  # numbers each copy's Explain root
         controller.add_view(self.audience)
+        self._load = _LoadMeter()
+        self._closed = threading.Event()
+        self._load_thread = threading.Thread(
+            target=self._show_load, name="classroom-load", daemon=True
+        )
+        self._load_thread.start()
         server.on_client_connect(self.connect)
         server.on_client_disconnect(self.disconnect)
 
@@ -402,12 +433,14 @@ class Classroom:
         return self._seats.get(client_id)
 
     def mode(self, client_id: int) -> str:
-        """``presenter``, ``watching``, ``together``, ``private`` (or '' if unknown)."""
+        """``presenter``, ``watching``, ``together``, ``private``, ``full`` ('': unknown)."""
         seat = self.seat(client_id)
         if seat is None:
             return ""
         if seat.presenter:
             return "presenter"
+        if seat.full:
+            return "full"
         if seat.private is not None:
             return "private"
         return "together" if self._open else "watching"
@@ -419,7 +452,7 @@ class Classroom:
     def may_edit(self, client_id: int) -> bool:
         """Whether browser ``client_id`` may edit the presenter's scene now."""
         seat = self.seat(client_id)
-        if seat is None:
+        if seat is None or seat.full:
             return False
         return seat.presenter or (self._open and seat.private is None)
 
@@ -438,6 +471,15 @@ class Classroom:
         path = connection_path(self.server, client.client_id)
         presenter = is_presenter_path(path, self.token)
         seat = Seat(client, presenter)
+        with self._lock:
+            seat.full = not presenter and self._taken() >= self.capacity.seats
+            if seat.full:
+                # Every seat is taken: no scene for it, only a message (below).
+                mute(self.server, client.client_id)
+                self._seats[client.client_id] = seat
+        if seat.full:
+            self._turn_away(seat)
+            return
         if presenter or self._open:
             self._ensure_panels(seat)  # a watcher's is the class's one panel
         with self._lock:
@@ -521,9 +563,12 @@ class Classroom:
         copy and presenter at most as often as :data:`SWITCHES` says.
         """
         seat = self.seat(client_id)
-        if seat is None or seat.presenter or seat.private is not None:
+        if seat is None or seat.presenter or seat.full or seat.private is not None:
             return False
         if not self._switch_allowed(seat):
+            return False
+        if self.counts()["private"] >= self.capacity.copies:
+            self._say(seat, no_copy_html(self.capacity))
             return False
         self._ensure_panels(seat)
         snapshot = self.controller.frame
@@ -561,6 +606,7 @@ class Classroom:
         self, seat: Seat, private: Controller, explain: PrivateExplain
     ) -> None:
         """Move a seat from the presenter's session to its copy (under the lock)."""
+        self._unsay(seat)
         self._leave_audience(seat)
         own = seat.own = self._own_view(seat, self._private_drag(seat))
         seat.shadows = tuple(
@@ -660,6 +706,8 @@ class Classroom:
                 seat.tools.close()
             if seat.explain is not None:
                 seat.explain.close()
+        self._closed.set()
+        self._load_thread.join(timeout=5.0)
         self.audience.close()
         stop_sharing(self.server)
         self.pool.close()
@@ -761,6 +809,90 @@ class Classroom:
 
         return drag
 
+    # ------------------------------------------------------------------ capacity
+
+    def _taken(self) -> int:
+        """Seats taken by students (under the lock): all but presenters and the full."""
+        return sum(1 for s in self._seats.values() if not (s.presenter or s.full))
+
+    def _turn_away(self, seat: Seat) -> None:
+        """Tell a browser that every seat is taken; hide what scene it got meanwhile."""
+        client = seat.client
+        seat.shadows = tuple(
+            client.scene.add_frame(root, show_axes=False, visible=False)
+            for root in ("/shared", *self._roots)
+        )
+        seat.banner = client.gui.add_html("", order=-3.0)
+        seat.buttons = ()
+        self._say(seat, full_html(self.capacity))
+        if client.client_id not in self.server.get_clients():
+            self.disconnect(client)  # it left meanwhile
+            return
+        self._refresh_banners()
+
+    def _say(self, seat: Seat, html: str) -> None:
+        """Put ``html`` under a seat's buttons, with the presenter's scene to download."""
+        gui = seat.client.gui
+        with seat.building:
+            if seat.note is None:
+                seat.note = gui.add_html("", order=-0.9)
+                seat.fetch = gui.add_button(
+                    FETCH_LABEL,
+                    hint="To open in the planner on your laptop",
+                    order=-0.8,
+                )
+                seat.fetch.on_click(functools.partial(self._fetch, seat))
+            seat.note.content = (
+                '<div style="border-left:4px solid #b35900;padding:4px 8px;'
+                f'font-size:0.9em">{html}</div>'
+            )
+
+    def _unsay(self, seat: Seat) -> None:
+        with seat.building:
+            note, fetch, seat.note, seat.fetch = seat.note, seat.fetch, None, None
+        for handle in (note, fetch):
+            if handle is not None:
+                handle.remove()
+
+    def _fetch(self, seat: Seat, event: Any) -> None:
+        """Send the presenter's scene to the browser that asked (its own seat only)."""
+        if event.client_id != seat.client_id:
+            return
+        file = self.controller.files.download()
+        if file is not None:
+            seat.client.send_file_download(file[0], file[1], save_immediately=True)
+
+    def load(self) -> Load:
+        """Return the class's load now (what the lecturer's banner shows)."""
+        counts = self.counts()
+        return Load(
+            following=counts["watching"] + counts["together"],
+            copies=counts["private"],
+            turned_away=counts["full"],
+            capacity=self.capacity,
+            cpu=self._load.cpu,
+            behind=self._behind(),
+        )
+
+    def _behind(self) -> int:
+        """Browsers with more than :data:`SLOW_BYTES` waiting in their socket."""
+        connections = getattr(self.server._websock_server, "_live_connections", {})
+        slow = 0
+        for connection in list(connections.values()):
+            transport = getattr(connection, "transport", None)
+            if transport is not None and transport.get_write_buffer_size() > SLOW_BYTES:
+                slow += 1
+        return slow
+
+    def _show_load(self) -> None:
+        """Refresh the lecturer's banner every :data:`LOAD_SECONDS` (the CPU share)."""
+        while not self._closed.wait(LOAD_SECONDS):
+            self._load.sample()
+            try:
+                self._refresh_banners()
+            except Exception:
+                logger.exception("could not show the class's load")
+
     # ------------------------------------------------------------------ the seat's GUI
 
     def _copy_buttons(self, client: viser.ClientHandle) -> Any:
@@ -821,9 +953,11 @@ class Classroom:
             with self._lock:
                 seats = list(self._seats.values())
                 counts = self.counts()
-            self._write_banners(seats, counts)
+            self._write_banners(seats, counts, load_text(self.load()))
 
-    def _write_banners(self, seats: list[Seat], counts: dict[str, int]) -> None:
+    def _write_banners(
+        self, seats: list[Seat], counts: dict[str, int], load: str
+    ) -> None:
         for seat in seats:
             mode = self.mode(seat.client_id)
             if not mode or seat.banner is None or seat.buttons is None:
@@ -831,7 +965,7 @@ class Classroom:
             if not seat.presenter and seat.shown == (mode, self._open):
                 continue  # a student's banner shows no counts: nothing new for it
             try:
-                _set_banner(seat, mode, counts, self._open)
+                _set_banner(seat, mode, counts, self._open, load)
                 seat.shown = (mode, self._open)
             except Exception:
                 logger.exception("could not update a browser's banner")
@@ -850,8 +984,13 @@ _MASK_SECRET = (
 the field holds the presenter's secret, and the projector shows that browser."""
 
 
-def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
+def banner_html(
+    mode: str, counts: Mapping[str, int], open_: bool, load: str = ""
+) -> str:
     """Return the coloured box that says which mode a browser is in.
+
+    ``load``: the class's load (:func:`app.classroom.capacity.load_text`), shown on a
+    presenter's banner instead of the plain counts.
 
     Examples
     --------
@@ -862,11 +1001,12 @@ def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
     """
     colour, title, text = MODES[mode]
     if mode == "presenter":
-        lab = "everyone may edit" if open_ else "only you edit"
-        text = (
-            f"{text}<br>{counts.get('watching', 0) + counts.get('together', 0)} "
-            f"following, {counts.get('private', 0)} on their own copy; {lab}."
+        lab = "Everyone may edit." if open_ else "Only you edit."
+        following = counts.get("watching", 0) + counts.get("together", 0)
+        counted = (
+            f"{following} following, {counts.get('private', 0)} on their own copy."
         )
+        text = f"{text}<br>{load or counted} {lab}"
         browsers = counts.get("presenter", 1)
         if browsers > 1:
             text += (
@@ -882,10 +1022,14 @@ def banner_html(mode: str, counts: Mapping[str, int], open_: bool) -> str:
     )
 
 
-def _set_banner(seat: Seat, mode: str, counts: Mapping[str, int], open_: bool) -> None:
-    html = banner_html(mode, counts, open_)
+def _set_banner(
+    seat: Seat, mode: str, counts: Mapping[str, int], open_: bool, load: str
+) -> None:
+    html = banner_html(mode, counts, open_, load)
     if seat.banner.content != html:
         seat.banner.content = html
+    if mode == "full":
+        return  # no buttons: nothing to switch
     if seat.presenter:
         if seat.buttons.value != open_:
             seat.buttons.value = open_
@@ -896,6 +1040,23 @@ def _set_banner(seat: Seat, mode: str, counts: Mapping[str, int], open_: bool) -
         copy.visible = mode != "private"
     if back.visible != (mode == "private"):
         back.visible = mode == "private"
+
+
+class _LoadMeter:
+    """The share of the machine's cores this process used between two samples."""
+
+    def __init__(self) -> None:
+        self._at = (time.monotonic(), time.process_time())
+        self.cpu = -1.0
+        """The share (0-1) over the last interval, -1 before the first."""
+
+    def sample(self) -> None:
+        """Measure the share since the last sample."""
+        now = (time.monotonic(), time.process_time())
+        wall = now[0] - self._at[0]
+        if wall > 0:
+            self.cpu = (now[1] - self._at[1]) / wall / (os.cpu_count() or 1)
+        self._at = now
 
 
 def _slow_fn(controller: Controller) -> Any:

@@ -28,9 +28,11 @@ Data flow::
 
 from __future__ import annotations
 
-__all__ = ["WindowCache", "encode_window", "share_encoding", "stop_sharing"]
+__all__ = ["WindowCache", "encode_window", "mute", "share_encoding", "stop_sharing"]
 
 import collections
+import contextlib
+import socket
 import threading
 import time
 from collections.abc import Sequence
@@ -43,6 +45,12 @@ from viser.infra import _infra
 
 CACHED_WINDOWS = 8
 """Windows a cache keeps: the browsers that keep up share the newest one or two."""
+
+SEND_BUFFER_BYTES = 64 * 1024
+"""The kernel's send buffer of each browser's socket. Left to itself, Linux grows it to
+megabytes: seconds of old frames queued for a browser on a slow WiFi link. Bounded, a
+full socket makes the browser's producer wait, and viser keeps only the newest message
+of each kind meanwhile: the browser gets the newest frame when it can take one."""
 
 
 def encode_window(messages: Sequence[Any], compressor: Any) -> bytes:
@@ -89,6 +97,8 @@ class WindowCache:
         """Windows encoded so far."""
         self.shared = 0
         """Windows sent from the cache so far (an encoding saved each)."""
+        self.muted: set[int] = set()
+        """Browsers that get no more broadcast windows (:func:`mute`)."""
 
     def encode(self, window: Sequence[Any]) -> bytes:
         """Return the bytes of ``window``, encoding it only if no browser had it yet."""
@@ -128,6 +138,18 @@ def share_encoding(server: viser.ViserServer) -> WindowCache:
     return cache
 
 
+def mute(server: viser.ViserServer, client_id: int) -> None:
+    """Send browser ``client_id`` no more of ``server``'s broadcast (for good).
+
+    Its producer stops at its next window and frees its place in the buffer; what the
+    browser has is all it gets. Its own messages still go out (a message in its panel).
+    A browser turned away from a full class costs the server nothing more.
+    """
+    entry = _caches.get(id(server._websock_server._broadcast_buffer))
+    if entry is not None:
+        entry[1].muted.add(client_id)
+
+
 def stop_sharing(server: viser.ViserServer) -> None:
     """Forget ``server``'s broadcast buffer (its windows are no longer cached)."""
     buffer = server._websock_server._broadcast_buffer
@@ -147,16 +169,29 @@ async def _producer(
         await _viser_producer(websocket, buffer, client_id, backlog_done_message)
         return
     cache = entry[1]
+    _bound_send_buffer(websocket)
     windows = buffer.window_generator(
         client_id, backlog_done_message=backlog_done_message
     )
     try:
-        while not buffer.done:
+        while not buffer.done and client_id not in cache.muted:
             try:
                 outgoing = await windows.__anext__()
             except StopAsyncIteration:
                 break
+            if client_id in cache.muted:
+                break
             await websocket.send(cache.encode(outgoing))
     finally:
+        cache.muted.discard(client_id)  # the id is never reused; the set stays small
         # As viser's own producer: close the generator now (it frees its cursor).
         await windows.aclose()
+
+
+def _bound_send_buffer(websocket: Any) -> None:
+    """Give the browser's socket a send buffer of :data:`SEND_BUFFER_BYTES`."""
+    transport = getattr(websocket, "transport", None)
+    sock = transport.get_extra_info("socket") if transport is not None else None
+    if sock is not None:
+        with contextlib.suppress(OSError):
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SEND_BUFFER_BYTES)

@@ -1,0 +1,305 @@
+"""A lecture hall through viser's own protocol: shared encoding, one watcher panel, capacity.
+
+Every browser here is a websocket client (``tests/viser_client.py``); the server is the
+real app in presenter mode. What is held:
+
+- a broadcast window is encoded once, and its bytes are viser's wire format;
+- watchers draw the class's one panel, and nobody else does;
+- a browser that finds every seat taken gets a message, no scene, and the scene's file;
+- a copy beyond the limit is refused with how to run the planner at home;
+- a watcher that does not read gets the newest position, never the backlog;
+- the threads a class took come back when it leaves.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import socket
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import msgspec
+import pytest
+import viser
+from viser import _messages
+
+from app import start_app
+from app.classroom.capacity import Capacity
+from app.classroom.room import FETCH_LABEL
+from app.classroom.wire import WindowCache, encode_window
+from tests.app.app_helpers import classroom_client as client
+from tests.app.app_helpers import wait_until
+from tests.viser_client import ViserClient, decode_batch
+
+GOAL = "/shared/handles/goal"
+
+
+@pytest.fixture(scope="module")
+def hall_app() -> Iterator[Any]:
+    """A classroom of two seats and one copy (besides the presenter)."""
+    app = start_app(
+        "01_two_convex",
+        port=0,
+        print_url=False,
+        presenter=True,
+        capacity=Capacity(seats=2, copies=1),
+    )
+    yield app
+    app.stop()
+
+
+@pytest.fixture
+def hall(hall_app: Any) -> Any:
+    """The module's classroom, once the last test's browsers have all left."""
+    room = hall_app.classroom
+    assert wait_until(lambda: not any(room.counts().values()), 30), room.counts()
+    return hall_app
+
+
+def at(c: ViserClient, y: float) -> bool:
+    """Whether ``c`` has the shared goal at height ``y`` [m] (float32 on the wire)."""
+    node = c.nodes.get(("", GOAL))
+    return node is not None and abs(node["position"][1] - y) < 1e-6
+
+
+def drag_goal(app: Any, points: list[tuple[float, float]]) -> None:
+    """The presenter drags the goal through ``points`` (as its gizmo's callback does)."""
+    edits = app.controller.edits
+    edits.drag_handle(("goal",), points[0], "start")
+    for xy in points:
+        edits.drag_handle(("goal",), xy, "update")
+        time.sleep(0.01)
+    edits.drag_handle(("goal",), points[-1], "end")
+    assert app.wait_idle(30)
+
+
+def goal_positions(c: ViserClient) -> list[tuple[float, ...]]:
+    return [p for (owner, name), p in c.seen if owner == "" and name == GOAL]
+
+
+class Recording(ViserClient):
+    """A client that keeps every broadcast position it receives, in order."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        self.seen: list[tuple[tuple[str, str], tuple[float, ...]]] = []
+        super().__init__(*args, **kwargs)
+
+    def _apply_scene(self, kind: str, message: dict[str, Any]) -> None:
+        if kind == "SetPositionMessage":
+            key = (str(message.get("owner", "")), str(message["name"]))
+            self.seen.append((key, tuple(message["position"])))
+        super()._apply_scene(kind, message)
+
+
+# --------------------------------------------------------------------------- encoding
+
+
+def _message(name: str, x: float) -> Any:
+    return _messages.SetPositionMessage(name=name, position=(x, 0.0, 0.0))
+
+
+def test_a_window_is_encoded_once_and_reads_as_viser_writes_it():
+    cache = WindowCache(size=2)
+    a, b = [_message("/a", 1.0), _message("/b", 2.0)], [_message("/c", 3.0)]
+    first = cache.encode(a)
+    assert cache.encode(list(a)) is first  # the same messages: the same bytes
+    assert (cache.encoded, cache.shared) == (1, 1)
+    # Bytes a client decodes into exactly the messages' fields.
+    assert [m["name"] for m in decode_batch(first)] == ["/a", "/b"]
+    assert [m["position"] for m in decode_batch(first)] == [[1.0, 0, 0], [2.0, 0, 0]]
+    import zstandard
+
+    assert decode_batch(encode_window(a, zstandard.ZstdCompressor())) == decode_batch(
+        first
+    )
+    # Equal fields are not the same messages: encoded again; old windows are dropped.
+    cache.encode([_message("/a", 1.0), _message("/b", 2.0)])
+    cache.encode(b)
+    assert cache.encoded == 3
+    assert cache.encode(a) is not first and cache.encoded == 4
+
+
+def test_the_class_shares_its_windows(hall):
+    encoding = hall.classroom.encoding
+    with client(hall, presenter=True), client(hall) as w1, client(hall) as w2:
+        before = (encoding.encoded, encoding.shared)
+        drag_goal(hall, [(8.0, 1.0 + 0.1 * k) for k in range(30)])
+        assert w1.wait_for(lambda: at(w1, 1.0 + 0.1 * 29), 20)
+        assert w2.wait_for(lambda: at(w2, 1.0 + 0.1 * 29), 20)
+        encoded = encoding.encoded - before[0]
+        shared = encoding.shared - before[1]
+        # Three browsers take the broadcast: most windows are encoded once for all.
+        assert encoded > 0 and shared >= encoded
+
+
+# --------------------------------------------------------------------------- the panel
+
+
+def test_watchers_draw_the_one_panel_and_nobody_else(hall):
+    watch = hall.classroom.watch.panels
+    radius = watch.radius._impl.uuid
+    with client(hall, presenter=True) as pres, client(hall) as w:
+        assert w.uuid("Radius [m]") == radius
+        assert w.element("Radius [m]")["props"]["disabled"]
+        # The presenter holds the shared widgets, but its page does not draw them.
+        assert radius in pres.gui and pres.uuid("Radius [m]") != radius
+        assert not pres.element("Radius [m]")["props"]["disabled"]
+        # The panel shows the presenter's session.
+        hall.controller.edits.set_robot(radius=0.45)
+        assert hall.wait_idle(30)
+        assert w.wait_for(lambda: w.element("Radius [m]")["value"] == 0.45, 20)
+        # On a copy the student has a panel of its own and not the class's.
+        w.set_gui(w.uuid("Make my own copy"), True)
+        assert wait_until(lambda: hall.classroom.mode(w.client_id) == "private", 60)
+        assert w.wait_for(lambda: w.uuid("Radius [m]") != radius, 20)
+        assert not w.element("Radius [m]")["props"]["disabled"]
+        w.set_gui(w.uuid("Follow the presenter again"), True)
+        assert wait_until(lambda: hall.classroom.mode(w.client_id) == "watching", 60)
+        assert w.wait_for(lambda: w.uuid("Radius [m]") == radius, 20)
+    hall.controller.edits.set_robot(radius=0.3)
+    assert hall.wait_idle(30)
+
+
+# --------------------------------------------------------------------------- capacity
+
+
+def _full_note(c: ViserClient) -> str:
+    return next((h for h in c.html() if "every seat is taken" in h), "")
+
+
+def test_a_full_class_turns_a_browser_away_with_a_message_and_no_scene(hall):
+    room = hall.classroom
+    with client(hall, presenter=True) as pres, client(hall), client(hall) as second:
+        extra = Recording(hall.port)
+        try:
+            assert extra.wait_for(lambda: bool(_full_note(extra)), 30)
+            assert any("The class is full" in h for h in extra.html())
+            assert "Radius [m]" not in extra.labels()
+            assert "Make my own copy" not in extra.labels()
+            assert room.counts()["full"] == 1
+            assert pres.wait_for(
+                lambda: any("1 turned away" in h for h in pres.html()), 20
+            )
+            # The presenter's drag reaches the class, not the browser turned away.
+            extra.seen.clear()
+            drag_goal(hall, [(8.0, 2.0 + 0.1 * k) for k in range(10)])
+            assert second.wait_for(lambda: at(second, 2.0 + 0.1 * 9), 20)
+            time.sleep(0.5)
+            assert goal_positions(extra) == []
+            # Its one button gives it the presenter's scene, to open at home.
+            extra.set_gui(extra.uuid(FETCH_LABEL), True)
+            assert extra.wait_for(lambda: bool(extra.downloads), 20)
+            ((name, data),) = extra.downloads.items()
+            assert name.endswith(".json")
+            assert tuple(json.loads(data)["goal"]) == pytest.approx(
+                hall.controller.scene.goal
+            )
+            # Nothing it sends edits the scene.
+            extra.drag("/shared/handles/goal", (1.0, 1.0), "update")
+            extra.click_floor((5.0, 4.0))
+            assert hall.wait_idle(30)
+            assert hall.controller.scene.goal == pytest.approx((8.0, 2.0 + 0.1 * 9))
+        finally:
+            extra.close()
+    assert wait_until(lambda: room.counts()["full"] == 0, 20)
+    # Seats freed: a browser that comes now (a reload) is seated.
+    with client(hall) as back:
+        assert room.mode(back.client_id) == "watching"
+
+
+def test_a_copy_beyond_the_limit_is_told_how_to_run_the_planner_at_home(hall):
+    room = hall.classroom
+    with client(hall, presenter=True), client(hall) as a, client(hall) as b:
+        a.set_gui(a.uuid("Make my own copy"), True)
+        assert wait_until(lambda: room.mode(a.client_id) == "private", 60)
+        b.set_gui(b.uuid("Make my own copy"), True)
+        assert b.wait_for(lambda: any("No copy for now" in h for h in b.html()), 20), (
+            b.html()
+        )
+        note = next(h for h in b.html() if "No copy for now" in h)
+        assert "robot-planner --scenario" in note and "1 students" in note
+        assert room.mode(b.client_id) == "watching" and room.counts()["private"] == 1
+        b.set_gui(b.uuid(FETCH_LABEL), True)
+        assert b.wait_for(lambda: bool(b.downloads), 20)
+        # A copy freed: the next request is served, and the note goes.
+        a.set_gui(a.uuid("Follow the presenter again"), True)
+        assert wait_until(lambda: room.mode(a.client_id) == "watching", 60)
+        time.sleep(2.1)  # b's switches (app.classroom.room.SWITCHES) refill
+        b.set_gui(b.uuid("Make my own copy"), True)
+        assert wait_until(lambda: room.mode(b.client_id) == "private", 60)
+        assert b.wait_for(lambda: FETCH_LABEL not in b.labels(), 20)
+        assert not any("No copy for now" in h for h in b.html())
+
+
+# --------------------------------------------------------------------------- the wire
+
+
+def test_a_watcher_that_does_not_read_gets_the_newest_position_not_the_backlog(hall):
+    """It stops reading while the presenter drags 200 positions, then reads on."""
+    with client(hall, presenter=True), client(hall):
+        received: list[tuple[float, ...]] = []
+        reading = threading.Event()
+        from websockets.sync.client import connect
+
+        # A slow link: a small receive window, nothing queued beyond one frame.
+        sock = socket.socket()
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        sock.connect(("127.0.0.1", hall.port))
+        ws = connect(
+            f"ws://127.0.0.1:{hall.port}/",
+            sock=sock,
+            subprotocols=[f"viser-v{viser.__version__}"],  # type: ignore[list-item]
+            max_size=None,
+            max_queue=1,
+        )
+        try:
+            from tests.viser_client import camera_message
+
+            ws.send(msgspec.msgpack.encode(camera_message()))
+
+            def read() -> None:
+                with contextlib.suppress(Exception):
+                    while True:
+                        reading.wait()
+                        raw = ws.recv(timeout=10)
+                        if isinstance(raw, bytes):
+                            received.extend(
+                                tuple(m["position"])
+                                for m in decode_batch(raw)
+                                if m.get("type") == "SetPositionMessage"
+                                and m.get("name") == GOAL
+                            )
+
+            reader = threading.Thread(target=read, daemon=True)
+            reading.set()
+            reader.start()
+            time.sleep(1.0)  # its seat and the scene's backlog arrive
+            reading.clear()
+            time.sleep(0.2)
+            seen = len(received)
+            # A big window per frame: the whole broadcast goes to a socket nobody reads.
+            points = [(8.0, 1.0 + 0.02 * k) for k in range(200)]
+            drag_goal(hall, points)
+            reading.set()
+            assert wait_until(
+                lambda: bool(received) and abs(received[-1][1] - points[-1][1]) < 1e-6,
+                20,
+            )
+            late = received[seen:]
+            assert len(late) < len(points) // 2, len(late)
+        finally:
+            ws.close()
+
+
+def test_the_threads_a_class_took_come_back(hall):
+    fair = hall.fair
+    before = threading.active_count() - fair.threads()
+    with client(hall, presenter=True) as pres, client(hall), client(hall):
+        for _ in range(20):
+            pres.set_gui(pres.uuid("Sensor R [m]"), 2.0)
+        assert hall.wait_idle(30)
+    assert wait_until(lambda: fair.threads() == 0, 20)
+    assert threading.active_count() <= before + 1

@@ -19,6 +19,7 @@ from app.explain.panel import METHOD_TITLES
 from tests.app.app_helpers import wait_until
 from tests.app.test_app_browser import (
     CAMERA,
+    DPR,
     HEIGHT,
     PLANE_OFFSET,
     WIDTH,
@@ -40,7 +41,7 @@ def _open(browser: Any, planner: Any) -> Any:
     page = browser.new_page(
         viewport={"width": WIDTH, "height": HEIGHT}, device_scale_factor=1
     )
-    page.goto(f"{planner.url}?fixedDpr=1")
+    page.goto(f"{planner.url}?fixedDpr={DPR}")  # reads the scene, not pixels
     page.wait_for_function(
         "() => window.__viserMutable && ('/explain/current' in window.__viserMutable.nodeRefFromName)"
         " && ('/handles/goal' in window.__viserMutable.nodeRefFromName)",

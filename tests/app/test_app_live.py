@@ -23,6 +23,7 @@ from tests.app.app_helpers import TopCamera, wait_until
 from tests.app.test_app_browser import choose, click
 
 WIDTH, HEIGHT = 1280, 800
+DPR = 0.5  # a coarser canvas in the same layout: the test reads the scene, not pixels
 CAMERA = TopCamera(
     look_at=(7.0, 4.0), height=14.0, fov_deg=50.0, width=WIDTH, px_height=HEIGHT
 )
@@ -53,7 +54,7 @@ def _open(browser: Any, app: Any) -> Any:
     page = browser.new_page(
         viewport={"width": WIDTH, "height": HEIGHT}, device_scale_factor=1
     )
-    page.goto(f"{app.url}?fixedDpr=1")
+    page.goto(f"{app.url}?fixedDpr={DPR}")
     page.wait_for_function(
         "() => window.__viserMutable && ('/live/trail' in window.__viserMutable.nodeRefFromName)",
         timeout=60_000,

@@ -21,6 +21,7 @@ from PIL import Image
 
 import planners
 from app import live, start_app
+from app.__main__ import main as app_main
 from app.media.camera import frame_camera, picture_bounds
 from app.media.jobs import batch, run_with_browser
 from app.media.pictures import open_studio
@@ -63,19 +64,25 @@ def text_height(picture: np.ndarray, box: list[float]) -> int:
     return int(rows[-1] - rows[0] + 1) if len(rows) else 0
 
 
+@pytest.fixture(scope="module")
+def planner_app() -> Iterator:
+    """One app of NAME for both sizes: each picture's studio stages it anew."""
+    running = start_app(NAME, print_url=False)
+    yield running
+    running.stop()
+
+
 @pytest.mark.parametrize(("width", "height"), [(1920, 1080), (800, 500)])
-def test_labels_are_a_fixed_share_of_the_picture_height(browser, width, height) -> None:
-    planner_app = start_app(NAME, print_url=False)
-    try:
-        with open_studio(planner_app, browser, width=width, height=height) as studio:
-            png = studio.picture()
-            labels = studio.shown.page.evaluate(LABEL_BOXES_JS)
-            legend = studio.shown.page.evaluate(
-                "() => !!document.querySelector('.planner-legend')"
-            )
-            gizmos = studio.app.view.handles
-    finally:
-        planner_app.stop()
+def test_labels_are_a_fixed_share_of_the_picture_height(
+    browser, planner_app, width, height
+) -> None:
+    with open_studio(planner_app, browser, width=width, height=height) as studio:
+        png = studio.picture()
+        labels = studio.shown.page.evaluate(LABEL_BOXES_JS)
+        legend = studio.shown.page.evaluate(
+            "() => !!document.querySelector('.planner-legend')"
+        )
+        gizmos = studio.app.view.handles
     picture = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
     assert picture.shape == (height, width, 3)
     assert legend
@@ -230,15 +237,29 @@ def test_snapshot_dir_on_the_command_line(tmp_path) -> None:
     assert Image.open(out / "01_two_convex-top.png").size == (320, 200)
 
 
-@pytest.mark.parametrize(
-    ("args", "message"),
-    [
-        (["--views", "side"], "views must be among top, perspective"),
-        (["--scenario", "no_such_thing"], "cannot load scenario"),
-        (["--width", "3"], "width must be a whole number"),
-    ],
-)
-def test_snapshot_dir_bad_arguments_are_one_line(tmp_path, args, message) -> None:
+BAD_SNAPSHOT_DIR_ARGS = [
+    (["--views", "side"], "views must be among top, perspective"),
+    (["--scenario", "no_such_thing"], "cannot load scenario"),
+    (["--width", "3"], "width must be a whole number"),
+]
+
+
+@pytest.mark.parametrize(("args", "message"), BAD_SNAPSHOT_DIR_ARGS)
+def test_snapshot_dir_bad_arguments_are_one_line(
+    tmp_path, capsys, args, message
+) -> None:
+    # The command line's own function (``python -m app`` is ``sys.exit(main())``), in
+    # this process; the real command line is run below.
+    code = app_main(["--snapshot-dir", str(tmp_path / "x"), *args])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.startswith("error: ") and message in err
+    assert err.count("\n") == 1
+    assert not (tmp_path / "x").exists()
+
+
+def test_snapshot_dir_bad_arguments_on_the_command_line(tmp_path) -> None:
+    args, message = BAD_SNAPSHOT_DIR_ARGS[0]
     result = subprocess.run(
         [sys.executable, "-m", "app", "--snapshot-dir", str(tmp_path / "x"), *args],
         capture_output=True, text=True, cwd=ROOT, timeout=120, check=False,

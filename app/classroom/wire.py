@@ -28,10 +28,19 @@ Data flow::
 
 from __future__ import annotations
 
-__all__ = ["WindowCache", "encode_window", "mute", "share_encoding", "stop_sharing"]
+__all__ = [
+    "Pump",
+    "WindowCache",
+    "encode_window",
+    "mute",
+    "share_encoding",
+    "stop_sharing",
+]
 
+import asyncio
 import collections
 import contextlib
+import dataclasses
 import socket
 import threading
 import time
@@ -42,6 +51,7 @@ import msgspec
 import viser
 import zstandard
 from viser.infra import _infra
+from websockets.protocol import State
 
 CACHED_WINDOWS = 8
 """Windows a cache keeps: the browsers that keep up share the newest one or two."""
@@ -51,6 +61,10 @@ SEND_BUFFER_BYTES = 64 * 1024
 megabytes: seconds of old frames queued for a browser on a slow WiFi link. Bounded, a
 full socket makes the browser's producer wait, and viser keeps only the newest message
 of each kind meanwhile: the browser gets the newest frame when it can take one."""
+
+WRITE_LIMIT = 32 * 1024
+"""Bytes waiting in a browser's transport beyond which the pump writes it no frame: it
+lags (:class:`Pump`) until its socket drains."""
 
 
 def encode_window(messages: Sequence[Any], compressor: Any) -> bytes:
@@ -97,8 +111,6 @@ class WindowCache:
         """Windows encoded so far."""
         self.shared = 0
         """Windows sent from the cache so far (an encoding saved each)."""
-        self.muted: set[int] = set()
-        """Browsers that get no more broadcast windows (:func:`mute`)."""
 
     def encode(self, window: Sequence[Any]) -> bytes:
         """Return the bytes of ``window``, encoding it only if no browser had it yet."""
@@ -117,44 +129,244 @@ class WindowCache:
             return data
 
 
-_caches: dict[int, tuple[Any, WindowCache]] = {}
-"""id(broadcast buffer) -> (the buffer, its cache): the servers that share encodings."""
-_caches_lock = threading.Lock()
+_pumps: dict[int, Pump] = {}
+"""id(broadcast buffer) -> its pump: the servers that share their broadcast."""
+_pumps_lock = threading.Lock()
 _viser_producer = _infra._message_producer
 
 
-def share_encoding(server: viser.ViserServer) -> WindowCache:
-    """Encode each of ``server``'s broadcast windows once for all its browsers.
+def share_encoding(server: viser.ViserServer) -> Pump:
+    """Send ``server``'s broadcast through one :class:`Pump` (each window encoded once).
 
     Call before browsers connect. Other servers in the process keep viser's producer;
     :func:`stop_sharing` (on the server's stop) forgets the buffer.
     """
-    websock = server._websock_server
-    buffer = websock._broadcast_buffer
-    cache = WindowCache()
-    with _caches_lock:
-        _caches[id(buffer)] = (buffer, cache)
+    buffer = server._websock_server._broadcast_buffer
+    pump = Pump(buffer)
+    with _pumps_lock:
+        _pumps[id(buffer)] = pump
         _infra._message_producer = _producer
-    return cache
+    return pump
 
 
 def mute(server: viser.ViserServer, client_id: int) -> None:
     """Send browser ``client_id`` no more of ``server``'s broadcast (for good).
 
-    Its producer stops at its next window and frees its place in the buffer; what the
-    browser has is all it gets. Its own messages still go out (a message in its panel).
-    A browser turned away from a full class costs the server nothing more.
+    What the browser has is all it gets; its own messages still go out (a message in
+    its panel). A browser turned away from a full class costs the server nothing more.
     """
-    entry = _caches.get(id(server._websock_server._broadcast_buffer))
-    if entry is not None:
-        entry[1].muted.add(client_id)
+    pump = _pumps.get(id(server._websock_server._broadcast_buffer))
+    if pump is not None:
+        pump.mute(client_id)
 
 
 def stop_sharing(server: viser.ViserServer) -> None:
-    """Forget ``server``'s broadcast buffer (its windows are no longer cached)."""
+    """Forget ``server``'s broadcast buffer (its browsers leave with the server)."""
     buffer = server._websock_server._broadcast_buffer
-    with _caches_lock:
-        _caches.pop(id(buffer), None)
+    with _pumps_lock:
+        _pumps.pop(id(buffer), None)
+
+
+@dataclasses.dataclass(eq=False)
+class _Sub:
+    """One browser on the pump."""
+
+    client_id: int
+    websocket: Any
+    cursor: int
+    """Id of the last broadcast message this browser was sent (or skipped)."""
+    backlog: tuple[int, Any] | None
+    """(last id of the replay, the end-of-replay marker) until the marker is sent."""
+    finished: asyncio.Future[None]
+    """Done when the browser is muted: its producer returns."""
+    lagging: bool = True
+    """Whether it takes windows of its own (new, or its socket was full)."""
+    task: asyncio.Task[None] | None = None
+    """Its catch-up while it lags."""
+
+
+class Pump:
+    """One producer for a broadcast buffer, whatever the number of browsers.
+
+    viser gives each connection a task that wakes at every message, builds its window,
+    encodes it and sends it: 300 browsers cost 300 of each per frame. The pump builds a
+    window once, encodes it once and writes the same bytes to every browser that is up
+    to date, straight into its socket, in one pass of the event loop.
+
+    A browser that cannot take a frame now (its socket is full: a slow link) is not
+    written to; it *lags*, and a task of its own sends it windows from where it stopped,
+    waiting for its socket each time, until it is level with the pump again. Its windows
+    hold only what is still in viser's buffer: a newer position of a node has replaced
+    the older one, so a slow browser gets the newest state, never a backlog of frames.
+    A browser that connects lags too, with the scene's replay and viser's end-of-replay
+    marker first (as viser's own producer sends them). Every browser's cursor is kept
+    in the buffer's ``generator_cursors``, so viser frees no message a browser still
+    needs.
+    """
+
+    def __init__(self, buffer: Any) -> None:
+        self.buffer = buffer
+        self.cache = WindowCache()
+        """The encoded windows (what every browser is sent)."""
+        self.cursor = -1
+        """Id of the last message the up-to-date browsers were sent."""
+        self.sent = 0
+        """Frames sent to browsers so far (each window's bytes, once per browser)."""
+        self._subs: dict[int, _Sub] = {}
+        self._muted: set[int] = set()  # muted before their producer started
+        self._task: asyncio.Task[None] | None = None
+
+    # ------------------------------------------------------------------ browsers
+
+    def subscribe(self, websocket: Any, client_id: int, marker: Any) -> _Sub:
+        """Add a browser; it catches up with the pump first (the event loop's thread)."""
+        loop = asyncio.get_running_loop()
+        if self._task is None:
+            self.cursor = self.buffer.message_counter - 1
+            self._task = loop.create_task(self._run())
+        backlog_last = self.buffer.message_counter - 1
+        sub = _Sub(
+            client_id,
+            websocket,
+            cursor=-1,
+            backlog=(backlog_last, marker) if marker is not None else None,
+            finished=loop.create_future(),
+        )
+        self._subs[client_id] = sub
+        self.buffer.generator_cursors[client_id] = -1
+        sub.task = loop.create_task(self._catch_up(sub))
+        return sub
+
+    def unsubscribe(self, sub: _Sub) -> None:
+        """Forget a browser (its connection closed, or it was muted)."""
+        if self._subs.get(sub.client_id) is sub:
+            del self._subs[sub.client_id]
+        self.buffer.generator_cursors.pop(sub.client_id, None)
+        if sub.task is not None and sub.task is not asyncio.current_task():
+            sub.task.cancel()
+
+    def mute(self, client_id: int) -> None:
+        """Send browser ``client_id`` nothing more (from any thread)."""
+
+        def stop() -> None:
+            sub = self._subs.get(client_id)
+            if sub is not None:
+                self.unsubscribe(sub)
+                if not sub.finished.done():
+                    sub.finished.set_result(None)
+            else:
+                self._muted.add(client_id)  # muted before its producer started
+
+        with contextlib.suppress(RuntimeError):  # the loop is closed: nothing to mute
+            self.buffer.event_loop.call_soon_threadsafe(stop)
+
+    def muted(self, client_id: int) -> bool:
+        """Whether browser ``client_id`` was muted before its producer started."""
+        return client_id in self._muted
+
+    # ------------------------------------------------------------------ the pump
+
+    async def _run(self) -> None:
+        buffer = self.buffer
+        flush = asyncio.ensure_future(buffer.flush_event.wait())
+        try:
+            while not buffer.done:
+                head = buffer.message_counter - 1
+                if head > self.cursor and buffer.atomic_counter == 0:
+                    self._round(head)
+                else:
+                    await buffer.message_event.wait()
+                    buffer.message_event.clear()
+                # At most one window per viser window (1/60 s) unless flushed.
+                done, _ = await asyncio.wait(
+                    [flush], timeout=buffer.window_duration_sec
+                )
+                if flush in done and not buffer.done:
+                    buffer.flush_event.clear()
+                    flush = asyncio.ensure_future(buffer.flush_event.wait())
+        finally:
+            flush.cancel()
+
+    def _round(self, head: int) -> None:
+        """Send messages (cursor, head] to every browser that is up to date."""
+        window = self._window(self.cursor, head)
+        before, self.cursor = self.cursor, head
+        data = self.cache.encode(window) if window else b""
+        excluded = {m.excluded_self_client for m in window} - {None}
+        for sub in list(self._subs.values()):
+            if sub.lagging:
+                continue
+            if data:
+                mine = data
+                if sub.client_id in excluded:
+                    own = [m for m in window if m.excluded_self_client != sub.client_id]
+                    mine = self.cache.encode(own) if own else b""
+                if mine and _write(sub.websocket, mine):
+                    self.sent += 1
+                elif mine:
+                    # Its socket is full (or closing): it lags from where it was.
+                    sub.lagging = True
+                    sub.cursor = before
+                    sub.task = asyncio.get_running_loop().create_task(
+                        self._catch_up(sub)
+                    )
+                    continue
+            sub.cursor = head
+            self.buffer.generator_cursors[sub.client_id] = head
+
+    def _window(self, after: int, upto: int) -> list[Any]:
+        """Return the messages still in the buffer with ids in (after, upto]."""
+        get = self.buffer.message_from_id.get
+        return [m for i in range(after + 1, upto + 1) if (m := get(i)) is not None]
+
+    async def _catch_up(self, sub: _Sub) -> None:
+        """Send a lagging browser windows of its own until it is level with the pump."""
+        buffer = self.buffer
+        try:
+            while not buffer.done:
+                if buffer.atomic_counter != 0:
+                    await asyncio.sleep(buffer.window_duration_sec)
+                    continue
+                # Never past the pump (it sends the rest when the browser rejoins),
+                # nor past the replay before its marker.
+                upto = min(self.cursor, sub.cursor + buffer.max_window_size)
+                if sub.backlog is not None:
+                    upto = min(upto, sub.backlog[0])
+                upto = max(upto, sub.cursor)
+                window = [
+                    m
+                    for m in self._window(sub.cursor, upto)
+                    if m.excluded_self_client != sub.client_id
+                ]
+                sub.cursor = max(sub.cursor, upto)
+                buffer.generator_cursors[sub.client_id] = sub.cursor
+                if sub.backlog is not None and sub.cursor >= sub.backlog[0]:
+                    window.append(sub.backlog[1])
+                    sub.backlog = None
+                if window:
+                    await sub.websocket.send(self.cache.encode(window))
+                    self.sent += 1
+                if sub.backlog is None and sub.cursor >= self.cursor:
+                    sub.cursor = self.cursor
+                    sub.lagging = False  # the pump writes to it from its next round
+                    sub.task = None
+                    return
+                if not window:
+                    await asyncio.sleep(buffer.window_duration_sec)
+        except Exception:  # its connection closed: its producer is cancelled soon
+            return
+
+
+def _write(websocket: Any, data: bytes) -> bool:
+    """Write one frame into a browser's socket now, if it takes one (else False)."""
+    transport = websocket.transport
+    if websocket.protocol.state is not State.OPEN or transport.is_closing():
+        return False
+    if transport.get_write_buffer_size() > WRITE_LIMIT:
+        return False
+    websocket.protocol.send_binary(data)
+    websocket.send_data()
+    return True
 
 
 async def _producer(
@@ -163,29 +375,19 @@ async def _producer(
     client_id: int,
     backlog_done_message: Any = None,
 ) -> None:
-    """Run viser's producer loop, with the windows of a shared buffer encoded once."""
-    entry = _caches.get(id(buffer))
-    if entry is None or entry[0] is not buffer:
+    """Run viser's producer loop, or, for a shared buffer, join its :class:`Pump`."""
+    pump = _pumps.get(id(buffer))
+    if pump is None or pump.buffer is not buffer:
         await _viser_producer(websocket, buffer, client_id, backlog_done_message)
         return
-    cache = entry[1]
+    if pump.muted(client_id):
+        return
     _bound_send_buffer(websocket)
-    windows = buffer.window_generator(
-        client_id, backlog_done_message=backlog_done_message
-    )
+    sub = pump.subscribe(websocket, client_id, backlog_done_message)
     try:
-        while not buffer.done and client_id not in cache.muted:
-            try:
-                outgoing = await windows.__anext__()
-            except StopAsyncIteration:
-                break
-            if client_id in cache.muted:
-                break
-            await websocket.send(cache.encode(outgoing))
+        await sub.finished
     finally:
-        cache.muted.discard(client_id)  # the id is never reused; the set stays small
-        # As viser's own producer: close the generator now (it frees its cursor).
-        await windows.aclose()
+        pump.unsubscribe(sub)
 
 
 def _bound_send_buffer(websocket: Any) -> None:

@@ -421,6 +421,9 @@ def test_private_copies_share_a_bounded_pool_of_workers(planner):
             s.set_gui(s.uuid("Make my own copy"), True)
         assert wait_until(lambda: room.counts()["sessions"] == 3, 30)
         for k, s in enumerate(students):
+            # A student drags the gizmo once its page has it.
+            owner = str(s.client_id)
+            assert s.wait_for(lambda s=s, o=owner: (o, "/own" + GOAL) in s.nodes, 30)
             s.drag("/own" + GOAL, (7.0 + 0.3 * k, 2.0), "start", str(s.client_id))
             s.drag("/own" + GOAL, (7.0 + 0.3 * k, 2.0), "update", str(s.client_id))
             s.drag("/own" + GOAL, (7.0 + 0.3 * k, 2.0), "end", str(s.client_id))

@@ -394,7 +394,7 @@ def _summary(**m: Any) -> dict[str, Any]:
         "memory": m["memory"],
         "cpu_server": m["cpu"][0],
         "cpu_clients": m["cpu"][1],
-        "encoded": (shared.encoded, shared.shared) if shared is not None else None,
+        "encoded": (shared.cache.encoded, shared.sent) if shared is not None else None,
         "steal": m["steal"],
     }
 
@@ -421,7 +421,7 @@ def print_row(s: dict[str, Any]) -> None:
     rates = s["copy_rates"]
     copy = f"{min(rates):4.1f}-{max(rates):4.1f}" if rates else "n/a"
     enc = s["encoded"]
-    encodes = f"{enc[0]}/{enc[0] + enc[1]}" if enc else "n/a"
+    encodes = f"{enc[0]}/{enc[1]}" if enc else "n/a"
     print(
         f"{s['watchers']:8d} {s['copies']:6d} | {pair(s['fast']):>13s} "
         f"{pair(s['wire']):>13s} | {s['delivered']:9.0%} {s['rate']:5.1f} "

@@ -38,6 +38,7 @@ from app.classroom import (
     new_token,
     presenter_url,
 )
+from app.classroom.audience import CLASS_FPS, Paced
 from app.classroom.capacity import Capacity
 from app.explain.panel import ExplainPanel
 from app.guard.door import Door, message_limit
@@ -179,6 +180,8 @@ class PlannerApp:
     """What browsers may send (:mod:`app.guard.door`)."""
     fair: FairExecutor | None = None
     """The pool the browsers' callbacks run in, fairly (:mod:`app.guard.fair`)."""
+    class_view: Paced | None = None
+    """In a classroom, :attr:`view` drawn at the class's frame rate (its own thread)."""
 
     @property
     def presenter_url(self) -> str | None:
@@ -207,6 +210,8 @@ class PlannerApp:
     def wait_idle(self, timeout: float = 10.0) -> bool:
         """Block until every edit is planned and drawn, and the messages are sent."""
         ok = self.controller.wait_idle(timeout)
+        if ok and self.class_view is not None:
+            ok = self.class_view.wait_drawn(timeout)
         self.server.flush()
         return ok
 
@@ -219,6 +224,8 @@ class PlannerApp:
         if self.classroom is not None:
             self.classroom.close()
         self.controller.close()
+        if self.class_view is not None:
+            self.class_view.close()
         if self.door is not None:
             self.door.close()
         self.server.stop()
@@ -408,8 +415,9 @@ def _wire_classroom(
     view = PlannerView(ScopedTarget(server, "/shared", inert=True))
     view.robot_model_fn = robot_model.robot_model
     view.place_dragged = True  # nobody holds the shared gizmos: watchers see every drag
+    class_view = Paced(view, CLASS_FPS)  # the presenter's own view keeps its full rate
     controller = Controller(
-        [view],
+        [class_view],
         scene,
         trajectory=robot_model.trajectory,
         sample=robot_model.sample,
@@ -445,6 +453,7 @@ def _wire_classroom(
         classroom=classroom,
         live=live,
         explain=explain,
+        class_view=class_view,
     )
 
 

@@ -2,6 +2,8 @@
 
 Data flow::
 
+    presenter's session -> Paced(shared view).render(frame)
+        -> the class's view: the newest frame, at most CLASS_FPS a second
     presenter's session -> Audience.render(frame)
         -> members (presenters' own views, editors' views): drawn at once, in order
         -> deferred members (the watchers' one shared panel, lab panels): the newest
@@ -10,7 +12,7 @@ Data flow::
 
 from __future__ import annotations
 
-__all__ = ["Audience"]
+__all__ = ["CLASS_FPS", "Audience", "Paced"]
 
 import logging
 import threading
@@ -20,6 +22,10 @@ from app.session.controller import Frame, RobotPose
 from app.session.frames import View
 
 logger = logging.getLogger(__name__)
+
+CLASS_FPS = 20.0
+"""Frames a second the class's view of the presenter's scene is drawn at, at most: 300
+watchers at 20 frames of a few KB each is what a lecture hall's WiFi carries."""
 
 
 class Audience:
@@ -137,3 +143,77 @@ def _draw(
             view.render_robot(pose)
     except Exception:
         logger.exception("a browser's view failed to draw")
+
+
+class Paced:
+    """A view drawn with the newest frame at most ``rate`` times a second, by its own thread.
+
+    The class's view of the presenter's scene (broadcast to every watcher) is drawn at
+    the class's frame rate (:data:`CLASS_FPS`), whatever the presenter's: each drawing
+    is a frame the pump sends every watcher (:mod:`app.classroom.wire`), so the rate
+    bounds the hall's WiFi and the server's work. The presenter's own view keeps its
+    full rate. A frame that arrives while one is drawn waits, and only the newest
+    waits: the last frame of a drag is always drawn.
+    """
+
+    def __init__(self, view: View, rate: float = 20.0) -> None:
+        self.view = view
+        """The view drawn."""
+        self._period = 1.0 / rate
+        self._cond = threading.Condition()
+        self._frame: Frame | None = None
+        self._pose: RobotPose | None = None
+        self._due = (False, False)  # (frame, robot) to draw
+        self._posted = 0  # frames and poses given
+        self._drawn = 0  # of which drawn
+        self._closed = False
+        self.frames = 0
+        """Frames drawn so far (what the class was sent)."""
+        self._thread = threading.Thread(
+            target=self._run, name="class-view", daemon=True
+        )
+        self._thread.start()
+
+    def render(self, frame: Frame) -> None:
+        """Draw ``frame`` soon (a newer one given meanwhile replaces it)."""
+        with self._cond:
+            self._frame, self._due = frame, (True, self._due[1])
+            self._posted += 1
+            self._cond.notify_all()
+
+    def render_robot(self, pose: RobotPose | None) -> None:
+        """Draw the robot at ``pose`` soon (a newer one given meanwhile replaces it)."""
+        with self._cond:
+            self._pose, self._due = pose, (self._due[0], True)
+            self._posted += 1
+            self._cond.notify_all()
+
+    def wait_drawn(self, timeout: float = 10.0) -> bool:
+        """Block until what was given so far is drawn; False if ``timeout`` [s] passed."""
+        with self._cond:
+            return self._cond.wait_for(
+                lambda: self._drawn >= self._posted or self._closed, timeout
+            )
+
+    def close(self) -> None:
+        """Stop the thread (what is not drawn yet stays undrawn)."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self._thread.join(timeout=5.0)
+
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                self._cond.wait_for(lambda: self._closed or any(self._due))
+                if self._closed:
+                    return
+                (frame_due, robot_due), self._due = self._due, (False, False)
+                frame, pose, posted = self._frame, self._pose, self._posted
+            started = time.monotonic()
+            _draw(self.view, frame if frame_due else None, pose, robot=robot_due)
+            with self._cond:
+                self._drawn = posted
+                self.frames += frame_due
+                self._cond.notify_all()
+            time.sleep(max(0.0, self._period - (time.monotonic() - started)))

@@ -128,6 +128,29 @@ class ViserClient:
             {"type": "GuiUpdateMessage", "uuid": uuid, "updates": {"value": value}}
         )
 
+    def click(self, label: str, timeout: float = 30.0) -> None:
+        """Click the button ``label`` once the page shows it, visible and enabled.
+
+        A person cannot click a button the page has not drawn or has hidden, and the
+        server refuses such a click (``app.guard.door``): wait for it as they would.
+        """
+
+        def ready() -> bool:
+            try:
+                element = self.element(label)
+            except KeyError:
+                return False
+            props = element["props"]
+            return (
+                label in self.labels()
+                and props.get("visible", True)
+                and not props.get("disabled", False)
+            )
+
+        if not self.wait_for(ready, timeout):
+            raise AssertionError(f"button {label!r} not shown within {timeout} s")
+        self.set_gui(self.uuid(label), True)
+
     def upload(
         self,
         label: str,

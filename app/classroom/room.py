@@ -111,6 +111,10 @@ logger = logging.getLogger(__name__)
 PRESENTER_PATH = "/presenter/"
 """Websocket path prefix of the presenter's browser; the token follows it."""
 
+COPY_NICE = 5
+"""How much lower the copies' workers' priority is than the server's (``os.nice``): the
+presenter's frames come first, the copies share what is left."""
+
 PANEL_ORDER = 0.0
 """Where a seat's own panel sits: below its banner and buttons (negative orders)."""
 
@@ -398,8 +402,13 @@ class Classroom:
         self.audience.add(self.watch.panels, deferred=True)
         self.encoding = share_encoding(server)
         """Each broadcast window encoded once for every browser (app.classroom.wire)."""
-        self.pool = WorkerPool(_slow_fn(controller), size=copy_workers)
+        self.pool = WorkerPool(_slow_fn(controller), size=copy_workers, nice=COPY_NICE)
         """The slow-lane workers every private copy shares."""
+        self.fast_pool = WorkerPool(
+            _fast_fn(controller), size=copy_workers, nice=COPY_NICE
+        )
+        """The fast-lane workers (VG, SVG) every private copy shares: no copy plans in
+        the interpreter that serves the presenter."""
         self.big_pool = WorkerPool(
             big_plan(dict(controller.registry)), size=copy_workers
         )
@@ -583,6 +592,7 @@ class Classroom:
             folder=self._folder,
             floor_map=snapshot.floor_map if snapshot is not None else None,
             slow_process=self.pool,
+            fast_process=self.fast_pool,
             big_workers=SharedWorkers(self.big_pool),
         )
         explain = PrivateExplain.open(
@@ -711,6 +721,7 @@ class Classroom:
         self.audience.close()
         stop_sharing(self.server)
         self.pool.close()
+        self.fast_pool.close()
         self.big_pool.close()
 
     # ------------------------------------------------------------------ wiring
@@ -1057,6 +1068,12 @@ class _LoadMeter:
         if wall > 0:
             self.cpu = (now[1] - self._at[1]) / wall / (os.cpu_count() or 1)
         self._at = now
+
+
+def _fast_fn(controller: Controller) -> Any:
+    """Return the fast planners' function for a worker pool (the presenter's registry)."""
+    registry = dict(controller.registry)
+    return functools.partial(default_plan, registry=registry)
 
 
 def _slow_fn(controller: Controller) -> Any:

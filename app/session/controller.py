@@ -115,6 +115,9 @@ class Controller:
         Where big scenes' graphs are computed (:mod:`app.session.big`): None, a worker process
         of this session's own; a classroom's copies share one
         (:class:`app.session.big.SharedWorkers`).
+    fast_process
+        Computes the fast lane (VG, SVG) instead of this process: a classroom's copies
+        share a :class:`app.session.pool.WorkerPool`. None: in the fast lane's thread.
     trajectory
         (scene, path) -> timed trajectory (or None); None disables the robot.
     sample
@@ -142,6 +145,7 @@ class Controller:
         slow_names: Sequence[str] | None = None,
         slow_process: bool | Callable[[Scene, tuple[str, ...]], Any] = True,
         big_workers: BigWorkers | None = None,
+        fast_process: Callable[[Scene, tuple[str, ...]], Any] | None = None,
         trajectory: TrajectoryFn | None = None,
         sample: SampleFn | None = None,
         scenarios: Mapping[str, Path] | None = None,
@@ -166,6 +170,7 @@ class Controller:
             slow_names=slow_names,
             slow_process=slow_process,
             big_workers=big_workers,
+            fast_process=fast_process,
         )
         self.playback = Playback(self._state, self._views, trajectory, sample, fps)
         """The robot: play, pause, speed, time, the planner followed."""

@@ -109,10 +109,18 @@ class ProcessLane:
         the registry travels inside it, so the child knows the same planners as the
         parent). It must accept a ``memo`` keyword: the child passes its own
         :class:`planners.Memo`, kept from call to call.
+    start
+        Start the process now (else on the first call).
+    nice
+        How much lower the child's scheduling priority is than ours (``os.nice``): a
+        classroom's students' copies plan at a lower priority than the presenter.
     """
 
-    def __init__(self, fn: Callable[..., Any], *, start: bool = True) -> None:
+    def __init__(
+        self, fn: Callable[..., Any], *, start: bool = True, nice: int = 0
+    ) -> None:
         self._payload = pickle.dumps(fn)
+        self._nice = max(0, int(nice))
         self._lock = threading.Lock()
         self._start_lock = threading.Lock()
         self._proc: subprocess.Popen[bytes] | None = None
@@ -124,8 +132,9 @@ class ProcessLane:
         # The child finds the same modules as we do (the project, a test's helpers).
         paths = [p for p in sys.path if p and Path(p).is_dir()]
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
+        child = f"import os; os.nice({self._nice}); {_CHILD}" if self._nice else _CHILD
         self._proc = subprocess.Popen(
-            [sys.executable, "-c", _CHILD],
+            [sys.executable, "-c", child],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             env=env,

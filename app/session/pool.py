@@ -25,6 +25,7 @@ from __future__ import annotations
 
 __all__ = ["WorkerPool"]
 
+import collections
 import contextlib
 import threading
 from collections.abc import Callable, Iterator
@@ -43,17 +44,22 @@ class WorkerPool:
         :class:`ProcessLane`).
     size
         Most processes ever running at once (at least 1).
+    nice
+        The workers' priority below this process's (:class:`ProcessLane`).
     """
 
-    def __init__(self, fn: Callable[..., Any], size: int = 1) -> None:
+    def __init__(self, fn: Callable[..., Any], size: int = 1, nice: int = 0) -> None:
         self._fn = fn
+        self._nice = nice
         self.size = max(1, int(size))
         """Most worker processes at once."""
         # Guarded by the condition: the idle workers, every worker, closed or not.
         self._ready = threading.Condition()
         self._idle: list[ProcessLane] = []
         self._all: list[ProcessLane] = []
-        self._waiting = 0
+        self._line: collections.deque[object] = (
+            collections.deque()
+        )  # who waits, in order
         self._closed = False
 
     def __call__(self, scene: Any, which: tuple[str, ...]) -> Any:
@@ -90,29 +96,37 @@ class WorkerPool:
             self._ready.notify_all()
 
     def _take(self, abandoned: Callable[[], bool]) -> ProcessLane:
+        """Return a free worker, first come first served.
+
+        A session that asks again waits behind the others: copies share the workers in
+        turns.
+        """
+        ticket = object()
         with self._ready:
-            while True:
-                if self._closed:
-                    raise RuntimeError("the worker pool is closed")
-                if abandoned():
-                    raise Interrupted("given up while waiting for a worker")
-                if self._idle:
-                    return self._idle.pop()
-                if len(self._all) < self.size:
-                    worker = ProcessLane(self._fn)
-                    self._all.append(worker)
-                    return worker
-                self._waiting += 1
-                try:
+            self._line.append(ticket)
+            try:
+                while True:
+                    if self._closed:
+                        raise RuntimeError("the worker pool is closed")
+                    if abandoned():
+                        raise Interrupted("given up while waiting for a worker")
+                    if self._line[0] is ticket:
+                        if self._idle:
+                            return self._idle.pop()
+                        if len(self._all) < self.size:
+                            worker = ProcessLane(self._fn, nice=self._nice)
+                            self._all.append(worker)
+                            return worker
                     self._ready.wait()
-                finally:
-                    self._waiting -= 1
+            finally:
+                self._line.remove(ticket)
+                self._ready.notify_all()  # the next in line may go
 
     @property
     def waiting(self) -> int:
         """Leases waiting for a free worker right now."""
         with self._ready:
-            return self._waiting
+            return len(self._line)
 
     @property
     def processes(self) -> int:

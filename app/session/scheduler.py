@@ -183,6 +183,7 @@ def lanes_for(
     slow_names: Iterable[str] | None = None,
     slow_process: bool | Callable[[Scene, tuple[str, ...]], Any] = True,
     big_workers: BigWorkers | None = None,
+    fast_process: Callable[[Scene, tuple[str, ...]], Any] | None = None,
 ) -> tuple[Lane, Lane | None]:
     """Build the fast and slow lanes for ``registry`` (or the caller's plan functions).
 
@@ -193,6 +194,8 @@ def lanes_for(
     passing ``plan`` alone means no slow lane. A callable ``slow_process`` (a shared
     :class:`app.session.pool.WorkerPool`) runs the slow lane instead of a process of its own,
     and ``big_workers`` (:class:`app.session.big.SharedWorkers`) a big scene's fast planners.
+    A ``fast_process`` (a shared pool too) runs the fast lane's planners: a student's
+    copy never plans in the interpreter that serves the presenter.
     """
     fast_names = planners_of_kind("graph", registry=registry)
     slow = planners_of_kind("trace", registry=registry)
@@ -204,7 +207,7 @@ def lanes_for(
         memo = planners.Memo()
         run = functools.partial(_run, registry=registry, memo=memo)
         big = big_workers if big_workers is not None else _big_worker(registry)
-        fast = Lane(fast_names, run, big=big)
+        fast = Lane(fast_names, fast_process or run, big=big)
     if slow_plan is not None:
         names = slow if slow_names is None else tuple(slow_names)
         return fast, _fixed(slow_plan, names)

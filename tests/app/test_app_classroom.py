@@ -351,7 +351,7 @@ def test_a_private_copy_is_a_session_of_its_own_freed_when_the_browser_leaves(pl
         with client(planner) as student:
             sid = student.client_id
             shared_before, _ = _state(planner)
-            student.set_gui(student.uuid("Make my own copy"), True)
+            student.click("Make my own copy")
             assert wait_until(lambda: room.mode(sid) == "private", 20)
             assert room.counts()["sessions"] == 1
             seat = room.seat(sid)
@@ -389,7 +389,7 @@ def test_a_private_copy_is_a_session_of_its_own_freed_when_the_browser_leaves(pl
                 and room.pool.processes <= room.pool.size
             )
             # Follow the presenter again: the copy is closed, the panel follows.
-            student.set_gui(student.uuid("Follow the presenter again"), True)
+            student.click("Follow the presenter again")
             assert wait_until(lambda: room.mode(sid) == "watching", 20)
             assert room.counts()["sessions"] == 0
             assert student.wait_for(
@@ -398,7 +398,7 @@ def test_a_private_copy_is_a_session_of_its_own_freed_when_the_browser_leaves(pl
             # The copy's drawing is gone from its browser; the presenter's is shown.
             assert student.wait_for(lambda: not _own_drawing(student), 20)
             # A second copy is seeded from the presenter's scene as it is now.
-            student.set_gui(student.uuid("Make my own copy"), True)
+            student.click("Make my own copy")
             assert wait_until(lambda: room.mode(sid) == "private", 20)
             second = room.seat(sid).private
             assert second is not None and second is not private
@@ -418,7 +418,7 @@ def test_private_copies_share_a_bounded_pool_of_workers(planner):
     with contextlib.ExitStack() as stack:
         students = [stack.enter_context(client(planner)) for _ in range(3)]
         for s in students:
-            s.set_gui(s.uuid("Make my own copy"), True)
+            s.click("Make my own copy")
         assert wait_until(lambda: room.counts()["sessions"] == 3, 30)
         for k, s in enumerate(students):
             # A student drags the gizmo once its page has it.
@@ -447,7 +447,7 @@ def test_private_copies_plan_big_scenes_in_the_shared_pool(planner):
     with contextlib.ExitStack() as stack:
         students = [stack.enter_context(client(planner)) for _ in range(2)]
         for s in students:
-            s.set_gui(s.uuid("Make my own copy"), True)
+            s.click("Make my own copy")
         assert wait_until(lambda: room.counts()["sessions"] == 2, 30)
         copies = [room.seat(s.client_id).private for s in students]
         for k, copy in enumerate(copies):
@@ -507,7 +507,7 @@ def test_a_student_never_writes_the_scenes_folder_even_on_a_copy(tmp_path):
             )
             try_save(student, "together", student)  # editing together
             pres.set_gui(pres.uuid("Let everyone edit"), False)
-            student.set_gui(student.uuid("Make my own copy"), True)
+            student.click("Make my own copy")
             assert wait_until(lambda: room.mode(student.client_id) == "private", 20)
             # On its copy the student edits, but the save button stays greyed out.
             assert student.wait_for(
@@ -564,7 +564,7 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
         assert not planner.controller.frame.layers["svg_edges"]  # Explain hid it
         # A student's own copy hides the presenter's explanation and live robot.
         sid = watch.client_id
-        watch.set_gui(watch.uuid("Make my own copy"), True)
+        watch.click("Make my own copy")
         assert wait_until(lambda: room.mode(sid) == "private", 20)
         for root in ("/explain", "/live"):
             assert watch.wait_for(
@@ -574,7 +574,7 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
                 20,
             ), root
         # Back to following: the shadows go, the explanation shows again.
-        watch.set_gui(watch.uuid("Follow the presenter again"), True)
+        watch.click("Follow the presenter again")
         assert wait_until(lambda: room.mode(sid) == "watching", 20)
         assert watch.wait_for(lambda: (str(sid), "/explain") not in watch.nodes, 20)
     # The presenter's browser left while explaining: it left the audience, and the last
@@ -621,7 +621,7 @@ def test_a_private_copy_has_an_explain_mode_of_its_own(planner):
     with client(planner, presenter=True) as pres, client(planner) as student:
         sid = student.client_id
         assert not _has(student, "Step no.")  # a follower has no Explain folder
-        student.set_gui(student.uuid("Make my own copy"), True)
+        student.click("Make my own copy")
         assert wait_until(lambda: room.mode(sid) == "private", 20)
         assert student.wait_for(lambda: _has(student, "Step no."))
         private, first = room.seat(sid).private, room.seat(sid).explain
@@ -642,7 +642,7 @@ def test_a_private_copy_has_an_explain_mode_of_its_own(planner):
         with pres._lock:
             assert not any(n.startswith("/own_explain") for _, n in pres.nodes)
         # Following the presenter again closes the copy and its Explain mode.
-        student.set_gui(student.uuid("Follow the presenter again"), True)
+        student.click("Follow the presenter again")
         assert wait_until(lambda: room.mode(sid) == "watching", 20)
         assert student.wait_for(lambda: not _has(student, "Step no."))
         assert student.wait_for(lambda: not _scoped_explain_nodes(student, str(sid)))
@@ -650,7 +650,7 @@ def test_a_private_copy_has_an_explain_mode_of_its_own(planner):
         assert planner.controller.frame.layers["svg_edges"]
         # A new copy draws under a root of its own: the old one's closing never
         # touches it.
-        student.set_gui(student.uuid("Make my own copy"), True)
+        student.click("Make my own copy")
         assert wait_until(lambda: room.mode(sid) == "private", 20)
         again = room.seat(sid).explain
         assert again is not None and again.root != first.root
@@ -660,7 +660,7 @@ def test_a_copys_explain_mode_stops_when_its_browser_leaves(planner):
     room = planner.classroom
     with client(planner) as student:
         sid = student.client_id
-        student.set_gui(student.uuid("Make my own copy"), True)
+        student.click("Make my own copy")
         # Longer than elsewhere: the copy is built while the previous test's copy and
         # its Explain are still being closed, which a loaded machine has once taken
         # more than 20 s to do.

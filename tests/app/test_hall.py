@@ -152,11 +152,11 @@ def test_watchers_draw_the_one_panel_and_nobody_else(hall):
         assert hall.wait_idle(30)
         assert w.wait_for(lambda: w.element("Radius [m]")["value"] == 0.45, 20)
         # On a copy the student has a panel of its own and not the class's.
-        w.set_gui(w.uuid("Make my own copy"), True)
+        w.click("Make my own copy")
         assert wait_until(lambda: hall.classroom.mode(w.client_id) == "private", 60)
         assert w.wait_for(lambda: w.uuid("Radius [m]") != radius, 20)
         assert not w.element("Radius [m]")["props"]["disabled"]
-        w.set_gui(w.uuid("Follow the presenter again"), True)
+        w.click("Follow the presenter again")
         assert wait_until(lambda: hall.classroom.mode(w.client_id) == "watching", 60)
         assert w.wait_for(lambda: w.uuid("Radius [m]") == radius, 20)
     hall.controller.edits.set_robot(radius=0.3)
@@ -213,9 +213,9 @@ def test_a_full_class_turns_a_browser_away_with_a_message_and_no_scene(hall):
 def test_a_copy_beyond_the_limit_is_told_how_to_run_the_planner_at_home(hall):
     room = hall.classroom
     with client(hall, presenter=True), client(hall) as a, client(hall) as b:
-        a.set_gui(a.uuid("Make my own copy"), True)
+        a.click("Make my own copy")
         assert wait_until(lambda: room.mode(a.client_id) == "private", 60)
-        b.set_gui(b.uuid("Make my own copy"), True)
+        b.click("Make my own copy")
         assert b.wait_for(lambda: any("No copy for now" in h for h in b.html()), 20), (
             b.html()
         )
@@ -225,10 +225,10 @@ def test_a_copy_beyond_the_limit_is_told_how_to_run_the_planner_at_home(hall):
         b.set_gui(b.uuid(FETCH_LABEL), True)
         assert b.wait_for(lambda: bool(b.downloads), 20)
         # A copy freed: the next request is served, and the note goes.
-        a.set_gui(a.uuid("Follow the presenter again"), True)
+        a.click("Follow the presenter again")
         assert wait_until(lambda: room.mode(a.client_id) == "watching", 60)
         time.sleep(2.1)  # b's switches (app.classroom.room.SWITCHES) refill
-        b.set_gui(b.uuid("Make my own copy"), True)
+        b.click("Make my own copy")
         assert wait_until(lambda: room.mode(b.client_id) == "private", 60)
         assert b.wait_for(lambda: FETCH_LABEL not in b.labels(), 20)
         assert not any("No copy for now" in h for h in b.html())

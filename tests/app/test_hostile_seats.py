@@ -355,7 +355,7 @@ def test_what_a_seat_left_behind_is_freed_when_it_leaves(planner):
     guests = door.guests()
     with seat(planner) as student:
         for _ in range(200):
-            student.set_gui(student.uuid("Make my own copy"), True)
+            student.click("Make my own copy")
         assert door.guests() == guests + 1
     assert wait_until(lambda: door.guests() == guests, 20)
     assert wait_until(lambda: fair.waiting() == 0, 60)

@@ -115,7 +115,7 @@ def run_clients(args: argparse.Namespace) -> int:
     for c in everyone:
         assert c.wait_for(lambda c=c: seated(c), 120), "no panel"
     for s in students:
-        s.set_gui(s.uuid("Make my own copy"), True)
+        s.click("Make my own copy")
     for s in students:
         assert s.wait_for(lambda s=s: own_id(s) is not None, 120), "no copy"
     _say({"ready": True})

@@ -180,7 +180,7 @@ def run_clients(args: argparse.Namespace) -> int:
     students = [ViserClient(args.port) for _ in range(args.copies)]
     for s in students:
         assert s.wait_for(lambda s=s: seated(s), 120), "no student panel"
-        s.set_gui(s.uuid("Make my own copy"), True)
+        s.click("Make my own copy")
     for s in students:
         assert s.wait_for(lambda s=s: own_id(s) is not None, 120), "no copy"
     watchers = Watchers(args.port, args.watchers, args.probes)

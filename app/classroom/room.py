@@ -99,7 +99,7 @@ from app.session.big import SharedWorkers
 from app.session.controller import Controller
 from app.session.files import ScenesFolder
 from app.session.frames import View
-from app.session.pool import WorkerPool
+from app.session.pool import Turns, WorkerPool
 from app.session.scheduler import big_plan, default_plan
 from app.ui.panels import Panels
 from app.ui.scoped import ScopedTarget
@@ -114,6 +114,11 @@ PRESENTER_PATH = "/presenter/"
 COPY_NICE = 5
 """How much lower the copies' workers' priority is than the server's (``os.nice``): the
 presenter's frames come first, the copies share what is left."""
+
+COPY_ROUNDS_PER_S = 30.0
+"""Frames all the copies together build and draw in the server's process per second, at
+most (:class:`app.session.pool.Turns`): ten dragging copies draw 3 frames a second each,
+and the presenter keeps the rest of the interpreter."""
 
 PANEL_ORDER = 0.0
 """Where a seat's own panel sits: below its banner and buttons (negative orders)."""
@@ -409,6 +414,8 @@ class Classroom:
         )
         """The fast-lane workers (VG, SVG) every private copy shares: no copy plans in
         the interpreter that serves the presenter."""
+        self.copy_turns = Turns(COPY_ROUNDS_PER_S)
+        """The copies' rounds in this process: one at a time, a bounded rate in all."""
         self.big_pool = WorkerPool(
             big_plan(dict(controller.registry)), size=copy_workers
         )
@@ -593,6 +600,7 @@ class Classroom:
             floor_map=snapshot.floor_map if snapshot is not None else None,
             slow_process=self.pool,
             fast_process=self.fast_pool,
+            turns=self.copy_turns,
             big_workers=SharedWorkers(self.big_pool),
         )
         explain = PrivateExplain.open(

@@ -73,6 +73,7 @@ from app.session.big import BigWorkers
 from app.session.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
 from app.session.frames import Frame, RobotPose, View, Views
 from app.session.playback import Playback, SampleFn, TrajectoryFn
+from app.session.pool import Turns
 from app.session.scheduler import Pending, PlanFn, Scheduler, default_plan, lanes_for
 from app.session.tools import LAYERS, TOOLS, Handle, Selection, UiState, pick
 from planners import export
@@ -118,6 +119,9 @@ class Controller:
     fast_process
         Computes the fast lane (VG, SVG) instead of this process: a classroom's copies
         share a :class:`app.session.pool.WorkerPool`. None: in the fast lane's thread.
+    turns
+        Each round (a frame built and drawn in this process) takes a turn of these
+        (:class:`app.session.pool.Turns`, shared by a classroom's copies); None: none.
     trajectory
         (scene, path) -> timed trajectory (or None); None disables the robot.
     sample
@@ -146,6 +150,7 @@ class Controller:
         slow_process: bool | Callable[[Scene, tuple[str, ...]], Any] = True,
         big_workers: BigWorkers | None = None,
         fast_process: Callable[[Scene, tuple[str, ...]], Any] | None = None,
+        turns: Turns | None = None,
         trajectory: TrajectoryFn | None = None,
         sample: SampleFn | None = None,
         scenarios: Mapping[str, Path] | None = None,
@@ -174,7 +179,9 @@ class Controller:
         )
         self.playback = Playback(self._state, self._views, trajectory, sample, fps)
         """The robot: play, pause, speed, time, the planner followed."""
-        self._scheduler = Scheduler(self._state, self._views, self.playback, fast, slow)
+        self._scheduler = Scheduler(
+            self._state, self._views, self.playback, fast, slow, turns=turns
+        )
         self.edits = SceneEdits(self._state)
         """Edits of the scene (drags, vertices, obstacles, robot and planner settings)."""
         self.tools = MouseTools(self._state)

@@ -23,11 +23,12 @@ Data flow::
 
 from __future__ import annotations
 
-__all__ = ["WorkerPool"]
+__all__ = ["Turns", "WorkerPool"]
 
 import collections
 import contextlib
 import threading
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -147,3 +148,62 @@ class WorkerPool:
 def _never() -> bool:
     """Nobody gives this lease up."""
     return False
+
+
+class Turns:
+    """The copies' turns in the server's own process: one at a time, at most ``rate`` a second.
+
+    A copy plans in the shared pools, but builds its frames and draws them (its own view,
+    its panel, its robot's trajectory) in the interpreter that serves the presenter.
+    Each round of a copy takes a turn: first come first served, one at a time, and the
+    turns start at most ``rate`` times a second in all, so ten students dragging cost the
+    presenter a bounded share of the interpreter, whatever they do. A copy that waits
+    for its turn coalesces its edits meanwhile: its round draws its newest scene.
+
+    Parameters
+    ----------
+    rate
+        Most turns a second, all copies together.
+    """
+
+    def __init__(self, rate: float) -> None:
+        self._period = 1.0 / rate
+        self._cond = threading.Condition()
+        self._line: collections.deque[object] = collections.deque()
+        self._busy = False
+        self._next_at = 0.0  # time.monotonic() when the next turn may start
+
+    @contextlib.contextmanager
+    def turn(self, abandoned: Callable[[], bool] = lambda: False) -> Iterator[None]:
+        """Hold the turn for the block; :class:`Interrupted` if ``abandoned`` while waiting."""
+        ticket = object()
+        with self._cond:
+            self._line.append(ticket)
+            try:
+                while True:
+                    if abandoned():
+                        raise Interrupted("given up while waiting for a turn")
+                    wait = 0.1  # abandoned() is asked again at least this often [s]
+                    if self._line[0] is ticket and not self._busy:
+                        now = time.monotonic()
+                        if now >= self._next_at:
+                            self._busy = True
+                            self._next_at = now + self._period
+                            break
+                        wait = self._next_at - now
+                    self._cond.wait(wait)
+            finally:
+                self._line.remove(ticket)
+                self._cond.notify_all()
+        try:
+            yield
+        finally:
+            with self._cond:
+                self._busy = False
+                self._cond.notify_all()
+
+    @property
+    def waiting(self) -> int:
+        """Copies waiting for their turn right now."""
+        with self._cond:
+            return len(self._line)

@@ -38,13 +38,14 @@ __all__ = [
     "merge_slow",
 ]
 
+import contextlib
 import dataclasses
 import functools
 import logging
 import math
 import threading
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -65,6 +66,7 @@ from app.session.big import (
 from app.session.frames import Frame, Views, build_frame
 from app.session.lanes import Interrupted, ProcessLane, picklable
 from app.session.playback import Playback
+from app.session.pool import Turns
 from planners.registry import REGISTRY, PlannerSpec, planners_of_kind
 from planners.scene import Scene
 
@@ -258,6 +260,16 @@ def _remote(process: ProcessLane) -> Callable[[Scene, tuple[str, ...]], Any]:
     return run
 
 
+@contextlib.contextmanager
+def _granted(turns: Turns, closed: Callable[[], bool]) -> Iterator[bool]:
+    """Hold a turn of ``turns``; yield False instead when ``closed`` while waiting."""
+    try:
+        with turns.turn(closed):
+            yield True
+    except Interrupted:
+        yield False
+
+
 # --------------------------------------------------------------------------- records
 
 
@@ -414,6 +426,9 @@ class Scheduler:
         The robot: its trajectory is looked up (and planned) in each round.
     fast, slow
         The lanes (see :func:`lanes_for`); ``slow`` None for no second lane.
+    turns
+        Each round takes a turn of these first (a classroom's copies share them:
+        :class:`app.session.pool.Turns`); None: rounds run as soon as there is work.
     """
 
     def __init__(
@@ -423,8 +438,11 @@ class Scheduler:
         playback: Playback,
         fast: Lane,
         slow: Lane | None,
+        *,
+        turns: Turns | None = None,
     ) -> None:
         self._state = state
+        self._turns = turns
         self._lock = state.lock
         self._views = views
         self._playback = playback
@@ -548,26 +566,43 @@ class Scheduler:
                     self._lock.wait()
                 if self._closed:
                     return
-                self._busy = True
-                # Everything a round depends on is read together with the UI version it
-                # will be recorded under: anything that changes later (an edit, a setting,
-                # a slow planner's result) bumps a version, so the loop runs again.
-                snapshot = self._state.snapshot_locked()
-                computed, slow = self._computed, self._slow
-            try:
-                self._round(snapshot, computed, slow)
-            except Exception:
-                # The server must keep running whatever a planner or a view does.
-                logger.exception("recompute failed")
-                with self._lock:
-                    words = "Internal error while drawing; see the server log."
-                    self._state.say(words)
-                    now = self._state.snapshot_locked()
-                    self._drawn = _Drawn(now.version, now.ui_version)
-            finally:
-                with self._lock:
-                    self._busy = False
-                    self._lock.notify_all()
+            with self._turn() as granted:
+                if granted:
+                    self._work_round()
+            if not granted:
+                return  # closed while it waited for its turn
+
+    def _turn(self) -> contextlib.AbstractContextManager[bool]:
+        """Take a round's turn (:class:`app.session.pool.Turns`); False if closed first."""
+        if self._turns is None:
+            return contextlib.nullcontext(True)
+        return _granted(self._turns, lambda: self._closed)
+
+    def _work_round(self) -> None:
+        """One round on the newest snapshot (the fast lane's thread)."""
+        with self._lock:
+            if self._closed or self._current_locked():
+                return
+            self._busy = True
+            # Everything a round depends on is read together with the UI version it
+            # will be recorded under: anything that changes later (an edit, a setting,
+            # a slow planner's result) bumps a version, so the loop runs again.
+            snapshot = self._state.snapshot_locked()
+            computed, slow = self._computed, self._slow
+        try:
+            self._round(snapshot, computed, slow)
+        except Exception:
+            # The server must keep running whatever a planner or a view does.
+            logger.exception("recompute failed")
+            with self._lock:
+                words = "Internal error while drawing; see the server log."
+                self._state.say(words)
+                now = self._state.snapshot_locked()
+                self._drawn = _Drawn(now.version, now.ui_version)
+        finally:
+            with self._lock:
+                self._busy = False
+                self._lock.notify_all()
 
     def _round(
         self, snapshot: Snapshot, computed: _Computed | None, slow: SlowResults

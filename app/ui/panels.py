@@ -505,7 +505,11 @@ class Panels:
     # ------------------------------------------------------------------ views
 
     def render(self, frame: Frame) -> None:
-        """Show ``frame``'s results, messages and settings."""
+        """Show ``frame``'s results, messages and settings (in one batch of messages)."""
+        with self.server.atomic():
+            self._render(frame)
+
+    def _render(self, frame: Frame) -> None:
         scene = frame.scene
         title = scene.name or "Untitled scene"
         _set(self.title, "content", f"### {markdown_text(title)}")

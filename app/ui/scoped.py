@@ -52,13 +52,18 @@ class PrefixedScene:
         Name of the root node, e.g. ``"/shared"``; it is created here, as a frame.
     inert
         Replace transform controls (gizmos) by frames (:class:`InertGizmo`).
+    one_browser
+        The scene is one browser's (``client.scene``): its gizmos echo nothing back.
     """
 
-    def __init__(self, scene: Any, root: str, *, inert: bool = False) -> None:
+    def __init__(
+        self, scene: Any, root: str, *, inert: bool = False, one_browser: bool = False
+    ) -> None:
         self._scene = scene
         self.root_name = root
         """Name of the root node."""
         self._inert = inert
+        self._one_browser = one_browser
         self.root = scene.add_frame(root, show_axes=False)
         """The root node (remove it to remove everything drawn under it)."""
 
@@ -71,7 +76,10 @@ class PrefixedScene:
 
         def add(node: str, *args: Any, **kwargs: Any) -> Any:
             self._ensure_root()
-            return method(self.root_name + node, *args, **kwargs)
+            handle = method(self.root_name + node, *args, **kwargs)
+            if name == "add_transform_controls" and self._one_browser:
+                _no_echo(handle)
+            return handle
 
         return add
 
@@ -96,6 +104,20 @@ class PrefixedScene:
         return InertGizmo(frame)
 
 
+def _no_echo(gizmo: Any) -> None:
+    """Stop viser echoing a one-browser gizmo's every move to the other browsers.
+
+    viser 1.1.1 answers each move of a gizmo with its new pose for every *other*
+    browser of the gizmo's scope (so two tabs of one scene stay together). A gizmo in
+    one browser's scope has no other browser: the echo is two messages per move, each
+    waking the server's event loop, for nobody (ten students dragging at 30 Hz made it
+    a tenth of a core).
+    """
+    aux = getattr(gizmo, "_impl_aux", None)
+    if aux is not None and hasattr(aux, "sync_cb"):
+        aux.sync_cb = None
+
+
 class ScopedTarget:
     """A :class:`PlannerView` target: a prefixed scene and the owner's ``atomic``.
 
@@ -112,7 +134,12 @@ class ScopedTarget:
     def __init__(self, owner: Any, root: str, *, inert: bool = False) -> None:
         self.owner = owner
         """The server or client handle drawn on."""
-        self.prefixed = PrefixedScene(owner.scene, root, inert=inert)
+        self.prefixed = PrefixedScene(
+            owner.scene,
+            root,
+            inert=inert,
+            one_browser=isinstance(owner, viser.ClientHandle),
+        )
         """The prefixed scene."""
         # What the view calls on it is SceneApi's add_* methods, prefixed.
         self.scene = cast(viser.SceneApi, self.prefixed)

@@ -32,7 +32,13 @@ just before the freeze leaves none of.
 
 from __future__ import annotations
 
-__all__ = ["MMAP_THRESHOLD", "TRIM_THRESHOLD", "freeze_long_lived", "keep_freed_memory"]
+__all__ = [
+    "MMAP_THRESHOLD",
+    "TRIM_THRESHOLD",
+    "freeze_long_lived",
+    "give_back_freed_memory",
+    "keep_freed_memory",
+]
 
 import ctypes
 import ctypes.util
@@ -55,10 +61,10 @@ def keep_freed_memory() -> bool:
     musl): there the allocator is left as it is and everything works the same, with the
     page faults.
     """
-    if not sys.platform.startswith("linux"):
+    libc = _glibc()
+    if libc is None:
         return False
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
         mallopt = libc.mallopt
     except (OSError, AttributeError):
         return False
@@ -67,6 +73,41 @@ def keep_freed_memory() -> bool:
     mmap_set = mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
     trim_set = mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD)
     return bool(mmap_set) and bool(trim_set)
+
+
+def give_back_freed_memory() -> bool:
+    """Return the memory the process freed to the system now (glibc's ``malloc_trim``).
+
+    The thresholds above keep freed memory for the next edit; when a whole class has
+    left a classroom, what its sessions freed is given back. False where there is no
+    glibc (nothing is done).
+
+    Examples
+    --------
+    >>> give_back_freed_memory() in (True, False)
+    True
+    """
+    libc = _glibc()
+    if libc is None:
+        return False
+    try:
+        trim = libc.malloc_trim
+    except AttributeError:
+        return False
+    trim.argtypes = (ctypes.c_size_t,)
+    trim.restype = ctypes.c_int
+    trim(0)
+    return True
+
+
+def _glibc() -> ctypes.CDLL | None:
+    """Return the C library on Linux (None elsewhere, or if it cannot be loaded)."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        return ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+    except OSError:
+        return None
 
 
 def freeze_long_lived() -> int:

@@ -104,6 +104,7 @@ from app.session.scheduler import big_plan, default_plan
 from app.ui.panels import Panels
 from app.ui.scoped import ScopedTarget
 from app.ui.view import PlannerView
+from planners.allocator import give_back_freed_memory
 from planners.registry import planners_of_kind
 
 logger = logging.getLogger(__name__)
@@ -115,9 +116,9 @@ COPY_NICE = 5
 """How much lower the copies' workers' priority is than the server's (``os.nice``): the
 presenter's frames come first, the copies share what is left."""
 
-COPY_ROUNDS_PER_S = 30.0
+COPY_ROUNDS_PER_S = 20.0
 """Frames all the copies together build and draw in the server's process per second, at
-most (:class:`app.session.pool.Turns`): ten dragging copies draw 3 frames a second each,
+most (:class:`app.session.pool.Turns`): ten dragging copies draw 2 frames a second each,
 and the presenter keeps the rest of the interpreter."""
 
 PANEL_ORDER = 0.0
@@ -550,6 +551,10 @@ class Classroom:
         if explain is not None:
             explain.close()
         self._refresh_banners()
+        with self._lock:
+            empty = all(s.presenter for s in self._seats.values())
+        if empty and not seat.presenter:
+            give_back_freed_memory()  # the class left: what its sessions freed goes
 
     def set_open(self, value: bool) -> None:
         """Let every follower edit the presenter's scene (a lab session), or take it back.

@@ -26,6 +26,7 @@ import pytest
 import viser
 from viser import _messages
 
+import planners
 from app import start_app
 from app.classroom.capacity import Capacity
 from app.classroom.room import FETCH_LABEL
@@ -170,7 +171,7 @@ def _full_note(c: ViserClient) -> str:
     return next((h for h in c.html() if "every seat is taken" in h), "")
 
 
-def test_a_full_class_turns_a_browser_away_with_a_message_and_no_scene(hall):
+def test_a_full_class_turns_a_browser_away_with_a_message_and_no_scene(hall, tmp_path):
     room = hall.classroom
     with client(hall, presenter=True) as pres, client(hall), client(hall) as second:
         extra = Recording(hall.port)
@@ -196,6 +197,17 @@ def test_a_full_class_turns_a_browser_away_with_a_message_and_no_scene(hall):
             assert name.endswith(".json")
             assert tuple(json.loads(data)["goal"]) == pytest.approx(
                 hall.controller.scene.goal
+            )
+            # ... which the planner on the student's own laptop opens as it is.
+            (tmp_path / name).write_bytes(data)
+            at_home = planners.load_scene(tmp_path / name)
+            shared = hall.controller.scene
+            assert at_home.goal == pytest.approx(shared.goal)
+            assert at_home.start == pytest.approx(shared.start)
+            assert len(at_home.obstacles) == len(shared.obstacles)
+            assert all(
+                p.equals(q)
+                for p, q in zip(at_home.obstacles, shared.obstacles, strict=True)
             )
             # Nothing it sends edits the scene.
             extra.drag("/shared/handles/goal", (1.0, 1.0), "update")

@@ -39,7 +39,9 @@ What is reported (p50 / p95 in ms; ``time.perf_counter``, one clock for both pro
 
 Run: ``python tests/benchmarks/bench_hall.py [--watchers 300] [--copies 0]`` or
 ``--curve`` for the table of classes from 0 to 300 watchers and 0 to 20 copies (each
-class in a fresh server process). A report, not a test: it exits 0 unless ``--strict``
+class in a fresh server process), ``--every-scenario`` for the bytes per watcher-frame of
+every shipped scenario, ``--code DIR`` to serve another checkout's app (a worktree of an
+older commit, for before/after). A report, not a test: it exits 0 unless ``--strict``
 and a target is missed (presenter -> watcher p95 <= 150 ms, >= 90 % delivered at >= 10
 frames/s, <= 16 KB per watcher-frame).
 """
@@ -50,6 +52,7 @@ import argparse
 import asyncio
 import contextlib
 import gc
+import inspect
 import io
 import json
 import os
@@ -239,7 +242,13 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
     """One class: connect, drag, measure, leave; the app is stopped after."""
     steal = StealMeter()
     with contextlib.redirect_stdout(io.StringIO()):
-        app = start_app(args.scenario, port=0, print_url=False, presenter=True)
+        app = start_app(
+            args.scenario,
+            port=0,
+            print_url=False,
+            presenter=True,
+            **_room(watchers, copies),
+        )
     proc = None
     try:
         controller, room = app.controller, app.classroom
@@ -321,6 +330,22 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
             proc.kill()
         with contextlib.redirect_stdout(io.StringIO()):
             app.stop()
+
+
+def _room(watchers: int, copies: int) -> dict[str, Any]:
+    """A classroom big enough for the class measured, beyond this machine's defaults
+    (to find where it breaks); nothing for an older tree without capacities."""
+    if "capacity" not in inspect.signature(start_app).parameters:
+        return {}
+    from app.classroom.capacity import Capacity
+
+    machine = Capacity.of_machine()
+    return {
+        "capacity": Capacity(
+            seats=max(machine.seats, watchers + copies),
+            copies=max(machine.copies, copies),
+        )
+    }
 
 
 def _seats(room: Any) -> int:
@@ -486,6 +511,27 @@ def run_fresh(watchers: int, copies: int, args: argparse.Namespace) -> dict[str,
 CURVE = ((0, 0), (30, 0), (100, 0), (200, 0), (300, 0), (300, 5), (300, 10), (300, 20))
 
 
+def bytes_per_scenario(args: argparse.Namespace) -> int:
+    """Bytes per watcher-frame of a goal drag on every shipped scenario (30 watchers)."""
+    from app.server import list_scenarios
+
+    print(
+        f"Bytes a watcher receives per class frame while the presenter drags the goal "
+        f"({args.events} positions at {args.rate:g} Hz, 30 watchers; target <= "
+        f"{KB_TARGET:g} KB)\n"
+    )
+    print(f"{'scenario':32s} {'KB/frame':>8s} {'frames/s':>8s} {'to watchers':>13s}")
+    worst = 0.0
+    for name in list_scenarios():
+        s = run_fresh(30, 0, argparse.Namespace(**{**vars(args), "scenario": name}))
+        worst = max(worst, s["kb_frame"])
+        print(
+            f"{name:32s} {s['kb_frame']:8.1f} {s['rate']:8.1f} {pair(s['wire']):>13s}",
+            flush=True,
+        )
+    return 1 if (args.strict and worst > KB_TARGET) else 0
+
+
 def _config(text: str) -> tuple[int, int]:
     """``"300:10"`` -> (300 watchers, 10 copies)."""
     watchers, _, copies = text.partition(":")
@@ -507,6 +553,11 @@ def main(argv: list[str] | None = None) -> int:
         help="the checkout whose app to serve (e.g. a worktree of an older commit)",
     )
     parser.add_argument("--curve", action="store_true", help="classes of 0-300, 0-20")
+    parser.add_argument(
+        "--every-scenario",
+        action="store_true",
+        help="bytes per watcher-frame on every shipped scenario (30 watchers each)",
+    )
     parser.add_argument("--configs", default="", help="WATCHERS:COPIES,... instead")
     parser.add_argument("--strict", action="store_true")
     parser.add_argument("--json", metavar="FILE", help="write every measurement")
@@ -521,6 +572,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.one:
         print(json.dumps(run(args.watchers, args.copies, args)))
         return 0
+    if args.every_scenario:
+        return bytes_per_scenario(args)
     configs = [(args.watchers, args.copies)]
     if args.configs:
         configs = [_config(text) for text in args.configs.split(",")]

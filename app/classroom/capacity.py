@@ -116,8 +116,9 @@ def full_html(capacity: Capacity) -> str:
     >>> "300 browsers" in full_html(Capacity(300, 10))
     True
     """
+    browsers = "browser" if capacity.seats == 1 else "browsers"
     return (
-        f"This laptop serves {capacity.seats} browsers within its budget, and every "
+        f"This laptop serves {capacity.seats} {browsers} within its budget, and every "
         "seat is taken. Reload this page in a minute to try again. " + RUN_AT_HOME
     )
 
@@ -130,7 +131,10 @@ def no_copy_html(capacity: Capacity) -> str:
     >>> "10 students" in no_copy_html(Capacity(300, 10))
     True
     """
+    students = (
+        "student already works" if capacity.copies == 1 else "students already work"
+    )
     return (
-        f"<b>No copy for now:</b> {capacity.copies} students already work on a copy, "
+        f"<b>No copy for now:</b> {capacity.copies} {students} on a copy, "
         "as many as this laptop serves while the lecture goes on. " + RUN_AT_HOME
     )

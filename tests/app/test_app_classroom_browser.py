@@ -90,6 +90,17 @@ def _explain_on_the_copy(planner: Any, seat: Any, page: Any, presenter: Any) -> 
     )
 
 
+def _one_panel_each(presenter: Any, watcher: Any) -> None:
+    """The watcher's page draws the class's shared panel, the presenter's its own and
+    not the class's (app.classroom.watch): one panel in each page."""
+    for page in (presenter, watcher):
+        radius = page.get_by_text("Radius [m]", exact=True)
+        radius.first.wait_for()
+        assert radius.count() == 1
+    assert watcher.get_by_role("button", name="Make my own copy").count() == 1
+    assert presenter.get_by_role("button", name="Make my own copy").count() == 0
+
+
 def _close_to(a: Any, b: Any, tolerance: float) -> bool:
     return a is not None and bool(np.allclose(a, b, atol=tolerance))
 
@@ -109,6 +120,7 @@ def test_watcher_sees_the_presenter_drag_and_edits_only_its_own_copy(browser, pl
         assert planner.server.scene._handle_from_transform_controls_name == {}
         assert watch.client.scene._handle_from_transform_controls_name == {}
         assert pres.client.scene._handle_from_transform_controls_name
+        _one_panel_each(pres.page, watch.page)
         _shot(pres.page, "presenter")
         _shot(watch.page, "watcher")
 

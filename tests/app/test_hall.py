@@ -232,7 +232,7 @@ def test_a_copy_beyond_the_limit_is_told_how_to_run_the_planner_at_home(hall):
             b.html()
         )
         note = next(h for h in b.html() if "No copy for now" in h)
-        assert "robot-planner --scenario" in note and "1 students" in note
+        assert "robot-planner --scenario" in note and "1 student already" in note
         assert room.mode(b.client_id) == "watching" and room.counts()["private"] == 1
         b.set_gui(b.uuid(FETCH_LABEL), True)
         assert b.wait_for(lambda: bool(b.downloads), 20)

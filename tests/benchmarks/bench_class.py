@@ -277,12 +277,15 @@ def cpu_s(pids: list[int]) -> float:
 
 
 def worker_pids(app: Any) -> list[int]:
-    """Process ids of the presenter's DSB worker and of the copies' pool."""
+    """Process ids of the presenter's DSB worker and of the copies' pools."""
     pids = []
     process = app.controller.scheduler.process
     if process is not None and process.pid is not None:
         pids.append(process.pid)
-    pids += [w.pid for w in app.classroom.pool._all if w.pid is not None]
+    room = app.classroom
+    for pool in (room.pool, getattr(room, "fast_pool", None), room.big_pool):
+        if pool is not None:
+            pids += [w.pid for w in pool._all if w.pid is not None]
     return pids
 
 

@@ -118,10 +118,10 @@ def run_clients(args: argparse.Namespace) -> int:
         s.click("Make my own copy")
     for s in students:
         assert s.wait_for(lambda s=s: own_id(s) is not None, 120), "no copy"
-    _say({"ready": True})
-    _expect("go")
+    say({"ready": True})
+    expect("go")
     sent = drag_students(students, args)
-    goal = json.loads(_expect("report"))
+    goal = json.loads(expect("report"))
     # Wait (bounded) until every watcher has the presenter's final goal: "ends on".
     deadline = time.monotonic() + 20.0
     for k, w in enumerate(watchers):
@@ -131,7 +131,7 @@ def run_clients(args: argparse.Namespace) -> int:
             ),
             max(0.0, deadline - time.monotonic()),
         )
-    _say(
+    say(
         {
             "watchers_last": [
                 (received[k][-1][1] if received.get(k) else None)
@@ -196,11 +196,11 @@ def drag_students(students: list[Any], args: argparse.Namespace) -> list[list[An
     return sent
 
 
-def _say(data: dict[str, Any]) -> None:
+def say(data: dict[str, Any]) -> None:
     print(json.dumps(data), flush=True)
 
 
-def _expect(word: str) -> str:
+def expect(word: str) -> str:
     """Read the parent's next command; return what follows the word."""
     line = sys.stdin.readline().strip()
     if line.split(" ", 1)[0] != word:
@@ -518,7 +518,7 @@ def run_fresh(watchers: int, copies: int, args: argparse.Namespace) -> dict[str,
     return json.loads(out.strip().splitlines()[-1])
 
 
-def _config(text: str) -> tuple[int, int]:
+def parse_config(text: str) -> tuple[int, int]:
     """``"30:10"`` -> (30 watchers, 10 copies)."""
     watchers, _, copies = text.partition(":")
     return int(watchers), int(copies or 0)
@@ -556,7 +556,7 @@ def main(argv: list[str] | None = None) -> int:
 
     configs = [(0, 0), (args.watchers, args.copies)]
     if args.configs:
-        configs = [_config(text) for text in args.configs.split(",")]
+        configs = [parse_config(text) for text in args.configs.split(",")]
     elif args.sweep:
         configs = [
             (0, 0),

@@ -82,8 +82,11 @@ from bench_class import (  # noqa: E402
     Recorder,
     cpu_s,
     drag_students,
+    expect,
     own_id,
+    parse_config,
     rss_mb,
+    say,
     seated,
     worker_pids,
 )
@@ -190,18 +193,18 @@ def run_clients(args: argparse.Namespace) -> int:
     deadline = time.monotonic() + 300
     while watchers.connected < args.watchers and time.monotonic() < deadline:
         time.sleep(0.1)
-    _say({"ready": watchers.connected})
-    _expect("go")
+    say({"ready": watchers.connected})
+    expect("go")
     watchers.counting = True
     sent = drag_students(students, args)
-    goal = json.loads(_expect("report"))
+    goal = json.loads(expect("report"))
     deadline = time.monotonic() + 20.0
     while time.monotonic() < deadline and not all(
         r and np.allclose(r[-1][1][:2], goal) for r in watchers.receipts.values()
     ):
         time.sleep(0.05)
     watchers.counting = False
-    _say(
+    say(
         {
             "receipts": {str(k): r for k, r in watchers.receipts.items()},
             "bytes": watchers.bytes,
@@ -211,23 +214,12 @@ def run_clients(args: argparse.Namespace) -> int:
             "cpu_s": time.process_time(),
         }
     )
-    _expect("leave")
+    expect("leave")
     watchers.close()
     for c in (presenter, *students):
         c.close()
-    _say({"left": True})
+    say({"left": True})
     return 0
-
-
-def _say(data: dict[str, Any]) -> None:
-    print(json.dumps(data), flush=True)
-
-
-def _expect(word: str) -> str:
-    line = sys.stdin.readline().strip()
-    if line.split(" ", 1)[0] != word:
-        raise SystemExit(f"client process: expected {word!r}, got {line!r}")
-    return line[len(word) :].strip()
 
 
 # --------------------------------------------------------------------------- server
@@ -532,12 +524,6 @@ def bytes_per_scenario(args: argparse.Namespace) -> int:
     return 1 if (args.strict and worst > KB_TARGET) else 0
 
 
-def _config(text: str) -> tuple[int, int]:
-    """``"300:10"`` -> (300 watchers, 10 copies)."""
-    watchers, _, copies = text.partition(":")
-    return int(watchers), int(copies or 0)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--watchers", type=int, default=300)
@@ -576,7 +562,7 @@ def main(argv: list[str] | None = None) -> int:
         return bytes_per_scenario(args)
     configs = [(args.watchers, args.copies)]
     if args.configs:
-        configs = [_config(text) for text in args.configs.split(",")]
+        configs = [parse_config(text) for text in args.configs.split(",")]
     elif args.curve:
         configs = list(CURVE)
     print(

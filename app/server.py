@@ -166,7 +166,8 @@ class PlannerApp:
     view: PlannerView
     """The 3-D view."""
     panels: Panels | None
-    """The control panel (None in a classroom: each browser has its own)."""
+    """The control panel (None in a classroom: presenters, editors and copies have one
+    each, watchers share one: app.classroom)."""
     host: str
     """Host the server listens on."""
     classroom: Classroom | None = None

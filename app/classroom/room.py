@@ -5,24 +5,28 @@ When the server listens beyond loopback (``--host 0.0.0.0``) or is started with
 URL, whose websocket path carries a secret token (:func:`presenter_url`). Every other
 browser is a *seat* that
 
-- **watches** (the default): sees every edit and the robot live; its panel's controls
-  are disabled, it has no gizmos, and any edit message it sends anyway is refused on the
-  server (:mod:`app.guard.gate`);
+- **watches** (the default): sees every edit and the robot live in the class's one
+  panel (:mod:`app.classroom.watch`, every control disabled); it has no gizmos, and any
+  edit message it sends anyway is refused on the server (:mod:`app.guard.gate`);
 - **edits together** while the presenter has opened the session to everyone (a lab);
 - works on **its own copy**: a session of its own (scene, planners, robot, undo history),
   seeded from the presenter's current scene, until it follows the presenter again.
 
 One session is shared: the presenter's :class:`app.session.controller.Controller`. It draws its
 scene once for every browser under ``/shared`` (viser's broadcast scope, gizmos replaced
-by frames nobody can drag: :mod:`app.ui.scoped`) and, through one :class:`Audience`, on the
-panels of the seats that follow it and on the *own views* of those that edit (a full 3-D
-view with live gizmos in the seat's client scope under ``/own``, which hides ``/shared``
-for that browser). A private copy is a second controller whose views are the seat's own
-view and panel, with an *Explain* folder of its own drawn in that browser's scope only
-(:class:`PrivateExplain`; no *Live DSB* for copies); its slow lane runs in a :class:`app.session.pool.WorkerPool` shared by every copy,
-and a big scene's graphs (:mod:`app.session.big`) in a second pool, also shared: a room of
-students who all open a CAD floor plan starts at most ``copy_workers`` processes of each
-kind, not one per seat.
+by frames nobody can drag: :mod:`app.ui.scoped`), at the class's frame rate
+(:class:`app.classroom.audience.Paced`), sent by one pump (:mod:`app.classroom.wire`);
+and, through one :class:`app.classroom.audience.Audience`, on the watchers' one panel,
+the presenters' panels and the *own views* of those that edit (a full 3-D view with live
+gizmos in the seat's client scope under ``/own``, which hides ``/shared`` for that
+browser). A private copy is a second controller whose views are the seat's own view and
+panel, with an *Explain* folder of its own drawn in that browser's scope only
+(:class:`PrivateExplain`; no *Live DSB* for copies). Its planners run in
+:class:`app.session.pool.WorkerPool` s shared by every copy (VG and SVG, DSB, a big
+scene's graphs: at most ``copy_workers`` processes of each kind, at a lower priority),
+and its frames are built and drawn in turns all copies share
+(:class:`app.session.pool.Turns`). How many browsers and copies the server takes, and
+what it tells the others: :mod:`app.classroom.capacity`.
 
 Several presenter browsers. A lecturer often opens the presenter's URL twice: on the
 laptop and on the projector's screen (or again after a reload). Every browser with the
@@ -50,8 +54,9 @@ Data flow::
 
     presenter's drag (its /own gizmo)  -> Classroom._shared_drag: may this seat edit?
       -> controller.edits.drag_handle  -> scheduler -> frame
-           -> shared view (/shared, every browser)   # drawn once
-           -> Audience: own views of editors, panels of followers
+           -> Paced shared view (/shared)  # drawn once, <= 20 a second -> Pump -> all
+           -> Audience: presenters' and editors' own views and panels; the watchers'
+              one panel (<= 10 a second)
     watcher's crafted message          -> its gate says no: refused, nothing changes
     "Make my own copy"                 -> Classroom.make_copy: a Controller of its own
     browser closed                     -> Classroom.disconnect: its copy is closed
@@ -62,7 +67,8 @@ Data flow::
 from __future__ import annotations
 
 __all__ = [
-    "Audience",
+    "FETCH_LABEL",
+    "PRESENTER_PATH",
     "Classroom",
     "PresenterTools",
     "PrivateExplain",

@@ -38,7 +38,7 @@ from app.classroom import (
     new_token,
     presenter_url,
 )
-from app.classroom.audience import CLASS_FPS, Paced
+from app.classroom.audience import Paced, class_rate
 from app.classroom.capacity import Capacity
 from app.explain.panel import ExplainPanel
 from app.guard.door import Door, message_limit
@@ -416,7 +416,8 @@ def _wire_classroom(
     view = PlannerView(ScopedTarget(server, "/shared", inert=True))
     view.robot_model_fn = robot_model.robot_model
     view.place_dragged = True  # nobody holds the shared gizmos: watchers see every drag
-    class_view = Paced(view, CLASS_FPS)  # the presenter's own view keeps its full rate
+    # The class's frame rate follows its size; the presenter's own view keeps its own.
+    class_view = Paced(view, class_rate(0))
     controller = Controller(
         [class_view],
         scene,
@@ -444,6 +445,7 @@ def _wire_classroom(
         broadcast_roots=("/explain", "/live"),
         on_token=functools.partial(_new_token, server, door, host),
         capacity=capacity,
+        class_view=class_view,
     )
     return PlannerApp(
         server=server,

@@ -12,7 +12,7 @@ Data flow::
 
 from __future__ import annotations
 
-__all__ = ["CLASS_FPS", "Audience", "Paced"]
+__all__ = ["BIG_CLASS", "CLASS_FPS", "SEMINAR_FPS", "Audience", "Paced", "class_rate"]
 
 import logging
 import threading
@@ -24,8 +24,25 @@ from app.session.frames import View
 logger = logging.getLogger(__name__)
 
 CLASS_FPS = 20.0
-"""Frames a second the class's view of the presenter's scene is drawn at, at most: 300
-watchers at 20 frames of a few KB each is what a lecture hall's WiFi carries."""
+"""Frames a second the class's view of the presenter's scene is drawn at, at most, in a
+hall: 300 watchers at 20 frames of a few KB each is what a lecture hall's WiFi carries."""
+
+SEMINAR_FPS = 60.0
+"""The same for a small class: every frame of a presenter's drag (a mouse sends 60)."""
+
+BIG_CLASS = 50
+"""Browsers from which a class is a hall (:data:`CLASS_FPS`), below a seminar."""
+
+
+def class_rate(browsers: int) -> float:
+    """Return the class's frame rate for ``browsers`` watching or editing [frames/s].
+
+    Examples
+    --------
+    >>> class_rate(12), class_rate(300)
+    (60.0, 20.0)
+    """
+    return CLASS_FPS if browsers >= BIG_CLASS else SEMINAR_FPS
 
 
 class Audience:
@@ -149,17 +166,18 @@ class Paced:
     """A view drawn with the newest frame at most ``rate`` times a second, by its own thread.
 
     The class's view of the presenter's scene (broadcast to every watcher) is drawn at
-    the class's frame rate (:data:`CLASS_FPS`), whatever the presenter's: each drawing
+    the class's frame rate (:func:`class_rate`), whatever the presenter's: each drawing
     is a frame the pump sends every watcher (:mod:`app.classroom.wire`), so the rate
     bounds the hall's WiFi and the server's work. The presenter's own view keeps its
     full rate. A frame that arrives while one is drawn waits, and only the newest
     waits: the last frame of a drag is always drawn.
     """
 
-    def __init__(self, view: View, rate: float = 20.0) -> None:
+    def __init__(self, view: View, rate: float = CLASS_FPS) -> None:
         self.view = view
         """The view drawn."""
-        self._period = 1.0 / rate
+        self.rate = rate
+        """Most frames a second (set it at any time: from the next frame on)."""
         self._cond = threading.Condition()
         self._frame: Frame | None = None
         self._pose: RobotPose | None = None
@@ -216,4 +234,4 @@ class Paced:
                 self._drawn = posted
                 self.frames += frame_due
                 self._cond.notify_all()
-            time.sleep(max(0.0, self._period - (time.monotonic() - started)))
+            time.sleep(max(0.0, 1.0 / self.rate - (time.monotonic() - started)))

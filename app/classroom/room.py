@@ -93,7 +93,7 @@ from typing import Any, cast
 
 import viser
 
-from app.classroom.audience import Audience
+from app.classroom.audience import Audience, Paced, class_rate
 from app.classroom.capacity import Capacity, Load, full_html, load_text, no_copy_html
 from app.classroom.watch import WatchPanel
 from app.classroom.wire import mute, share_encoding, stop_sharing
@@ -364,6 +364,9 @@ class Classroom:
     capacity
         Most browsers and copies (:mod:`app.classroom.capacity`; this machine's by
         default).
+    class_view
+        The class's view of the presenter's scene, whose frame rate follows the class's
+        size (:func:`app.classroom.audience.class_rate`).
     """
 
     def __init__(
@@ -380,8 +383,10 @@ class Classroom:
         broadcast_roots: tuple[str, ...] = (),
         on_token: Callable[[str], None] | None = None,
         capacity: Capacity | None = None,
+        class_view: Paced | None = None,
     ) -> None:
         self.server = server
+        self._class_view = class_view
         self.capacity = capacity or Capacity.of_machine()
         """Most browsers and copies the classroom takes."""
         self.controller = controller
@@ -984,6 +989,9 @@ class Classroom:
                 seats = list(self._seats.values())
                 counts = self.counts()
             self._write_banners(seats, counts, load_text(self.load()))
+            if self._class_view is not None:
+                following = counts["watching"] + counts["together"]
+                self._class_view.rate = class_rate(following)
 
     def _write_banners(
         self, seats: list[Seat], counts: dict[str, int], load: str

@@ -28,6 +28,7 @@ from viser import _messages
 
 import planners
 from app import start_app
+from app.classroom import audience
 from app.classroom.capacity import Capacity
 from app.classroom.room import FETCH_LABEL
 from app.classroom.wire import WindowCache, encode_window
@@ -134,6 +135,22 @@ def test_the_class_shares_its_windows(hall):
         sent = pump.sent - before[1]
         # Three browsers take the broadcast: each window is encoded once for all three.
         assert encoded > 0 and sent >= 2.5 * encoded, (encoded, sent)
+
+
+def test_the_class_frame_rate_follows_the_class_size(hall, monkeypatch):
+    """A seminar sees every frame; a hall (here: from 2 browsers on) 20 a second."""
+    monkeypatch.setattr("app.classroom.audience.BIG_CLASS", 2)
+    view = hall.class_view
+    with client(hall, presenter=True), client(hall):
+        assert wait_until(lambda: view.rate == audience.SEMINAR_FPS, 10)
+        with client(hall):
+            assert wait_until(lambda: view.rate == audience.CLASS_FPS, 10)
+            frames, start = view.frames, time.monotonic()
+            drag_goal(hall, [(8.0, 1.0 + 0.01 * k) for k in range(60)])
+            # No more frames than the rate allows in the time the drag took.
+            limit = audience.CLASS_FPS * (time.monotonic() - start) + 2
+            assert view.frames - frames <= limit, (view.frames - frames, limit)
+        assert wait_until(lambda: view.rate == audience.SEMINAR_FPS, 10)
 
 
 # --------------------------------------------------------------------------- the panel

@@ -3,7 +3,7 @@
 Data flow::
 
     presenter's session -> Paced(shared view).render(frame)
-        -> the class's view: the newest frame, at most CLASS_FPS a second
+        -> the class's view: the newest frame, at most class_rate(class size) a second
     presenter's session -> Audience.render(frame)
         -> members (presenters' own views, editors' views): drawn at once, in order
         -> deferred members (the watchers' one shared panel, lab panels): the newest

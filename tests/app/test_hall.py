@@ -133,8 +133,9 @@ def test_the_class_shares_its_windows(hall):
         assert w2.wait_for(lambda: at(w2, 1.0 + 0.1 * 29), 20)
         encoded = pump.cache.encoded - before[0]
         sent = pump.sent - before[1]
-        # Three browsers take the broadcast: each window is encoded once for all three.
-        assert encoded > 0 and sent >= 2.5 * encoded, (encoded, sent)
+        # Three browsers take the broadcast: a window is encoded once for all three (one
+        # that lags for a moment gets a window of its own: at least twice as many sends).
+        assert encoded > 0 and sent >= 2 * encoded, (encoded, sent)
 
 
 def test_the_class_frame_rate_follows_the_class_size(hall, monkeypatch):

@@ -58,9 +58,8 @@ class WorkerPool:
         self._ready = threading.Condition()
         self._idle: list[ProcessLane] = []
         self._all: list[ProcessLane] = []
-        self._line: collections.deque[object] = (
-            collections.deque()
-        )  # who waits, in order
+        # Who waits for a worker, in order of arrival:
+        self._line: collections.deque[object] = collections.deque()
         self._closed = False
 
     def __call__(self, scene: Any, which: tuple[str, ...]) -> Any:

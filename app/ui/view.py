@@ -747,10 +747,10 @@ class GraphEdges:
             self._rest = (rest, visible)
         self.ends.set(segments[at_ends] if len(segments) else segments, visible)
 
-    def points(self) -> FloatArray:
+    def points(self) -> npt.NDArray[np.float32]:
         """Return the edges the browsers draw, shape (N, 2, 3): the rest, then the ends'."""
         parts = [
-            np.asarray(layer.handle.points)
+            np.asarray(layer.handle.points, dtype=np.float32)
             for layer in self.layers
             if layer.handle.visible
         ]

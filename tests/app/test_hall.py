@@ -78,10 +78,6 @@ def drag_goal(app: Any, points: list[tuple[float, float]]) -> None:
     assert app.wait_idle(30)
 
 
-def goal_positions(c: ViserClient) -> list[tuple[float, ...]]:
-    return [p for (owner, name), p in c.seen if owner == "" and name == GOAL]
-
-
 class Recording(ViserClient):
     """A client that keeps every broadcast position it receives, in order."""
 
@@ -94,6 +90,10 @@ class Recording(ViserClient):
             key = (str(message.get("owner", "")), str(message["name"]))
             self.seen.append((key, tuple(message["position"])))
         super()._apply_scene(kind, message)
+
+
+def goal_positions(c: Recording) -> list[tuple[float, ...]]:
+    return [p for (owner, name), p in c.seen if owner == "" and name == GOAL]
 
 
 # --------------------------------------------------------------------------- encoding

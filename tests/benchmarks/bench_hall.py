@@ -157,7 +157,7 @@ class Watchers:
             await ws.send(msgspec.msgpack.encode(camera_message()))
             self.connected += 1
             async for raw in ws:
-                if not self.counting:
+                if not self.counting or not isinstance(raw, bytes):
                     continue
                 now = time.perf_counter()
                 self.bytes[k] += len(raw)
@@ -244,6 +244,7 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
     proc = None
     try:
         controller, room = app.controller, app.classroom
+        assert room is not None, "the app runs in presenter mode"
         probe = Probe(controller.slow_planners)
         controller.add_view(probe)
         assert app.wait_idle(60)
@@ -290,17 +291,7 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
             len([t for t in p.fast.values() if cpu0[1] <= t]) / drag_s
             for p in copy_probes
         ]
-        _send(proc, "leave")
-        _read(proc)
-        proc.wait(timeout=60)
-        deadline = time.monotonic() + 60
-        while room.counts()["sessions"] or _seats(room):
-            if time.monotonic() > deadline:
-                break
-            time.sleep(0.1)
-        time.sleep(3.0)
-        gc.collect()
-        left = (rss_mb(), threads())
+        left = _leave(proc, room)
         return _summary(
             watchers=watchers,
             copies=copies,
@@ -338,6 +329,21 @@ def _room(watchers: int, copies: int) -> dict[str, Any]:
             copies=max(machine.copies, copies),
         )
     }
+
+
+def _leave(proc: subprocess.Popen, room: Any) -> tuple[float, int]:
+    """Everyone leaves; return the server's memory [MB] and threads 3 s after."""
+    _send(proc, "leave")
+    _read(proc)
+    proc.wait(timeout=60)
+    deadline = time.monotonic() + 60
+    while room.counts()["sessions"] or _seats(room):
+        if time.monotonic() > deadline:
+            break
+        time.sleep(0.1)
+    time.sleep(3.0)
+    gc.collect()
+    return rss_mb(), threads()
 
 
 def _seats(room: Any) -> int:

@@ -499,21 +499,32 @@ def print_row(s: dict[str, Any]) -> None:
 
 def run_fresh(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
     """Run one configuration in a process of its own (its memory figures are its own)."""
-    out = subprocess.run(
+    return run_one(
+        __file__,
         [
-            sys.executable,
-            __file__,
-            "--one",
             f"--watchers={watchers}",
             f"--copies={copies}",
             f"--events={args.events}",
             f"--rate={args.rate}",
             f"--student-rate={args.student_rate}",
         ],
+    )
+
+
+def run_one(script: str, flags: list[str], code: str = str(ROOT)) -> dict[str, Any]:
+    """Run ``script --one FLAGS`` in a process of its own; return the JSON it printed last.
+
+    ``code``: the checkout whose app the process imports first (this one by default).
+    """
+    out = subprocess.run(
+        [sys.executable, script, "--one", *flags],
         check=True,
         stdout=subprocess.PIPE,
         text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        env={
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join(dict.fromkeys([code, str(ROOT)])),
+        },
     ).stdout
     return json.loads(out.strip().splitlines()[-1])
 

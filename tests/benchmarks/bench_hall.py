@@ -86,6 +86,7 @@ from bench_class import (  # noqa: E402
     own_id,
     parse_config,
     rss_mb,
+    run_one,
     say,
     seated,
     worker_pids,
@@ -488,11 +489,9 @@ def missed(s: dict[str, Any]) -> list[str]:
 
 def run_fresh(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
     """Run one class in a server process of its own (its memory figures are its own)."""
-    out = subprocess.run(
+    return run_one(
+        __file__,
         [
-            sys.executable,
-            __file__,
-            "--one",
             f"--watchers={watchers}",
             f"--copies={copies}",
             f"--events={args.events}",
@@ -501,12 +500,8 @@ def run_fresh(watchers: int, copies: int, args: argparse.Namespace) -> dict[str,
             f"--student-rate={args.student_rate}",
             f"--scenario={args.scenario}",
         ],
-        check=True,
-        stdout=subprocess.PIPE,
-        text=True,
-        env={**os.environ, "PYTHONPATH": os.pathsep.join([args.code, str(ROOT)])},
-    ).stdout
-    return json.loads(out.strip().splitlines()[-1])
+        code=args.code,
+    )
 
 
 CURVE = ((0, 0), (30, 0), (100, 0), (200, 0), (300, 0), (300, 5), (300, 10), (300, 20))

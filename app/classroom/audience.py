@@ -62,14 +62,8 @@ class Audience:
         self._members: tuple[View, ...] = ()
         self._frame: Frame | None = None
         self._pose: RobotPose | None = None
-        self._period = period
-        self._cond = threading.Condition()  # guards _due and _closed
-        self._draw_lock = threading.Lock()  # guards _deferred and drawing on them
-        self._deferred: tuple[View, ...] = ()
-        self._due: tuple[bool, bool] = (False, False)  # (frame, robot) to draw
-        self._closed = False
-        self._thread = threading.Thread(target=self._run, name="audience", daemon=True)
-        self._thread.start()
+        self._deferred = _Together()
+        self._paced = Paced(self._deferred, 1.0 / period, name="audience")
 
     def add(self, *views: View, first: bool = False, deferred: bool = False) -> None:
         """Draw on ``views`` from now on (``first``: before the others).
@@ -79,12 +73,12 @@ class Audience:
         if deferred:
             # The frame is read inside the drawing lock: a frame rendered meanwhile is
             # then drawn by the thread on these views too, never left behind.
-            with self._draw_lock:
+            with self._deferred.lock:
                 with self._lock:
                     frame, pose = self._frame, self._pose
                 for view in views:
                     _draw(view, frame, pose)
-                self._deferred = (*self._deferred, *views)
+                self._deferred.views = (*self._deferred.views, *views)
             return
         with self._lock:
             for view in views:
@@ -97,11 +91,13 @@ class Audience:
         """Stop drawing on ``views`` (waits for a frame being drawn to finish)."""
         with self._lock:
             self._members = tuple(v for v in self._members if v not in views)
-        with self._draw_lock:
-            self._deferred = tuple(v for v in self._deferred if v not in views)
+        with self._deferred.lock:
+            self._deferred.views = tuple(
+                v for v in self._deferred.views if v not in views
+            )
 
     def __len__(self) -> int:
-        return len(self._members) + len(self._deferred)
+        return len(self._members) + len(self._deferred.views)
 
     def render(self, frame: Frame) -> None:
         """Draw ``frame`` on every member (the deferred ones soon after)."""
@@ -109,7 +105,7 @@ class Audience:
             self._frame = frame
             for view in self._members:
                 _draw(view, frame, None)
-        self._wake(frame=True)
+        self._paced.render(frame)
 
     def render_robot(self, pose: RobotPose | None) -> None:
         """Draw the robot on every member (the deferred ones soon after)."""
@@ -117,36 +113,34 @@ class Audience:
             self._pose = pose
             for view in self._members:
                 _draw(view, None, pose, robot=True)
-        self._wake(robot=True)
+        self._paced.render_robot(pose)
 
     def close(self) -> None:
         """Stop the deferred members' thread."""
-        with self._cond:
-            self._closed = True
-            self._cond.notify_all()
-        self._thread.join(timeout=5.0)
+        self._paced.close()
 
-    def _wake(self, frame: bool = False, robot: bool = False) -> None:
-        with self._cond:
-            self._due = (self._due[0] or frame, self._due[1] or robot)
-            self._cond.notify_all()
 
-    def _run(self) -> None:
-        while True:
-            with self._cond:
-                while not self._closed and not any(self._due):
-                    self._cond.wait()
-                if self._closed:
-                    return
-                (frame_due, robot_due), self._due = self._due, (False, False)
-            with self._lock:
-                frame, pose = self._frame, self._pose
-            # Under the drawing lock: a removed member is never drawn after remove()
-            # returned (a copy's panel must not get the presenter's frame).
-            with self._draw_lock:
-                for view in self._deferred:
-                    _draw(view, frame if frame_due else None, pose, robot=robot_due)
-            time.sleep(self._period)
+class _Together:
+    """Views drawn as one by a :class:`Paced` thread (an audience's deferred members).
+
+    Views change only under :attr:`lock`, which every drawing holds: a view removed is
+    never drawn after its removal returned (a copy's panel must not get the presenter's
+    frame).
+    """
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.views: tuple[View, ...] = ()
+
+    def render(self, frame: Frame) -> None:
+        with self.lock:
+            for view in self.views:
+                _draw(view, frame, None)
+
+    def render_robot(self, pose: RobotPose | None) -> None:
+        with self.lock:
+            for view in self.views:
+                _draw(view, None, pose, robot=True)
 
 
 def _draw(
@@ -170,10 +164,13 @@ class Paced:
     is a frame the pump sends every watcher (:mod:`app.classroom.wire`), so the rate
     bounds the hall's WiFi and the server's work. The presenter's own view keeps its
     full rate. A frame that arrives while one is drawn waits, and only the newest
-    waits: the last frame of a drag is always drawn.
+    waits: the last frame of a drag is always drawn. An :class:`Audience` draws its
+    deferred members (the watchers' panel) through one too.
     """
 
-    def __init__(self, view: View, rate: float = CLASS_FPS) -> None:
+    def __init__(
+        self, view: View, rate: float = CLASS_FPS, *, name: str = "class-view"
+    ) -> None:
         self.view = view
         """The view drawn."""
         self.rate = rate
@@ -187,9 +184,7 @@ class Paced:
         self._closed = False
         self.frames = 0
         """Frames drawn so far (what the class was sent)."""
-        self._thread = threading.Thread(
-            target=self._run, name="class-view", daemon=True
-        )
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
 
     def render(self, frame: Frame) -> None:

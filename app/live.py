@@ -1,7 +1,8 @@
 """The app's *Live* robot mode: the DSB robot drives in the scene as the user edits it.
 
-:class:`LiveRun` owns one thread. While running, every ``dt`` (0.05 s) of simulated time
-it reads the controller's current scene (the newest edit), puts the moving obstacles
+:class:`LiveRun` is stepped by a :class:`LiveTicker`: the app's robot by a ticker (a thread)
+of its own, a classroom's copies all by one they share, at a bounded rate in all. While
+running, every ``dt`` (0.05 s) of simulated time it reads the controller's current scene (the newest edit), puts the moving obstacles
 where they are at that time (:func:`planners.scene.scene_at`), takes one
 :func:`planners.bug.live.live_step` and draws the result: the robot (through the 3-D view's
 own :meth:`render_robot`, with the sensing disk, the visible border, the lines r-O_i and
@@ -11,7 +12,7 @@ the robot decides is :mod:`planners.bug.live`'s; this module only paces, reads a
 Data flow::
 
     panel "Start live" -> LiveRun.start()         (viser thread)
-    live thread, every dt / speed wall seconds:
+    ticker's thread, every dt / speed wall seconds (later when its runs share a rate):
       scene = controller.scene                    (the newest edit, read without waiting)
       state = live_step(state, scene_at(scene, t), options, memo)   (pure)
       view.render_robot(pose); live nodes .points = ...             (property sets)
@@ -28,6 +29,7 @@ __all__ = [
     "LivePanel",
     "LivePanels",
     "LiveRun",
+    "LiveTicker",
     "MotionPaths",
     "add_live_panel",
     "live_pose",
@@ -203,7 +205,7 @@ def live_status_markdown(state: LiveState | None, running: bool) -> str:
 
 
 class LiveRun:
-    """The live DSB robot of one app: its thread, its record, its drawing.
+    """The live DSB robot of one session: its record, its drawing, stepped by a ticker.
 
     Parameters
     ----------
@@ -217,6 +219,10 @@ class LiveRun:
         Called with the state after every step (the panel's status); may be None.
     options
         The live robot's options.
+    speed
+        Simulated seconds per wall second.
+    ticker
+        What steps it (shared by a classroom's copies); None: a ticker of its own.
     """
 
     def __init__(
@@ -228,6 +234,7 @@ class LiveRun:
         on_change: Callable[[LiveState | None, bool], None] | None = None,
         options: LiveOptions | None = None,
         speed: float = 1.0,
+        ticker: LiveTicker | None = None,
     ) -> None:
         self._scene_fn = scene_fn
         self._server = server
@@ -259,8 +266,10 @@ class LiveRun:
             thickness=4.0,
             thickness_units="screen",
         )
-        self._thread = threading.Thread(target=self._loop, name="live-dsb", daemon=True)
-        self._thread.start()
+        self._next_wall = 0.0  # time.monotonic() of the next step (while running)
+        self._own_ticker = ticker is None
+        self._ticker = LiveTicker() if ticker is None else ticker
+        self._ticker.add(self)
 
     # ------------------------------------------------------------------ the panel's buttons
 
@@ -270,7 +279,8 @@ class LiveRun:
             if self._state is None or self._state.status in ("reached", "unreachable"):
                 self._reset_locked()
             self._running = True
-            self._cond.notify_all()
+            self._next_wall = time.monotonic()
+        self._ticker.wake()
         self._tell()
 
     def stop(self) -> None:
@@ -290,11 +300,14 @@ class LiveRun:
         self._tell()
 
     def close(self) -> None:
-        """Stop the thread."""
+        """Stop stepping (and the ticker, if it is the run's own)."""
         with self._cond:
             self._closed = True
-            self._cond.notify_all()
-        self._thread.join(timeout=5.0)
+            self._running = False
+        if self._own_ticker:
+            self._ticker.close()
+        else:
+            self._ticker.remove(self)
 
     @property
     def running(self) -> bool:
@@ -371,27 +384,30 @@ class LiveRun:
             except Exception:
                 logger.exception("live status update failed")
 
-    def _loop(self) -> None:
-        next_wall = time.monotonic()
-        while True:
+    def due(self) -> float | None:
+        """When the next step is due [``time.monotonic()`` s]; None while stopped."""
+        with self._cond:
+            if self._closed or not self._running or self._state is None:
+                return None
+            return self._next_wall
+
+    def tick(self) -> None:
+        """Take one step now and draw it (the ticker's thread; never raises)."""
+        with self._cond:
+            state = self._state
+            if state is None or not self._running:
+                return
+            period = self._options.dt / max(self._speed, 1e-6)
+            # A run that fell behind (a busy machine, a shared ticker) goes on from now,
+            # not in a burst of the steps it missed.
+            self._next_wall = max(self._next_wall + period, time.monotonic() - period)
+        try:
+            self._step(state)
+        except Exception:  # never take the server down: stop and say why
+            logger.exception("live step failed")
             with self._cond:
-                while not self._closed and not self._running:
-                    self._cond.wait()
-                    next_wall = time.monotonic()
-                if self._closed:
-                    return
-                state = self._state
-            if state is None:
-                continue
-            try:
-                self._step(state)
-            except Exception:  # never take the server down: stop and say why
-                logger.exception("live step failed")
-                with self._cond:
-                    self._running = False
-            self._tell()
-            next_wall += self._options.dt / max(self._speed, 1e-6)
-            time.sleep(max(0.0, next_wall - time.monotonic()))
+                self._running = False
+        self._tell()
 
     def _step(self, state: LiveState) -> None:
         scene = self._scene_fn()
@@ -421,6 +437,121 @@ class LiveRun:
         self._trail.points = _polyline_segments(pts, _Z)
         outlines = [now.obstacles[m.obstacle] for m in scene.motions]
         self._moving.points = _outline_segments(outlines, _Z + 0.01)
+
+
+class LiveTicker:
+    """Step live runs when they are due, from one thread, at most ``rate`` steps a second.
+
+    The app's robot has a ticker of its own (``rate`` None: every step on time). A
+    classroom's copies share one with a rate: ten students driving live robots cost
+    the presenter one thread and a bounded share of the interpreter; each robot then
+    steps less often in wall time (its simulated time and its decisions are the same).
+    Runs due together take their steps earliest first. The thread starts with the first
+    run and ends when the last one leaves, so an empty class holds no thread for it.
+
+    Parameters
+    ----------
+    rate
+        Most steps a second, all runs together; None for no bound.
+    name
+        Its thread's name.
+    """
+
+    def __init__(self, rate: float | None = None, name: str = "live-dsb") -> None:
+        self._period = 0.0 if rate is None else 1.0 / rate
+        self._name = name
+        self._cond = threading.Condition()
+        self._runs: list[LiveRun] = []
+        self._woken = False
+        self._closed = False
+        self._thread: threading.Thread | None = None
+        self._stepping: LiveRun | None = None  # the run taking a step now
+
+    def add(self, run: LiveRun) -> None:
+        """Step ``run`` from now on (its thread starts if it was not running)."""
+        with self._cond:
+            if self._closed:
+                raise RuntimeError("the live ticker is closed")
+            self._runs.append(run)
+            if self._thread is None:
+                self._thread = threading.Thread(
+                    target=self._loop, name=self._name, daemon=True
+                )
+                self._thread.start()
+            self._woken = True
+            self._cond.notify_all()
+
+    def remove(self, run: LiveRun) -> None:
+        """Step ``run`` no more; a step it is taking now finishes first."""
+        with self._cond:
+            self._runs = [r for r in self._runs if r is not run]
+            self._woken = True
+            self._cond.notify_all()
+            thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            with self._cond:  # wait for a step of ``run`` in progress
+                while self._stepping is run:
+                    self._cond.wait(0.05)
+
+    def wake(self) -> None:
+        """Look at the runs again (one has just started)."""
+        with self._cond:
+            self._woken = True
+            self._cond.notify_all()
+
+    def close(self) -> None:
+        """Stop every run's stepping and end the thread."""
+        with self._cond:
+            self._closed = True
+            self._runs = []
+            self._cond.notify_all()
+            thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=5.0)
+
+    @property
+    def alive(self) -> bool:
+        """Whether its thread runs (it has runs)."""
+        with self._cond:
+            return self._thread is not None
+
+    def _loop(self) -> None:
+        last = -math.inf
+        while True:
+            with self._cond:
+                if self._closed or not self._runs:
+                    self._thread = None
+                    self._cond.notify_all()
+                    return
+                runs, self._woken = list(self._runs), False
+            now = time.monotonic()
+            due = sorted(
+                (
+                    (t, k, run)
+                    for k, run in enumerate(runs)
+                    if (t := run.due()) is not None
+                ),
+                key=lambda d: d[:2],
+            )
+            wait = None if not due else due[0][0] - now
+            if due and wait is not None and wait <= 0:
+                wait = last + self._period - now
+                if wait <= 0:
+                    with self._cond:
+                        if due[0][2] not in self._runs:
+                            continue  # removed meanwhile
+                        self._stepping = due[0][2]
+                    try:
+                        due[0][2].tick()
+                    finally:
+                        with self._cond:
+                            self._stepping = None
+                            self._cond.notify_all()
+                    last = time.monotonic()
+                    continue
+            with self._cond:
+                if not self._woken and not self._closed and self._runs:
+                    self._cond.wait(wait)
 
 
 def _polyline_segments(points: FloatArray, z: float) -> FloatArray:
@@ -524,7 +655,9 @@ class LivePanel:
         self._last = 0.0
         self._head = ""
         gui = server.gui
-        with gui.add_folder("Live DSB"):
+        self.folder = gui.add_folder("Live DSB")
+        """The folder (remove it to take the controls off the panel)."""
+        with self.folder:
             self.status = gui.add_markdown(live_status_markdown(None, False))
             self.buttons = gui.add_button_group("Live", ["Start live", "Stop", "Reset"])
             self.replay = gui.add_slider("Replay t [s]", 0.0, 1.0, 0.05, 0.0)

@@ -20,8 +20,10 @@ and, through one :class:`app.classroom.audience.Audience`, on the watchers' one 
 the presenters' panels and the *own views* of those that edit (a full 3-D view with live
 gizmos in the seat's client scope under ``/own``, which hides ``/shared`` for that
 browser). A private copy is a second controller whose views are the seat's own view and
-panel, with an *Explain* folder of its own drawn in that browser's scope only
-(:class:`PrivateExplain`; no *Live DSB* for copies). Its planners run in
+panel, with an *Explain* folder and a *Live DSB* robot of its own drawn in that browser's
+scope only (:class:`PrivateExplain`, :class:`PrivateLive`; the copies' live robots share
+one :class:`app.live.LiveTicker`, at most :data:`COPY_LIVE_STEPS_PER_S` steps a second in
+all). Its planners run in
 :class:`app.session.pool.WorkerPool` s shared by every copy (VG and SVG, DSB, a big
 scene's graphs: at most ``copy_workers`` processes of each kind, at a lower priority),
 and its frames are built and drawn in turns all copies share
@@ -72,6 +74,7 @@ __all__ = [
     "Classroom",
     "PresenterTools",
     "PrivateExplain",
+    "PrivateLive",
     "Seat",
     "connection_path",
     "presenter_url",
@@ -100,6 +103,7 @@ from app.classroom.wire import mute, share_encoding, stop_sharing
 from app.explain.panel import ExplainPanel
 from app.guard.door import Bucket
 from app.guard.gate import GatedController, Refusals
+from app.live import LivePanel, LiveRun, LiveTicker, MotionPaths, add_live_panel
 from app.session import robot as robot_model
 from app.session.big import SharedWorkers
 from app.session.controller import Controller
@@ -126,6 +130,11 @@ COPY_ROUNDS_PER_S = 20.0
 """Frames all the copies together build and draw in the server's process per second, at
 most (:class:`app.session.pool.Turns`): ten dragging copies draw 2 frames a second each,
 and the presenter keeps the rest of the interpreter."""
+
+COPY_LIVE_STEPS_PER_S = 40.0
+"""Steps all the copies' live robots together take per second, at most (one
+:class:`app.live.LiveTicker`): two robots drive at their real pace (20 steps a second
+each), ten at a fifth of it; their decisions are the same, only slower to watch."""
 
 PANEL_ORDER = 0.0
 """Where a seat's own panel sits: below its banner and buttons (negative orders)."""
@@ -257,6 +266,8 @@ class Seat:
     """Client-scoped hidden nodes over the presenter's broadcast drawings (a copy)."""
     explain: PrivateExplain | None = None
     """The Explain mode of its own copy (drawn in its scope only), else None."""
+    live: PrivateLive | None = None
+    """The live robot of its own copy (drawn in its scope only), else None."""
     full: bool = False
     """Whether it came when every seat was taken (it gets no scene, only a message)."""
     note: Any = None
@@ -316,6 +327,45 @@ class PrivateExplain:
         finally:
             if self.panel.folder is not None:
                 self.panel.folder.remove()
+            self.target.remove()
+
+
+@dataclasses.dataclass(frozen=True)
+class PrivateLive:
+    """A private copy's *Live DSB*: its robot, its folder, the scope it draws in."""
+
+    run: LiveRun
+    panel: LivePanel
+    target: ScopedTarget
+
+    @classmethod
+    def open(
+        cls,
+        client: viser.ClientHandle,
+        controller: Controller,
+        root: str,
+        ticker: LiveTicker,
+    ) -> PrivateLive:
+        """Give ``client``'s copy (``controller``) a live robot of its own.
+
+        It drives in the copy's newest scene and draws (trail, moving obstacles and their
+        paths) in the browser's own scope under ``root``, the robot in the copy's views;
+        the presenter's broadcast ``/live`` is hidden for this browser meanwhile (the
+        seat's shadows). ``ticker`` steps it, shared by every copy.
+        """
+        target = ScopedTarget(client, root)
+        controller.add_view(MotionPaths(target))
+        run = LiveRun(
+            lambda: controller.scene, target, [controller.views], ticker=ticker
+        )
+        return cls(run, add_live_panel(client, run), target)
+
+    def close(self) -> None:
+        """Stop the robot, take its folder off the panel and its drawing away."""
+        try:
+            self.run.close()
+        finally:
+            self.panel.folder.remove()
             self.target.remove()
 
 
@@ -434,6 +484,8 @@ class Classroom:
         """The workers every private copy shares for big scenes' graphs (app.session.big)."""
         self.explain_turns = threading.Semaphore(max(1, copy_workers))
         """How many copies' explanations may compute at once (in this process)."""
+        self.live_ticker = LiveTicker(COPY_LIVE_STEPS_PER_S, name="copies-live-dsb")
+        """Steps every copy's live robot (one thread while any copy exists)."""
         self._copies = itertools.count(1)  # numbers each copy's Explain root
         controller.add_view(self.audience)
         self._load = _LoadMeter()
@@ -554,13 +606,11 @@ class Classroom:
             if tools is not None:
                 self.audience.remove(*tools.views)
             explain, seat.explain = seat.explain, None
+            live, seat.live = seat.live, None
         # Outside the lock: closing waits for the tools' and the copy's threads.
-        if private is not None:
-            private.close()
         if tools is not None:
             tools.close()
-        if explain is not None:
-            explain.close()
+        _close_copy(private, explain, live)
         self._refresh_banners()
         with self._lock:
             empty = all(s.presenter for s in self._seats.values())
@@ -619,25 +669,29 @@ class Classroom:
             turns=self.copy_turns,
             big_workers=SharedWorkers(self.big_pool),
         )
+        number = next(self._copies)
         explain = PrivateExplain.open(
-            seat.client,
-            private,
-            f"/own_explain/{next(self._copies)}",
-            self.explain_turns,
+            seat.client, private, f"/own_explain/{number}", self.explain_turns
+        )
+        live = PrivateLive.open(
+            seat.client, private, f"/own_live/{number}", self.live_ticker
         )
         with self._lock:
             kept = self._seats.get(client_id) is seat and seat.private is None
             if kept:
-                self._commit_copy(seat, private, explain)
+                self._commit_copy(seat, private, explain, live)
         if not kept:  # it left, or made a copy from another click, meanwhile
-            explain.close()
-            private.close()
+            _close_copy(private, explain, live)
             return False
         self._refresh_banners()
         return True
 
     def _commit_copy(
-        self, seat: Seat, private: Controller, explain: PrivateExplain
+        self,
+        seat: Seat,
+        private: Controller,
+        explain: PrivateExplain,
+        live: PrivateLive,
     ) -> None:
         """Move a seat from the presenter's session to its copy (under the lock)."""
         self._unsay(seat)
@@ -649,7 +703,7 @@ class Classroom:
         )
         # Built before the lock, unless a lab just ended and took it back meanwhile.
         panels = self._ensure_panels(seat)
-        seat.private, seat.explain = private, explain
+        seat.private, seat.explain, seat.live = private, explain, live
         gated = GatedController(
             private, lambda: seat.private is private, self.refusals, never=STUDENT_NEVER
         )
@@ -668,6 +722,7 @@ class Classroom:
                 return False
             private, seat.private = seat.private, None
             explain, seat.explain = seat.explain, None
+            live, seat.live = seat.live, None
             private.remove_views()  # before its view goes: it draws no more
             self._drop_own_view(seat)
             for shadow in seat.shadows:
@@ -675,9 +730,7 @@ class Classroom:
             seat.shadows = ()
             self._follow(seat)
         # Outside the lock: closing waits for the copy's and the explanation's threads.
-        private.close()
-        if explain is not None:
-            explain.close()
+        _close_copy(private, explain, live)
         self._refresh_banners()
         return True
 
@@ -734,12 +787,10 @@ class Classroom:
             seats = list(self._seats.values())
             self._seats.clear()
         for seat in seats:
-            if seat.private is not None:
-                seat.private.close()
             if seat.tools is not None:
                 seat.tools.close()
-            if seat.explain is not None:
-                seat.explain.close()
+            _close_copy(seat.private, seat.explain, seat.live)
+        self.live_ticker.close()
         self._closed.set()
         self._load_thread.join(timeout=5.0)
         self.audience.close()
@@ -1108,3 +1159,17 @@ def _slow_fn(controller: Controller) -> Any:
     registry = dict(controller.registry)
     slow = planners_of_kind("trace", registry=registry)
     return functools.partial(default_plan, which=slow, registry=registry)
+
+
+def _close_copy(
+    private: Controller | None,
+    explain: PrivateExplain | None,
+    live: PrivateLive | None,
+) -> None:
+    """Close what a copy has: its live robot first (it reads the session), then the rest."""
+    if live is not None:
+        live.close()
+    if private is not None:
+        private.close()
+    if explain is not None:
+        explain.close()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import re
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -200,6 +201,26 @@ def classroom_client(app: Any, presenter: bool = False) -> Iterator[ViserClient]
         yield c
     finally:
         c.close()
+
+
+def markdowns(c: ViserClient) -> list[str]:
+    """The text of every markdown element ``c`` shows (viser sends it as ``_markdown``)."""
+    with c._lock:  # a re-entrant lock: wait_for's tests run under it too
+        elements = [dict(e) for e in c.gui.values()]
+    return [
+        str(e["props"].get("_markdown", ""))
+        for e in elements
+        if e["type"] == "GuiMarkdownMessage"
+    ]
+
+
+def live_time(c: ViserClient) -> float | None:
+    """The time ``c``'s *Live DSB* status shows [s] (None before a start)."""
+    for text in markdowns(c):
+        found = re.search(r"^\*\*Live \(.*t = ([0-9.]+) s", text, re.S)
+        if found:
+            return float(found.group(1))
+    return None
 
 
 def has_label(c: ViserClient, label: str) -> bool:

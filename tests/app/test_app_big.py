@@ -25,6 +25,7 @@ from app.session.big import BIG_SCENE_VERTICES, scene_vertices
 from app.session.frames import Frame
 from app.ui.style import planner_look
 from app.ui.view import STALE_RGB
+from tests.app.app_helpers import markdowns
 from tests.benchmarks.bench_big import circle_scene
 from tests.viser_client import ViserClient
 
@@ -103,7 +104,7 @@ def test_a_big_scene_shows_progress_and_edits_cancel_its_computation(app):
         )
         # The panel shows it to every browser.
         assert watcher.wait_for(
-            lambda: any("Computing VG, SVG..." in t for t in _markdown(watcher)), 30
+            lambda: any("Computing VG, SVG..." in t for t in markdowns(watcher)), 30
         )
 
         # Edits while it computes: each gives the running computation up. A drag of the
@@ -172,11 +173,6 @@ def _check_the_last_picture_stays_grey(app, recorder: Recorder, final: Frame) ->
 
 def _labels(client: ViserClient) -> set[str]:
     return {e["label"] for e in client.gui.values()}
-
-
-def _markdown(client: ViserClient) -> list[str]:
-    """The text of every markdown element the client shows."""
-    return [str(e["props"].get("_markdown", "")) for e in client.gui.values()]
 
 
 def test_a_small_scene_never_starts_the_big_worker(app):

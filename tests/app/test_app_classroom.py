@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import inspect
 import json
+import threading
 from collections.abc import Iterator
 from typing import Any
 
@@ -35,7 +36,7 @@ from app.server import _is_loopback
 from app.session.big import SharedWorkers
 from tests.app.app_helpers import classroom_client as client
 from tests.app.app_helpers import has_label as _has
-from tests.app.app_helpers import reset_classroom, wait_until
+from tests.app.app_helpers import live_time, markdowns, reset_classroom, wait_until
 from tests.benchmarks.bench_big import circle_scene
 from tests.viser_client import ViserClient
 
@@ -631,7 +632,7 @@ def test_a_private_copy_has_an_explain_mode_of_its_own(planner):
         student.set_gui(student.uuid("Method"), svg)
         assert student.wait_for(lambda: bool(_scoped_explain_nodes(student, str(sid))))
         assert student.wait_for(
-            lambda: any(", step 1 of" in h for h in _markdowns(student))
+            lambda: any(", step 1 of" in h for h in markdowns(student))
         )
         # The copy's plan layers are hidden while it explains; the presenter's are not.
         assert wait_until(lambda: not private.frame.layers["svg_edges"], 20)
@@ -676,11 +677,60 @@ def test_a_copys_explain_mode_stops_when_its_browser_leaves(planner):
     assert wait_until(lambda: not thread.is_alive(), 20)  # its thread ended with it
 
 
-def _markdowns(c: ViserClient) -> list[str]:
-    with c._lock:
-        elements = [dict(e) for e in c.gui.values()]
-    return [
-        str(e["props"].get("_markdown", ""))
-        for e in elements
-        if e["type"] == "GuiMarkdownMessage"
-    ]
+def _live_nodes(c: ViserClient) -> list[tuple[str, str]]:
+    """The (scope, name) of the copies' live drawings ``c`` holds."""
+    with c._lock:  # the client's reader thread adds nodes meanwhile
+        return [key for key in c.nodes if key[1].startswith("/own_live/")]
+
+
+def test_copies_drive_live_robots_of_their_own_on_one_shared_thread(planner):
+    """Two students start the live robot on their copies: each drives in its own page
+    only, the presenter's robot does not move, and all the copies' robots are stepped by
+    one thread, which ends when the last copy goes."""
+    room = planner.classroom
+    ticker = room.live_ticker
+    with (
+        client(planner, presenter=True) as pres,
+        client(planner) as a,
+        client(planner) as b,
+    ):
+        for student in (a, b):
+            student.click("Make my own copy")
+            sid = student.client_id
+            assert wait_until(lambda sid=sid: room.mode(sid) == "private", 60)
+            assert student.wait_for(lambda student=student: _has(student, "Live"))
+        assert not _has(pres, "Make my own copy") and planner.live is not None
+        runs = [room.seat(s.client_id).live.run for s in (a, b)]
+        for student in (a, b):
+            student.set_gui(student.uuid("Live"), "Start live")
+        assert wait_until(lambda: all(run.running for run in runs), 20)
+        for student in (a, b):  # each page's own status moves on
+            first = live_time(student) or 0.0
+            assert student.wait_for(
+                lambda s=student, t=first: (live_time(s) or 0.0) > t + 0.1, 30
+            ), markdowns(student)
+        # Each robot and trail is drawn in its own browser's scope, never broadcast.
+        for student in (a, b):
+            mine = str(student.client_id)
+            assert student.wait_for(
+                lambda s=student, m=mine: any(
+                    scope == m and name.endswith("/live/trail")
+                    for scope, name in _live_nodes(s)
+                )
+            )
+        assert not _live_nodes(pres)
+        assert not planner.live.running and planner.live.state is None
+        assert ticker.alive
+        stepping = [t for t in threading.enumerate() if t.name == "copies-live-dsb"]
+        assert len(stepping) == 1, stepping
+        # One follows the presenter again: its robot stops, the other drives on.
+        a.click("Follow the presenter again")
+        assert wait_until(lambda: room.mode(a.client_id) == "watching", 20)
+        assert a.wait_for(lambda: not _has(a, "Live"))
+        assert a.wait_for(lambda: not _live_nodes(a))
+        assert not runs[0].running
+        t = runs[1].state.t
+        assert wait_until(lambda: runs[1].state.t > t, 20)
+    # The last copy left with its browser: the copies' ticker holds no thread.
+    assert wait_until(lambda: not ticker.alive, 20)
+    assert not [t for t in threading.enumerate() if t.name == "copies-live-dsb"]

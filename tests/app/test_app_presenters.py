@@ -15,7 +15,6 @@ presenter mode, and checks what each browser is sent:
 from __future__ import annotations
 
 import contextlib
-import re
 from collections.abc import Iterator
 from typing import Any
 
@@ -24,7 +23,7 @@ import pytest
 from app import start_app
 from app.explain.panel import METHOD_TITLES
 from tests.app.app_helpers import classroom_client as client
-from tests.app.app_helpers import wait_until
+from tests.app.app_helpers import live_time, markdowns, wait_until
 from tests.viser_client import ViserClient
 
 GOAL = "/handles/goal"
@@ -68,34 +67,14 @@ def _value(c: ViserClient, label: str) -> Any:
     return c.element(label)["value"]
 
 
-def _markdown(c: ViserClient) -> list[str]:
-    """The text of every markdown element ``c`` shows (viser sends it as ``_markdown``)."""
-    with c._lock:  # a re-entrant lock: wait_for's tests run under it too
-        elements = [dict(e) for e in c.gui.values()]
-    return [
-        str(e["props"].get("_markdown", ""))
-        for e in elements
-        if e["type"] == "GuiMarkdownMessage"
-    ]
-
-
 def _texts(c: ViserClient, start: str) -> list[str]:
-    return [h for h in _markdown(c) if h.startswith(start)]
+    return [h for h in markdowns(c) if h.startswith(start)]
 
 
 def _step_text(c: ViserClient) -> str:
     """The Explain folder's line ("**title**, step n of N ...")."""
-    with_step = [h for h in _markdown(c) if ", step " in h and h.startswith("**")]
+    with_step = [h for h in markdowns(c) if ", step " in h and h.startswith("**")]
     return with_step[0] if with_step else ""
-
-
-def _live_t(c: ViserClient) -> float | None:
-    """The time the browser's *Live DSB* status shows (None before a start)."""
-    for text in _texts(c, "**Live ("):
-        found = re.search(r"t = ([0-9.]+) s", text)
-        if found:
-            return float(found.group(1))
-    return None
 
 
 def _explanation_shown(c: ViserClient) -> bool:
@@ -142,17 +121,17 @@ def test_both_presenter_browsers_are_presenters_and_counted(planner):
 def test_explain_is_one_for_both_presenter_browsers(planner):
     with _presenter(planner) as a, _presenter(planner) as b:
         a.set_gui(a.uuid("Method"), SVG)
-        assert a.wait_for(lambda: "step 1 of" in _step_text(a), 30), _markdown(a)
+        assert a.wait_for(lambda: "step 1 of" in _step_text(a), 30), markdowns(a)
         # B's folder shows A's choice and its first step, and the class sees it.
         assert b.wait_for(lambda: _value(b, "Method") == SVG, 20)
-        assert b.wait_for(lambda: "step 1 of" in _step_text(b), 20), _markdown(b)
+        assert b.wait_for(lambda: "step 1 of" in _step_text(b), 20), markdowns(b)
         assert b.wait_for(lambda: _explanation_shown(b), 20)
         assert planner.wait_idle(30)
         assert not planner.controller.frame.layers["svg_edges"]
         # B steps forward: A's slider and text follow.
         b.set_gui(b.uuid("Step"), ">")
-        assert b.wait_for(lambda: "step 2 of" in _step_text(b), 20), _markdown(b)
-        assert a.wait_for(lambda: "step 2 of" in _step_text(a), 20), _markdown(a)
+        assert b.wait_for(lambda: "step 2 of" in _step_text(b), 20), markdowns(b)
+        assert a.wait_for(lambda: "step 2 of" in _step_text(a), 20), markdowns(a)
         assert a.wait_for(lambda: _value(a, "Step no.") == 2, 20)
         assert planner.explain.explainer.step == 1
         sid = a.client_id
@@ -206,11 +185,11 @@ def test_the_last_presenter_browser_leaving_turns_explain_off(planner):
 
 def _updates(c: ViserClient, timeout: float = 20.0) -> bool:
     """Whether the live time ``c`` shows moves on (twice) within ``timeout``."""
-    first = _live_t(c)
-    if not c.wait_for(lambda: (_live_t(c) or -1) > (first or -1), timeout):
+    first = live_time(c)
+    if not c.wait_for(lambda: (live_time(c) or -1) > (first or -1), timeout):
         return False
-    second = _live_t(c)
-    return c.wait_for(lambda: (_live_t(c) or -1) > (second or -1), timeout)
+    second = live_time(c)
+    return c.wait_for(lambda: (live_time(c) or -1) > (second or -1), timeout)
 
 
 def test_the_live_robot_reaches_every_presenter_browser_whichever_closes(planner):
@@ -229,7 +208,7 @@ def test_the_live_robot_reaches_every_presenter_browser_whichever_closes(planner
         # B reloads: its new panel shows the running robot at once and follows it.
         with _presenter(planner) as b2:
             assert b2.wait_for(lambda: bool(_texts(b2, "**Live (running)")), 20), (
-                _markdown(b2)
+                markdowns(b2)
             )
             assert _updates(b2)
             aid = a.client_id
@@ -320,7 +299,7 @@ def test_the_replay_slider_scrubbed_in_one_browser_moves_in_the_other(planner):
         a.set_gui(a.uuid("Live"), "Stop")
         assert wait_until(lambda: not live.running, 20)
         assert b.wait_for(lambda: bool(_texts(b, "**Live (stopped)")), 20)
-        end = _live_t(b)
+        end = live_time(b)
         assert end is not None and end > 0.2
         a.set_gui(a.uuid("Replay t [s]"), 0.2)
         assert b.wait_for(lambda: _value(b, "Replay t [s]") == 0.2, 20)

@@ -1,7 +1,8 @@
 """The app's *Live* robot mode: the DSB robot drives in the scene as the user edits it.
 
-:class:`LiveRun` is stepped by a :class:`LiveTicker`: the app's robot by a ticker (a thread)
-of its own, a classroom's copies all by one they share, at a bounded rate in all. While
+:class:`LiveRun` is stepped by a :class:`app.session.pool.Ticker`: the app's robot by a
+ticker (a thread) of its own, a classroom's copies all by one they share, at a bounded
+rate in all. While
 running, every ``dt`` (0.05 s) of simulated time it reads the controller's current scene (the newest edit), puts the moving obstacles
 where they are at that time (:func:`planners.scene.scene_at`), takes one
 :func:`planners.bug.live.live_step` and draws the result: the robot (through the 3-D view's
@@ -29,7 +30,6 @@ __all__ = [
     "LivePanel",
     "LivePanels",
     "LiveRun",
-    "LiveTicker",
     "MotionPaths",
     "add_live_panel",
     "live_pose",
@@ -51,6 +51,7 @@ import numpy as np
 import numpy.typing as npt
 
 from app.session.frames import RobotPose
+from app.session.pool import Ticker
 from app.ui.text import markdown_text
 from planners.bug.live import (
     LiveEvent,
@@ -234,7 +235,7 @@ class LiveRun:
         on_change: Callable[[LiveState | None, bool], None] | None = None,
         options: LiveOptions | None = None,
         speed: float = 1.0,
-        ticker: LiveTicker | None = None,
+        ticker: Ticker | None = None,
     ) -> None:
         self._scene_fn = scene_fn
         self._server = server
@@ -268,7 +269,7 @@ class LiveRun:
         )
         self._next_wall = 0.0  # time.monotonic() of the next step (while running)
         self._own_ticker = ticker is None
-        self._ticker = LiveTicker() if ticker is None else ticker
+        self._ticker = Ticker(name="live-dsb") if ticker is None else ticker
         self._ticker.add(self)
 
     # ------------------------------------------------------------------ the panel's buttons
@@ -437,121 +438,6 @@ class LiveRun:
         self._trail.points = _polyline_segments(pts, _Z)
         outlines = [now.obstacles[m.obstacle] for m in scene.motions]
         self._moving.points = _outline_segments(outlines, _Z + 0.01)
-
-
-class LiveTicker:
-    """Step live runs when they are due, from one thread, at most ``rate`` steps a second.
-
-    The app's robot has a ticker of its own (``rate`` None: every step on time). A
-    classroom's copies share one with a rate: ten students driving live robots cost
-    the presenter one thread and a bounded share of the interpreter; each robot then
-    steps less often in wall time (its simulated time and its decisions are the same).
-    Runs due together take their steps earliest first. The thread starts with the first
-    run and ends when the last one leaves, so an empty class holds no thread for it.
-
-    Parameters
-    ----------
-    rate
-        Most steps a second, all runs together; None for no bound.
-    name
-        Its thread's name.
-    """
-
-    def __init__(self, rate: float | None = None, name: str = "live-dsb") -> None:
-        self._period = 0.0 if rate is None else 1.0 / rate
-        self._name = name
-        self._cond = threading.Condition()
-        self._runs: list[LiveRun] = []
-        self._woken = False
-        self._closed = False
-        self._thread: threading.Thread | None = None
-        self._stepping: LiveRun | None = None  # the run taking a step now
-
-    def add(self, run: LiveRun) -> None:
-        """Step ``run`` from now on (its thread starts if it was not running)."""
-        with self._cond:
-            if self._closed:
-                raise RuntimeError("the live ticker is closed")
-            self._runs.append(run)
-            if self._thread is None:
-                self._thread = threading.Thread(
-                    target=self._loop, name=self._name, daemon=True
-                )
-                self._thread.start()
-            self._woken = True
-            self._cond.notify_all()
-
-    def remove(self, run: LiveRun) -> None:
-        """Step ``run`` no more; a step it is taking now finishes first."""
-        with self._cond:
-            self._runs = [r for r in self._runs if r is not run]
-            self._woken = True
-            self._cond.notify_all()
-            thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
-            with self._cond:  # wait for a step of ``run`` in progress
-                while self._stepping is run:
-                    self._cond.wait(0.05)
-
-    def wake(self) -> None:
-        """Look at the runs again (one has just started)."""
-        with self._cond:
-            self._woken = True
-            self._cond.notify_all()
-
-    def close(self) -> None:
-        """Stop every run's stepping and end the thread."""
-        with self._cond:
-            self._closed = True
-            self._runs = []
-            self._cond.notify_all()
-            thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout=5.0)
-
-    @property
-    def alive(self) -> bool:
-        """Whether its thread runs (it has runs)."""
-        with self._cond:
-            return self._thread is not None
-
-    def _loop(self) -> None:
-        last = -math.inf
-        while True:
-            with self._cond:
-                if self._closed or not self._runs:
-                    self._thread = None
-                    self._cond.notify_all()
-                    return
-                runs, self._woken = list(self._runs), False
-            now = time.monotonic()
-            due = sorted(
-                (
-                    (t, k, run)
-                    for k, run in enumerate(runs)
-                    if (t := run.due()) is not None
-                ),
-                key=lambda d: d[:2],
-            )
-            wait = None if not due else due[0][0] - now
-            if due and wait is not None and wait <= 0:
-                wait = last + self._period - now
-                if wait <= 0:
-                    with self._cond:
-                        if due[0][2] not in self._runs:
-                            continue  # removed meanwhile
-                        self._stepping = due[0][2]
-                    try:
-                        due[0][2].tick()
-                    finally:
-                        with self._cond:
-                            self._stepping = None
-                            self._cond.notify_all()
-                    last = time.monotonic()
-                    continue
-            with self._cond:
-                if not self._woken and not self._closed and self._runs:
-                    self._cond.wait(wait)
 
 
 def _polyline_segments(points: FloatArray, z: float) -> FloatArray:

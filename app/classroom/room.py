@@ -22,8 +22,8 @@ gizmos in the seat's client scope under ``/own``, which hides ``/shared`` for th
 browser). A private copy is a second controller whose views are the seat's own view and
 panel, with an *Explain* folder and a *Live DSB* robot of its own drawn in that browser's
 scope only (:class:`PrivateExplain`, :class:`PrivateLive`; the copies' live robots share
-one :class:`app.live.LiveTicker`, at most :data:`COPY_LIVE_STEPS_PER_S` steps a second in
-all). Its planners run in
+one :class:`app.session.pool.Ticker` with their robots' animations, at most
+:data:`COPY_TICKS_PER_S` frames a second in all). Its planners run in
 :class:`app.session.pool.WorkerPool` s shared by every copy (VG and SVG, DSB, a big
 scene's graphs: at most ``copy_workers`` processes of each kind, at a lower priority),
 and its frames are built and drawn in turns all copies share
@@ -103,13 +103,13 @@ from app.classroom.wire import mute, share_encoding, stop_sharing
 from app.explain.panel import ExplainPanel
 from app.guard.door import Bucket
 from app.guard.gate import GatedController, Refusals
-from app.live import LivePanel, LiveRun, LiveTicker, MotionPaths, add_live_panel
+from app.live import LivePanel, LiveRun, MotionPaths, add_live_panel
 from app.session import robot as robot_model
 from app.session.big import SharedWorkers
 from app.session.controller import Controller
 from app.session.files import ScenesFolder
 from app.session.frames import View
-from app.session.pool import Turns, WorkerPool
+from app.session.pool import Ticker, Turns, WorkerPool
 from app.session.scheduler import big_plan, default_plan
 from app.ui.panels import Panels
 from app.ui.scoped import ScopedTarget
@@ -131,10 +131,12 @@ COPY_ROUNDS_PER_S = 20.0
 most (:class:`app.session.pool.Turns`): ten dragging copies draw 2 frames a second each,
 and the presenter keeps the rest of the interpreter."""
 
-COPY_LIVE_STEPS_PER_S = 40.0
-"""Steps all the copies' live robots together take per second, at most (one
-:class:`app.live.LiveTicker`): two robots drive at their real pace (20 steps a second
-each), ten at a fifth of it; their decisions are the same, only slower to watch."""
+COPY_TICKS_PER_S = 60.0
+"""Robot frames all the copies together draw per second in the server's process, at most
+(one :class:`app.session.pool.Ticker`): their robots' animations (30 frames a second
+each) and their live robots' steps (20 a second each). Two robots move at their full
+rate; with ten, an animation is drawn 6 times a second (it keeps its pace) and a live
+robot drives at a third of its pace (it decides the same, only slower to watch)."""
 
 PANEL_ORDER = 0.0
 """Where a seat's own panel sits: below its banner and buttons (negative orders)."""
@@ -344,7 +346,7 @@ class PrivateLive:
         client: viser.ClientHandle,
         controller: Controller,
         root: str,
-        ticker: LiveTicker,
+        ticker: Ticker,
     ) -> PrivateLive:
         """Give ``client``'s copy (``controller``) a live robot of its own.
 
@@ -484,8 +486,9 @@ class Classroom:
         """The workers every private copy shares for big scenes' graphs (app.session.big)."""
         self.explain_turns = threading.Semaphore(max(1, copy_workers))
         """How many copies' explanations may compute at once (in this process)."""
-        self.live_ticker = LiveTicker(COPY_LIVE_STEPS_PER_S, name="copies-live-dsb")
-        """Steps every copy's live robot (one thread while any copy exists)."""
+        self.ticker = Ticker(COPY_TICKS_PER_S, name="copies-robots")
+        """Draws every copy's robot animation and steps its live robot (one thread while
+        any copy exists)."""
         self._copies = itertools.count(1)  # numbers each copy's Explain root
         controller.add_view(self.audience)
         self._load = _LoadMeter()
@@ -667,6 +670,7 @@ class Classroom:
             slow_process=self.pool,
             fast_process=self.fast_pool,
             turns=self.copy_turns,
+            ticker=self.ticker,
             big_workers=SharedWorkers(self.big_pool),
         )
         number = next(self._copies)
@@ -674,7 +678,7 @@ class Classroom:
             seat.client, private, f"/own_explain/{number}", self.explain_turns
         )
         live = PrivateLive.open(
-            seat.client, private, f"/own_live/{number}", self.live_ticker
+            seat.client, private, f"/own_live/{number}", self.ticker
         )
         with self._lock:
             kept = self._seats.get(client_id) is seat and seat.private is None
@@ -790,7 +794,7 @@ class Classroom:
             if seat.tools is not None:
                 seat.tools.close()
             _close_copy(seat.private, seat.explain, seat.live)
-        self.live_ticker.close()
+        self.ticker.close()
         self._closed.set()
         self._load_thread.join(timeout=5.0)
         self.audience.close()

@@ -70,6 +70,10 @@ METHOD_TITLES: Mapping[str, str] = MappingProxyType(
 )
 """Method key -> its name in the dropdown."""
 
+IDLE_S = 2.0
+"""An explainer's thread ends after this long without work [s]; the next request starts
+one. A classroom's copies each have an Explain folder, mostly off: they hold no thread."""
+
 HIDDEN_LAYERS = (
     "vg_edges",
     "vg_path",
@@ -142,6 +146,9 @@ def flowchart_html(box: str | None) -> str:
 class Explainer:
     """Keeps the explanation of the newest scene and the current step; computes in a thread.
 
+    The thread runs while there is work: a request starts it, and it ends after
+    :data:`IDLE_S` without one.
+
     Pure of viser: it draws through ``draw(step, explanation)``, a callable the panel
     gives. ``render(frame)`` only stores the frame and wakes the thread, so it never
     blocks the scheduler.
@@ -171,8 +178,7 @@ class Explainer:
         # The request this thread serves now (None between requests): what a long
         # explanation is asked to go on with (_asked_to_stop).
         self._serving: tuple[int, str, int] | None = None
-        self._thread = threading.Thread(target=self._run, name="explain", daemon=True)
-        self._thread.start()
+        self._thread: threading.Thread | None = None  # while there is work
 
     # ---------------------------------------------------------------- questions
 
@@ -250,17 +256,25 @@ class Explainer:
         return True
 
     def close(self) -> None:
-        """Stop the thread."""
+        """Stop the thread (if it runs)."""
         with self._cond:
             self._closed = True
             self._cond.notify_all()
-        self._thread.join(timeout=5.0)
+            thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=5.0)
 
     # ---------------------------------------------------------------- the thread
 
     def _wake(self) -> None:
+        """Ask the thread for a round (under the condition); start it if it ended."""
         self._dirty = True
         self._cond.notify_all()
+        if self._thread is None and not self._closed:
+            self._thread = threading.Thread(
+                target=self._run, name="explain", daemon=True
+            )
+            self._thread.start()
 
     def _clamp(self, n: int) -> int:
         count = len(self._explanation.steps) if self._explanation is not None else 1
@@ -270,7 +284,9 @@ class Explainer:
         while True:
             with self._cond:
                 while not self._dirty and not self._closed:
-                    self._cond.wait()
+                    if not self._cond.wait(IDLE_S) and not self._dirty:
+                        self._thread = None  # idle: the next request starts one
+                        return
                 if self._closed:
                     return
                 self._dirty, self._busy = False, True

@@ -73,7 +73,7 @@ from app.session.big import BigWorkers
 from app.session.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
 from app.session.frames import Frame, RobotPose, View, Views
 from app.session.playback import Playback, SampleFn, TrajectoryFn
-from app.session.pool import Turns
+from app.session.pool import Ticker, Turns
 from app.session.scheduler import Pending, PlanFn, Scheduler, default_plan, lanes_for
 from app.session.tools import LAYERS, TOOLS, Handle, Selection, UiState, pick
 from planners import export
@@ -136,6 +136,9 @@ class Controller:
         (``--scenes-dir``), or None.
     fps
         Animation rate of the robot [frames/s].
+    ticker
+        Draws the robot's animation (:class:`app.session.pool.Ticker`, shared by a
+        classroom's copies); None: a ticker (a thread) of its own.
     """
 
     def __init__(
@@ -156,6 +159,7 @@ class Controller:
         scenarios: Mapping[str, Path] | None = None,
         scenario: str = "",
         fps: float = 30.0,
+        ticker: Ticker | None = None,
         folder: ScenesFolder | None = None,
         floor_map: Any = None,
     ) -> None:
@@ -177,7 +181,9 @@ class Controller:
             big_workers=big_workers,
             fast_process=fast_process,
         )
-        self.playback = Playback(self._state, self._views, trajectory, sample, fps)
+        self.playback = Playback(
+            self._state, self._views, trajectory, sample, fps=fps, ticker=ticker
+        )
         """The robot: play, pause, speed, time, the planner followed."""
         self._scheduler = Scheduler(
             self._state, self._views, self.playback, fast, slow, turns=turns

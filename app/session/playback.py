@@ -6,7 +6,7 @@ Data flow::
       lookup = playback.lookup(v, scene, plans, follow)   # keep the trajectory?
       trajectory = playback.plan(scene, lookup)            # plan a new one if needed
       pose = playback.settle_locked()                      # clamp t, sample the pose
-    animation thread (while playing, ``fps`` times a second):
+    its ticker (app.session.pool; while playing, ``fps`` times a second at most):
       t += elapsed * speed -> pose -> views.render_robot(pose)
     panel (viser's threads): controller.playback.play() / pause() / set_speed(...)
 
@@ -22,7 +22,6 @@ __all__ = ["Lookup", "Playback", "SampleFn", "TrajectoryFn"]
 import dataclasses
 import logging
 import math
-import threading
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -32,6 +31,7 @@ import numpy.typing as npt
 
 from app.session._state import SessionState
 from app.session.frames import RobotPose, Views
+from app.session.pool import Ticker
 from planners.scene import Scene
 
 logger = logging.getLogger(__name__)
@@ -86,7 +86,7 @@ class Lookup:
 
 
 class Playback:
-    """The robot's motion along the followed path, and its animation thread.
+    """The robot's motion along the followed path, and its animation.
 
     Parameters
     ----------
@@ -98,6 +98,9 @@ class Playback:
         See :data:`TrajectoryFn` and :data:`SampleFn`; None disables the robot.
     fps
         Animation rate [frames/s].
+    ticker
+        What draws its frames (a classroom's copies share one); None: a ticker (a
+        thread) of its own.
     """
 
     def __init__(
@@ -106,7 +109,9 @@ class Playback:
         views: Views,
         trajectory: TrajectoryFn | None,
         sample: SampleFn | None,
+        *,
         fps: float = 30.0,
+        ticker: Ticker | None = None,
     ) -> None:
         self._state = state
         self._lock = state.lock
@@ -120,10 +125,10 @@ class Playback:
         self._wall = 0.0  # time.monotonic() at the last advance
         self._kept = _Kept()
         self._closed = False
-        self._thread = threading.Thread(
-            target=self._animate, name="robot-animation", daemon=True
-        )
-        self._thread.start()
+        self._next_wall = 0.0  # time.monotonic() of the next frame (while playing)
+        self._own_ticker = ticker is None
+        self._ticker = Ticker(name="robot-animation") if ticker is None else ticker
+        self._ticker.add(self)
 
     # ------------------------------------------------------------------ the panel's buttons
 
@@ -175,17 +180,41 @@ class Playback:
             self._t = 0.0
 
     def close(self) -> None:
-        """Stop the animation thread."""
+        """Stop the animation (and its ticker, if it is its own)."""
         with self._lock:
             self._closed = True
-            self._lock.notify_all()
-        if self._thread is not threading.current_thread():
-            self._thread.join(timeout=5.0)
+        if self._own_ticker:
+            self._ticker.close()
+        else:
+            self._ticker.remove(self)
 
     @property
     def alive(self) -> bool:
-        """Whether the animation thread runs."""
-        return self._thread.is_alive()
+        """Whether it is still animated (not closed, its ticker's thread running)."""
+        with self._lock:
+            closed = self._closed
+        return not closed and self._ticker.alive
+
+    # ------------------------------------------------------------------ for its ticker
+
+    def due(self) -> float | None:
+        """When the next frame is due [``time.monotonic()`` s]; None while paused."""
+        with self._lock:
+            return None if self._closed or not self._playing else self._next_wall
+
+    def tick(self) -> None:
+        """Move the robot on by the wall time since the last frame, and draw it."""
+        with self._lock:
+            if self._closed or not self._playing:
+                return
+            self._advance_locked()
+            pose = self._pose_locked()
+            now = time.monotonic()
+            self._next_wall = max(self._next_wall + self._period, now - self._period)
+        try:
+            self._views.render_robot(pose)
+        except Exception:  # never stop the ticker's other runs
+            logger.exception("drawing the robot failed")
 
     # ------------------------------------------------------------------ for the scheduler
 
@@ -241,8 +270,9 @@ class Playback:
         if duration is not None and self._t >= duration:
             self._t = 0.0
         self._playing = True
-        self._wall = time.monotonic()
+        self._wall = self._next_wall = time.monotonic()
         self._state.touch_locked()
+        self._ticker.wake()
 
     def _duration_locked(self) -> float | None:
         trajectory = self._kept.trajectory
@@ -279,15 +309,3 @@ class Playback:
             self._t = 0.0 if duration is None else duration
             self._playing = False
             self._state.touch_locked()  # the panel's play button changes
-
-    def _animate(self) -> None:
-        while True:
-            with self._lock:
-                while not self._closed and not self._playing:
-                    self._lock.wait()
-                if self._closed:
-                    return
-                self._advance_locked()
-                pose = self._pose_locked()
-            self._views.render_robot(pose)
-            time.sleep(self._period)

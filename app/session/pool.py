@@ -1,4 +1,4 @@
-"""Bounded pools of worker processes shared by the students' private copies.
+"""What sessions share: pools of worker processes, turns, a ticker for their robots.
 
 Each session of the presenter's kind has worker processes of its own: one for TangentBug
 (:mod:`app.session.lanes`), one for a big scene's graphs (:mod:`app.session.big`, started on first use).
@@ -19,18 +19,22 @@ Data flow::
     private session's big scene (a BigJob's thread)
       -> with pool.lease(abandoned) as worker: worker(scene, ...)  # interrupted if given up
          given up while it waits: pool.wake() -> the lease ends at once (Interrupted)
+    robot animation, live robot (Ticking: due, tick) -> ticker.add(run)
+      ticker's thread: the earliest due run, if due and the rate allows: run.tick()
+      (one step, drawn); else wait until the next is due, or a wake (a run started)
 """
 
 from __future__ import annotations
 
-__all__ = ["Turns", "WorkerPool"]
+__all__ = ["Ticker", "Ticking", "Turns", "WorkerPool"]
 
 import collections
 import contextlib
+import math
 import threading
 import time
 from collections.abc import Callable, Iterator
-from typing import Any
+from typing import Any, Protocol
 
 from app.session.lanes import Interrupted, ProcessLane
 
@@ -206,3 +210,132 @@ class Turns:
         """Copies waiting for their turn right now."""
         with self._cond:
             return len(self._line)
+
+
+class Ticking(Protocol):
+    """What a :class:`Ticker` steps."""
+
+    def due(self) -> float | None:
+        """When the next step is due [``time.monotonic()`` s]; None while stopped."""
+        ...
+
+    def tick(self) -> None:
+        """Take one step now (the ticker's thread; never raises)."""
+        ...
+
+
+class Ticker:
+    """Step runs when they are due, from one thread, at most ``rate`` steps a second.
+
+    A run is anything :class:`Ticking`: the robot's animation
+    (:class:`app.session.playback.Playback`), the live robot (:class:`app.live.Ticking`).
+    A session's runs have a ticker each (``rate`` None: every step on time). A
+    classroom's copies share one with a rate: ten students playing or driving robots
+    cost the presenter one thread and a bounded share of the interpreter; each of their
+    robots is then drawn less often. Runs due together step earliest first. The thread
+    starts with the first run and ends when the last one leaves, so an empty class holds
+    no thread for it.
+
+    Parameters
+    ----------
+    rate
+        Most steps a second, all runs together; None for no bound.
+    name
+        Its thread's name.
+    """
+
+    def __init__(self, rate: float | None = None, name: str = "ticker") -> None:
+        self._period = 0.0 if rate is None else 1.0 / rate
+        self._name = name
+        self._cond = threading.Condition()
+        self._runs: list[Ticking] = []
+        self._woken = False
+        self._closed = False
+        self._thread: threading.Thread | None = None
+        self._stepping: Ticking | None = None  # the run taking a step now
+
+    def add(self, run: Ticking) -> None:
+        """Step ``run`` from now on (its thread starts if it was not running)."""
+        with self._cond:
+            if self._closed:
+                raise RuntimeError("the ticker is closed")
+            self._runs.append(run)
+            if self._thread is None:
+                self._thread = threading.Thread(
+                    target=self._loop, name=self._name, daemon=True
+                )
+                self._thread.start()
+            self._woken = True
+            self._cond.notify_all()
+
+    def remove(self, run: Ticking) -> None:
+        """Step ``run`` no more; a step it is taking now finishes first."""
+        with self._cond:
+            self._runs = [r for r in self._runs if r is not run]
+            self._woken = True
+            self._cond.notify_all()
+            thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            with self._cond:  # wait for a step of ``run`` in progress
+                while self._stepping is run:
+                    self._cond.wait(0.05)
+
+    def wake(self) -> None:
+        """Look at the runs again (one has just started)."""
+        with self._cond:
+            self._woken = True
+            self._cond.notify_all()
+
+    def close(self) -> None:
+        """Stop every run's stepping and end the thread."""
+        with self._cond:
+            self._closed = True
+            self._runs = []
+            self._cond.notify_all()
+            thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=5.0)
+
+    @property
+    def alive(self) -> bool:
+        """Whether its thread runs (it has runs)."""
+        with self._cond:
+            return self._thread is not None
+
+    def _loop(self) -> None:
+        last = -math.inf
+        while True:
+            with self._cond:
+                if self._closed or not self._runs:
+                    self._thread = None
+                    self._cond.notify_all()
+                    return
+                runs, self._woken = list(self._runs), False
+            now = time.monotonic()
+            due = sorted(
+                (
+                    (t, k, run)
+                    for k, run in enumerate(runs)
+                    if (t := run.due()) is not None
+                ),
+                key=lambda d: d[:2],
+            )
+            wait = None if not due else due[0][0] - now
+            if due and wait is not None and wait <= 0:
+                wait = last + self._period - now
+                if wait <= 0:
+                    with self._cond:
+                        if due[0][2] not in self._runs:
+                            continue  # removed meanwhile
+                        self._stepping = due[0][2]
+                    try:
+                        due[0][2].tick()
+                    finally:
+                        with self._cond:
+                            self._stepping = None
+                            self._cond.notify_all()
+                    last = time.monotonic()
+                    continue
+            with self._cond:
+                if not self._woken and not self._closed and self._runs:
+                    self._cond.wait(wait)

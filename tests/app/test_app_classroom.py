@@ -671,10 +671,16 @@ def test_a_copys_explain_mode_stops_when_its_browser_leaves(planner):
         assert explain is not None
         student.set_gui(student.uuid("Method"), METHOD_TITLES["vg"])
         assert wait_until(lambda: explain.panel.explainer.method == "vg", 20)
-        thread = explain.panel.explainer._thread
-        assert thread.is_alive()
+        explainer = explain.panel.explainer
+        thread = explainer._thread  # None once idle (app.explain.panel.IDLE_S)
+        assert thread is None or thread.is_alive()
     assert wait_until(lambda: room.seat(sid) is None, 20)
-    assert wait_until(lambda: not thread.is_alive(), 20)  # its thread ended with it
+    assert wait_until(lambda: explainer._closed, 20)
+    # Its thread ended with it, and a closed explainer starts none.
+    assert wait_until(lambda: thread is None or not thread.is_alive(), 20)
+    assert explainer._thread is None or not explainer._thread.is_alive()
+    explainer.choose("svg")
+    assert explainer._thread is None or not explainer._thread.is_alive()
 
 
 def _live_nodes(c: ViserClient) -> list[tuple[str, str]]:
@@ -688,7 +694,7 @@ def test_copies_drive_live_robots_of_their_own_on_one_shared_thread(planner):
     only, the presenter's robot does not move, and all the copies' robots are stepped by
     one thread, which ends when the last copy goes."""
     room = planner.classroom
-    ticker = room.live_ticker
+    ticker = room.ticker
     with (
         client(planner, presenter=True) as pres,
         client(planner) as a,
@@ -721,7 +727,7 @@ def test_copies_drive_live_robots_of_their_own_on_one_shared_thread(planner):
         assert not _live_nodes(pres)
         assert not planner.live.running and planner.live.state is None
         assert ticker.alive
-        stepping = [t for t in threading.enumerate() if t.name == "copies-live-dsb"]
+        stepping = [t for t in threading.enumerate() if t.name == "copies-robots"]
         assert len(stepping) == 1, stepping
         # One follows the presenter again: its robot stops, the other drives on.
         a.click("Follow the presenter again")
@@ -733,4 +739,4 @@ def test_copies_drive_live_robots_of_their_own_on_one_shared_thread(planner):
         assert wait_until(lambda: runs[1].state.t > t, 20)
     # The last copy left with its browser: the copies' ticker holds no thread.
     assert wait_until(lambda: not ticker.alive, 20)
-    assert not [t for t in threading.enumerate() if t.name == "copies-live-dsb"]
+    assert not [t for t in threading.enumerate() if t.name == "copies-robots"]

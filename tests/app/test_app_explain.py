@@ -95,6 +95,25 @@ def test_off_computes_nothing(explainer):
     assert drawn.calls == [] and ex.explanation is None
 
 
+def test_its_thread_runs_only_while_there_is_work(explainer, monkeypatch):
+    """Off, it holds no thread; a request starts one, which ends once idle; the next
+    request starts another and is served as the first was."""
+    monkeypatch.setattr(explain_panel, "IDLE_S", 0.2)
+    ex, drawn = explainer
+    scene = load_scene(SCENARIO)
+    ex.render(_frame(scene, 1))  # off: nothing to do
+    assert ex._thread is None
+    ex.choose("svg")
+    first = ex._thread
+    assert first is not None and first.is_alive()
+    assert ex.wait_ready(30) and ex.explanation is not None
+    assert wait_until(lambda: ex._thread is None and not first.is_alive(), 20)
+    ex.move(1)
+    assert ex._thread is not None and ex._thread is not first
+    assert ex.wait_ready(30) and ex.step == 1
+    assert drawn.calls[-1][0] is ex.explanation.steps[1]
+
+
 def test_steps_clamp_and_survive_an_edit_at_the_same_number(explainer):
     ex, drawn = explainer
     scene = load_scene(SCENARIO)

@@ -11,7 +11,7 @@ import threading
 import time
 from typing import Any, cast
 
-from app.live import LiveRun, LiveTicker
+from app.session.pool import Ticker, Ticking
 from tests.app.app_helpers import wait_until
 
 
@@ -33,13 +33,13 @@ class _Run:
         self.next = max(self.next + self.period, now - self.period)
 
 
-def _add(ticker: LiveTicker, run: _Run) -> None:
-    ticker.add(cast(LiveRun, run))
+def _add(ticker: Ticker, run: _Run) -> None:
+    ticker.add(cast(Ticking, run))
 
 
 def test_runs_share_the_rate_and_take_turns():
     rate = 30.0
-    ticker = LiveTicker(rate, name="test-ticker")
+    ticker = Ticker(rate, name="test-ticker")
     runs = [_Run() for _ in range(3)]  # 60 steps a second wanted, 30 allowed
     try:
         begin = time.monotonic()
@@ -47,7 +47,7 @@ def test_runs_share_the_rate_and_take_turns():
             _add(ticker, run)
         assert wait_until(lambda: sum(len(r.ticks) for r in runs) >= 30, 20)
         for run in runs:
-            ticker.remove(cast(LiveRun, run))
+            ticker.remove(cast(Ticking, run))
         elapsed = time.monotonic() - begin
         ticks = sorted(t for r in runs for t in r.ticks)
         # Never faster than the rate: consecutive steps at least a period apart.
@@ -62,14 +62,14 @@ def test_runs_share_the_rate_and_take_turns():
 
 
 def test_a_stopped_run_is_not_stepped_and_a_removed_one_never_again():
-    ticker = LiveTicker(name="test-ticker")
+    ticker = Ticker(name="test-ticker")
     run, idle = _Run(period=0.01), _Run()
     idle.stopped = True
     try:
         _add(ticker, idle)
         _add(ticker, run)
         assert wait_until(lambda: len(run.ticks) >= 5, 20)
-        ticker.remove(cast(LiveRun, run))
+        ticker.remove(cast(Ticking, run))
         count = len(run.ticks)
         time.sleep(0.1)
         assert len(run.ticks) == count
@@ -79,7 +79,7 @@ def test_a_stopped_run_is_not_stepped_and_a_removed_one_never_again():
 
 
 def test_its_thread_runs_only_while_it_has_runs():
-    ticker = LiveTicker(20.0, name="test-ticker")
+    ticker = Ticker(20.0, name="test-ticker")
 
     def threads() -> list[Any]:
         return [t for t in threading.enumerate() if t.name == "test-ticker"]
@@ -90,9 +90,9 @@ def test_its_thread_runs_only_while_it_has_runs():
         _add(ticker, first)
         _add(ticker, second)
         assert ticker.alive and len(threads()) == 1  # one thread for every run
-        ticker.remove(cast(LiveRun, first))
+        ticker.remove(cast(Ticking, first))
         assert ticker.alive
-        ticker.remove(cast(LiveRun, second))
+        ticker.remove(cast(Ticking, second))
         assert wait_until(lambda: not ticker.alive and not threads(), 20)
         _add(ticker, first)  # a new run starts it again
         assert wait_until(lambda: len(first.ticks) >= 2, 20)

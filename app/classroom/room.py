@@ -72,6 +72,7 @@ __all__ = [
     "FETCH_LABEL",
     "PRESENTER_PATH",
     "Classroom",
+    "CopyResources",
     "PresenterTools",
     "PrivateExplain",
     "PrivateLive",
@@ -109,7 +110,7 @@ from app.session.big import SharedWorkers
 from app.session.controller import Controller
 from app.session.files import ScenesFolder
 from app.session.frames import View
-from app.session.pool import Ticker, Turns, WorkerPool
+from app.session.pool import Runner, Ticker, Turns, WorkerPool
 from app.session.scheduler import big_plan, default_plan
 from app.ui.panels import Panels
 from app.ui.scoped import ScopedTarget
@@ -388,6 +389,57 @@ class PresenterTools:
     """Called when the presenter's browser leaves."""
 
 
+@dataclasses.dataclass(frozen=True)
+class CopyResources:
+    """What every private copy of a classroom shares; a copy holds no thread of its own.
+
+    Its planners run in the worker pools, its rounds and slow calls on the runners, its
+    robot on the ticker; its explanations take turns of ``explain_turns``.
+    """
+
+    pool: WorkerPool
+    """The slow-lane workers (DSB, Bug2)."""
+    fast_pool: WorkerPool
+    """The fast-lane workers (VG, SVG): no copy plans in the interpreter that serves the
+    presenter."""
+    big_pool: WorkerPool
+    """The workers for big scenes' graphs (:mod:`app.session.big`)."""
+    turns: Turns
+    """The copies' rounds in this process: one at a time, a bounded rate in all."""
+    explain_turns: threading.Semaphore
+    """How many copies' explanations may compute at once (in this process)."""
+    rounds: Runner
+    """Runs every copy's rounds (they take turns: one thread is enough)."""
+    slow_calls: Runner
+    """Runs every copy's slow-lane calls, as many at once as the pool has workers."""
+    ticker: Ticker
+    """Draws every copy's robot animation and steps its live robot."""
+
+    @classmethod
+    def build(cls, controller: Controller, workers: int) -> CopyResources:
+        """Pools of at most ``workers`` processes each (none started yet), and the rest."""
+        registry = dict(controller.registry)
+        return cls(
+            pool=WorkerPool(_slow_fn(controller), size=workers, nice=COPY_NICE),
+            fast_pool=WorkerPool(_fast_fn(controller), size=workers, nice=COPY_NICE),
+            big_pool=WorkerPool(big_plan(registry), size=workers),
+            turns=Turns(COPY_ROUNDS_PER_S),
+            explain_turns=threading.Semaphore(max(1, workers)),
+            rounds=Runner(1, name="copies-rounds"),
+            slow_calls=Runner(workers, name="copies-slow"),
+            ticker=Ticker(COPY_TICKS_PER_S, name="copies-robots"),
+        )
+
+    def close(self) -> None:
+        """Stop the threads, then the worker processes."""
+        self.ticker.close()
+        self.rounds.close()
+        self.slow_calls.close()
+        self.pool.close()
+        self.fast_pool.close()
+        self.big_pool.close()
+
+
 class Classroom:
     """The presenter's session shared with a class; private copies on request.
 
@@ -471,24 +523,8 @@ class Classroom:
         self.audience.add(self.watch.panels, deferred=True)
         self.encoding = share_encoding(server)
         """Each broadcast window encoded once for every browser (app.classroom.wire)."""
-        self.pool = WorkerPool(_slow_fn(controller), size=copy_workers, nice=COPY_NICE)
-        """The slow-lane workers every private copy shares."""
-        self.fast_pool = WorkerPool(
-            _fast_fn(controller), size=copy_workers, nice=COPY_NICE
-        )
-        """The fast-lane workers (VG, SVG) every private copy shares: no copy plans in
-        the interpreter that serves the presenter."""
-        self.copy_turns = Turns(COPY_ROUNDS_PER_S)
-        """The copies' rounds in this process: one at a time, a bounded rate in all."""
-        self.big_pool = WorkerPool(
-            big_plan(dict(controller.registry)), size=copy_workers
-        )
-        """The workers every private copy shares for big scenes' graphs (app.session.big)."""
-        self.explain_turns = threading.Semaphore(max(1, copy_workers))
-        """How many copies' explanations may compute at once (in this process)."""
-        self.ticker = Ticker(COPY_TICKS_PER_S, name="copies-robots")
-        """Draws every copy's robot animation and steps its live robot (one thread while
-        any copy exists)."""
+        self.shared = CopyResources.build(controller, copy_workers)
+        """What every private copy shares: worker processes, turns, threads."""
         self._copies = itertools.count(1)  # numbers each copy's Explain root
         controller.add_view(self.audience)
         self._load = _LoadMeter()
@@ -667,18 +703,19 @@ class Classroom:
             scenario=snapshot.scenario if snapshot is not None else "",
             folder=self._folder,
             floor_map=snapshot.floor_map if snapshot is not None else None,
-            slow_process=self.pool,
-            fast_process=self.fast_pool,
-            turns=self.copy_turns,
-            ticker=self.ticker,
-            big_workers=SharedWorkers(self.big_pool),
+            slow_process=self.shared.pool,
+            fast_process=self.shared.fast_pool,
+            turns=self.shared.turns,
+            ticker=self.shared.ticker,
+            runners=(self.shared.rounds, self.shared.slow_calls),
+            big_workers=SharedWorkers(self.shared.big_pool),
         )
         number = next(self._copies)
         explain = PrivateExplain.open(
-            seat.client, private, f"/own_explain/{number}", self.explain_turns
+            seat.client, private, f"/own_explain/{number}", self.shared.explain_turns
         )
         live = PrivateLive.open(
-            seat.client, private, f"/own_live/{number}", self.ticker
+            seat.client, private, f"/own_live/{number}", self.shared.ticker
         )
         with self._lock:
             kept = self._seats.get(client_id) is seat and seat.private is None
@@ -794,14 +831,11 @@ class Classroom:
             if seat.tools is not None:
                 seat.tools.close()
             _close_copy(seat.private, seat.explain, seat.live)
-        self.ticker.close()
         self._closed.set()
         self._load_thread.join(timeout=5.0)
         self.audience.close()
         stop_sharing(self.server)
-        self.pool.close()
-        self.fast_pool.close()
-        self.big_pool.close()
+        self.shared.close()
 
     # ------------------------------------------------------------------ wiring
 

@@ -20,7 +20,7 @@ the scheduler and the playback wait on it for a new version. Methods ending in
 
 from __future__ import annotations
 
-__all__ = ["SessionState", "Snapshot", "Step"]
+__all__ = ["SessionState", "Signalling", "Snapshot", "Step"]
 
 import dataclasses
 import threading
@@ -60,6 +60,25 @@ class Snapshot:
     """Whether there is something to redo."""
 
 
+class Signalling(threading.Condition):
+    """A condition that also calls its :attr:`listeners` each time it is notified.
+
+    Called with the lock held, as ``notify`` is: a listener must only take locks that
+    are never held while this one is taken (a :class:`app.session.pool.Runner`'s).
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.listeners: list[Callable[[], None]] = []
+        """Called after every notification (a classroom copy's scheduler's)."""
+
+    def notify(self, n: int = 1) -> None:
+        """Wake up to ``n`` waiters, then call the listeners (``notify_all`` calls it)."""
+        super().notify(n)
+        for listener in self.listeners:
+            listener()
+
+
 class SessionState:
     """The scene, its version, the undo history and the UI state, under one lock.
 
@@ -85,7 +104,7 @@ class SessionState:
         clock: Callable[[], float] = time.monotonic,
         floor_map: Any = None,
     ) -> None:
-        self.lock = threading.Condition()
+        self.lock = Signalling()
         """The session's one lock; wait on it for a change, notified on every change."""
         self._scene = scene
         self._version = 0

@@ -73,7 +73,7 @@ from app.session.big import BigWorkers
 from app.session.files import MAX_UPLOAD_BYTES, FolderError, ScenesFolder, plain_name
 from app.session.frames import Frame, RobotPose, View, Views
 from app.session.playback import Playback, SampleFn, TrajectoryFn
-from app.session.pool import Ticker, Turns
+from app.session.pool import Runner, Ticker, Turns
 from app.session.scheduler import Pending, PlanFn, Scheduler, default_plan, lanes_for
 from app.session.tools import LAYERS, TOOLS, Handle, Selection, UiState, pick
 from planners import export
@@ -139,6 +139,9 @@ class Controller:
     ticker
         Draws the robot's animation (:class:`app.session.pool.Ticker`, shared by a
         classroom's copies); None: a ticker (a thread) of its own.
+    runners
+        Run the scheduler's rounds and slow calls (two :class:`app.session.pool.Runner` s
+        shared by a classroom's copies); None: threads of its own.
     """
 
     def __init__(
@@ -160,6 +163,7 @@ class Controller:
         scenario: str = "",
         fps: float = 30.0,
         ticker: Ticker | None = None,
+        runners: tuple[Runner, Runner] | None = None,
         folder: ScenesFolder | None = None,
         floor_map: Any = None,
     ) -> None:
@@ -186,7 +190,13 @@ class Controller:
         )
         """The robot: play, pause, speed, time, the planner followed."""
         self._scheduler = Scheduler(
-            self._state, self._views, self.playback, fast, slow, turns=turns
+            self._state,
+            self._views,
+            self.playback,
+            fast,
+            slow,
+            turns=turns,
+            runners=runners,
         )
         self.edits = SceneEdits(self._state)
         """Edits of the scene (drags, vertices, obstacles, robot and planner settings)."""

@@ -26,10 +26,11 @@ Data flow::
 
 from __future__ import annotations
 
-__all__ = ["Ticker", "Ticking", "Turns", "WorkerPool"]
+__all__ = ["Runner", "Ticker", "Ticking", "Turns", "WorkerPool"]
 
 import collections
 import contextlib
+import logging
 import math
 import threading
 import time
@@ -37,6 +38,8 @@ from collections.abc import Callable, Iterator
 from typing import Any, Protocol
 
 from app.session.lanes import Interrupted, ProcessLane
+
+logger = logging.getLogger(__name__)
 
 
 class WorkerPool:
@@ -339,3 +342,108 @@ class Ticker:
             with self._cond:
                 if not self._woken and not self._closed and self._runs:
                     self._cond.wait(wait)
+
+
+class Runner:
+    """Run the jobs of many sessions on at most ``threads`` shared threads.
+
+    A classroom's copies hold no threads of their own: each copy's scheduler hands its
+    rounds and its slow lane's calls to runners every copy shares
+    (:class:`app.session.scheduler.Scheduler`, ``runners``). A job is a callable that
+    does at most one piece of work and returns. :meth:`wake` asks for a job to run once
+    more: a job already waiting keeps its place, a job running now runs again after.
+    Jobs run in the order they were woken, never two runs of one job at once. The
+    threads start when there is work and end after ``idle`` seconds without.
+
+    Parameters
+    ----------
+    threads
+        Most jobs running at once.
+    name
+        Its threads' name.
+    idle
+        A thread with nothing to do for this long ends [s].
+    """
+
+    def __init__(self, threads: int = 1, name: str = "runner", idle: float = 2.0):
+        self._size = max(1, int(threads))
+        self._name = name
+        self._idle = idle
+        self._cond = threading.Condition()
+        self._pending: dict[Callable[[], None], None] = {}  # in order of waking
+        self._running: dict[Callable[[], None], threading.Thread] = {}
+        self._threads: set[threading.Thread] = set()
+        self._waiting = 0  # threads with nothing to do
+        self._closed = False
+
+    def wake(self, job: Callable[[], None]) -> None:
+        """Run ``job`` once more (soon, in its turn)."""
+        with self._cond:
+            if self._closed:
+                return
+            self._pending.setdefault(job, None)
+            if self._waiting == 0 and len(self._threads) < self._size:
+                thread = threading.Thread(
+                    target=self._loop, name=self._name, daemon=True
+                )
+                self._threads.add(thread)
+                thread.start()
+            self._cond.notify()
+
+    def forget(self, job: Callable[[], None], timeout: float = 5.0) -> None:
+        """Run ``job`` no more; wait (at most ``timeout`` s) for a run in progress."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            self._pending.pop(job, None)
+            while self._running.get(job) not in (None, threading.current_thread()):
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return
+                self._cond.wait(left)
+
+    @property
+    def threads(self) -> int:
+        """Threads running now."""
+        with self._cond:
+            return len(self._threads)
+
+    def close(self) -> None:
+        """Run nothing more; wait for the jobs running now to end."""
+        with self._cond:
+            self._closed = True
+            self._pending.clear()
+            self._cond.notify_all()
+            threads = list(self._threads)
+        for thread in threads:
+            if thread is not threading.current_thread():
+                thread.join(timeout=5.0)
+
+    def _next_locked(self) -> Callable[[], None] | None:
+        return next((j for j in self._pending if j not in self._running), None)
+
+    def _loop(self) -> None:
+        me = threading.current_thread()
+        while True:
+            with self._cond:
+                job = self._next_locked()
+                while job is None:
+                    if self._closed:
+                        self._threads.discard(me)
+                        return
+                    self._waiting += 1
+                    woken = self._cond.wait(self._idle)
+                    self._waiting -= 1
+                    job = self._next_locked()
+                    if job is None and not woken:
+                        self._threads.discard(me)  # idle: the next wake starts one
+                        return
+                del self._pending[job]
+                self._running[job] = me
+            try:
+                job()
+            except Exception:  # one session's failure stops no other's
+                logger.exception("a shared job failed")
+            finally:
+                with self._cond:
+                    del self._running[job]
+                    self._cond.notify_all()

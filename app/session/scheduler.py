@@ -66,7 +66,7 @@ from app.session.big import (
 from app.session.frames import Frame, Views, build_frame
 from app.session.lanes import Interrupted, ProcessLane, picklable
 from app.session.playback import Playback
-from app.session.pool import Turns
+from app.session.pool import Runner, Turns
 from planners.registry import REGISTRY, PlannerSpec, planners_of_kind
 from planners.scene import Scene
 
@@ -429,6 +429,11 @@ class Scheduler:
     turns
         Each round takes a turn of these first (a classroom's copies share them:
         :class:`app.session.pool.Turns`); None: rounds run as soon as there is work.
+    runners
+        Where the rounds and the slow lane's calls run: (rounds, slow calls), two
+        :class:`app.session.pool.Runner` s shared by a classroom's copies, woken by every
+        change of the session (:class:`app.session._state.Signalling`). None: threads of
+        its own (one per lane).
     """
 
     def __init__(
@@ -440,6 +445,7 @@ class Scheduler:
         slow: Lane | None,
         *,
         turns: Turns | None = None,
+        runners: tuple[Runner, Runner] | None = None,
     ) -> None:
         self._state = state
         self._turns = turns
@@ -468,7 +474,14 @@ class Scheduler:
         self._slow_given_up: _PlanKey | None = None  # the slow call given up on
         # The fast lane's thread only:
         self._other: tuple[Any, tuple[Polygon, ...] | None] = (None, None)
-        self._threads = [threading.Thread(target=self._work, name="planner-worker")]
+        self._threads: list[threading.Thread] = []
+        self._runners = runners
+        if runners is not None:
+            state.lock.listeners.append(self._wake_runners)
+            with self._lock:
+                self._wake_runners()  # the first frame
+            return
+        self._threads.append(threading.Thread(target=self._work, name="planner-worker"))
         if slow is not None:
             name = "slow-planner-worker"
             self._threads.append(threading.Thread(target=self._work_slow, name=name))
@@ -494,7 +507,9 @@ class Scheduler:
 
     @property
     def alive(self) -> bool:
-        """Whether the fast lane's thread runs."""
+        """Whether the fast lane runs (its thread, or its jobs on the runners)."""
+        if self._runners is not None:
+            return not self._closed
         return self._threads[0].is_alive()
 
     def redraw(self) -> None:
@@ -533,6 +548,11 @@ class Scheduler:
         for thread in self._threads:
             if thread is not threading.current_thread():
                 thread.join(timeout=5.0)
+        if self._runners is not None:
+            with self._lock:
+                self._state.lock.listeners.remove(self._wake_runners)
+            self._runners[0].forget(self._round_job)
+            self._runners[1].forget(self._slow_job)
         self._cancel_job()  # one the fast lane started as it was being closed
 
     def _cancel_job(self) -> None:
@@ -571,6 +591,32 @@ class Scheduler:
                     self._work_round()
             if not granted:
                 return  # closed while it waited for its turn
+
+    def _wake_runners(self) -> None:
+        """Ask the runners for a round and a slow call (the session changed; lock held)."""
+        assert self._runners is not None
+        self._runners[0].wake(self._round_job)
+        if self._slow_lane is not None:
+            self._runners[1].wake(self._slow_job)
+
+    def _round_job(self) -> None:
+        """One round, if the newest snapshot is not drawn yet (a runner's thread)."""
+        with self._lock:
+            if self._closed or self._current_locked():
+                return
+        with self._turn() as granted:
+            if granted:
+                self._work_round()
+
+    def _slow_job(self) -> None:
+        """One slow call, if the slow lane has not tried the newest key (a runner's)."""
+        lane = self._slow_lane
+        assert lane is not None
+        with self._lock:
+            snapshot = self._state.snapshot_locked()
+            if self._closed or self._slow_tried == self._key(snapshot):
+                return
+        self._slow_once(lane, snapshot)
 
     def _turn(self) -> contextlib.AbstractContextManager[bool]:
         """Take a round's turn (:class:`app.session.pool.Turns`); False if closed first."""
@@ -698,35 +744,42 @@ class Scheduler:
                 snapshot = self._wait_for_slow_work_locked(lane)
                 if snapshot is None:
                     return
-                key = self._key(snapshot)
-                self._slow_tried, self._slow_busy = key, True
-                self._slow_since = time.monotonic()
-                self._slow_given_up = None  # a call given up before is over
-                self._slow_big = scene_vertices(snapshot.scene) > BIG_SCENE_VERTICES
-            which = lane.which(key.enabled)
-            try:
-                results = self._run_slow(lane, snapshot.scene, key, which)
-            except Interrupted:
-                with self._lock:  # given up for a newer big scene (_give_up_stale)
-                    # Not tried after all: if the scene comes back to this key (a
-                    # planner switched off and on again), it is computed again.
-                    self._slow_busy, self._slow_tried = False, None
-                    self._lock.notify_all()
-                continue
-            except Exception as error:
-                if self._closed:
-                    return  # the planner process was stopped by close()
-                logger.exception("slow planners failed")
-                results = {n: Failed(n, _failure(n, error)) for n in which}
-            with self._lock:
-                self._slow_busy = False
-                # Keep it if nothing newer is known. If a newer edit arrived meanwhile,
-                # the result may still be shown (marked as lagging) until the round
-                # for the newest scene, which starts next, replaces it.
-                if key.version >= self._slow.version:
-                    self._slow = SlowResults(key.version, snapshot.scene, results)
-                    self._state.touch_locked()  # redraw the frame with them
+            self._slow_once(lane, snapshot)
+
+    def _slow_once(self, lane: Lane, snapshot: Snapshot) -> None:
+        """Compute the slow planners for ``snapshot`` and keep the results."""
+        with self._lock:
+            key = self._key(snapshot)
+            self._slow_tried, self._slow_busy = key, True
+            self._slow_since = time.monotonic()
+            self._slow_given_up = None  # a call given up before is over
+            self._slow_big = scene_vertices(snapshot.scene) > BIG_SCENE_VERTICES
+        which = lane.which(key.enabled)
+        try:
+            results = self._run_slow(lane, snapshot.scene, key, which)
+        except Interrupted:
+            with self._lock:  # given up for a newer big scene (_give_up_stale)
+                # Not tried after all: if the scene comes back to this key (a
+                # planner switched off and on again), it is computed again.
+                self._slow_busy, self._slow_tried = False, None
                 self._lock.notify_all()
+            return
+        except Exception as error:
+            if self._closed:
+                with self._lock:
+                    self._slow_busy = False
+                return  # the planner process was stopped by close()
+            logger.exception("slow planners failed")
+            results = {n: Failed(n, _failure(n, error)) for n in which}
+        with self._lock:
+            self._slow_busy = False
+            # Keep it if nothing newer is known. If a newer edit arrived meanwhile,
+            # the result may still be shown (marked as lagging) until the round
+            # for the newest scene, which starts next, replaces it.
+            if key.version >= self._slow.version:
+                self._slow = SlowResults(key.version, snapshot.scene, results)
+                self._state.touch_locked()  # redraw the frame with them
+            self._lock.notify_all()
 
     def _wait_for_slow_work_locked(self, lane: Lane) -> Snapshot | None:
         """Wait for a version the slow lane has not tried; None once closed."""

@@ -9,6 +9,7 @@ import pytest
 
 import planners
 from app.session.controller import Controller
+from app.session.pool import Runner
 from tests.app.app_helpers import SCENARIO_DIR, FakeView, launch_chromium
 
 
@@ -18,7 +19,32 @@ def scene() -> planners.Scene:
 
 
 @pytest.fixture
-def make_controller() -> Iterator[Callable[..., tuple[Controller, FakeView]]]:
+def runners() -> tuple[Runner, Runner] | None:
+    """Where the controllers' schedulers run: None, threads of their own.
+
+    A module overrides it with :func:`both_lanes` to run its tests both ways.
+    """
+    return None
+
+
+@pytest.fixture(params=["own threads", "shared runners"])
+def both_lanes(
+    request: pytest.FixtureRequest,
+) -> Iterator[tuple[Runner, Runner] | None]:
+    """Threads of each scheduler's own, then runners shared as a classroom's copies do."""
+    if request.param == "own threads":
+        yield None
+        return
+    shared = (Runner(1, name="test-rounds"), Runner(2, name="test-slow"))
+    yield shared
+    for runner in shared:
+        runner.close()
+
+
+@pytest.fixture
+def make_controller(
+    runners: tuple[Runner, Runner] | None,
+) -> Iterator[Callable[..., tuple[Controller, FakeView]]]:
     made: list[Controller] = []
 
     def make(scene: planners.Scene, **kwargs: Any) -> tuple[Controller, FakeView]:
@@ -29,6 +55,7 @@ def make_controller() -> Iterator[Callable[..., tuple[Controller, FakeView]]]:
         # Slow planners in a thread: a worker process per test costs a second to spawn;
         # the process lane has its own tests (test_app_dsb.py).
         kwargs.setdefault("slow_process", False)
+        kwargs.setdefault("runners", runners)
         controller = Controller(view, scene, **kwargs)
         made.append(controller)
         assert controller.wait_idle(20), "first frame not drawn"

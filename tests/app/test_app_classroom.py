@@ -387,7 +387,7 @@ def test_a_private_copy_is_a_session_of_its_own_freed_when_the_browser_leaves(pl
             assert private.frame is not None and "dsb" in private.frame.plans
             assert (
                 private.scheduler.slow_planners
-                and room.pool.processes <= room.pool.size
+                and room.shared.pool.processes <= room.shared.pool.size
             )
             # Follow the presenter again: the copy is closed, the panel follows.
             student.click("Follow the presenter again")
@@ -435,7 +435,7 @@ def test_private_copies_share_a_bounded_pool_of_workers(planner):
             )
             assert private.wait_idle(90)
             assert private.frame.plans["dsb"].status in ("reached", "unreachable")
-        assert 1 <= room.pool.processes <= room.pool.size
+        assert 1 <= room.shared.pool.processes <= room.shared.pool.size
     assert wait_until(lambda: room.counts()["sessions"] == 0, 20)
 
 
@@ -456,11 +456,11 @@ def test_private_copies_plan_big_scenes_in_the_shared_pool(planner):
         copies[0].edits.move_goal((37.0, 19.0))  # while both compute or wait
         for copy in copies:
             assert copy.wait_idle(240)
-        assert room.big_pool.processes == 1 <= room.big_pool.size
+        assert room.shared.big_pool.processes == 1 <= room.shared.big_pool.size
         for copy in copies:
             big_workers = copy.scheduler._fast.big  # no process of its own: the pool
             assert isinstance(big_workers, SharedWorkers)
-            assert big_workers.pool is room.big_pool
+            assert big_workers.pool is room.shared.big_pool
             final = copy.frame
             assert final is not None and not final.stale and final.progress is None
             fresh = planners.plan_all(final.scene, ("vg", "svg"))
@@ -562,7 +562,8 @@ def test_explain_and_live_are_the_presenters_and_drawn_for_the_class(planner):
             ),
             30,
         ), {k: v for k, v in watch.nodes.items() if "/explain" in k[1]}
-        assert not planner.controller.frame.layers["svg_edges"]  # Explain hid it
+        # Explain hid the layer (the frame that says so may come after its drawing).
+        assert wait_until(lambda: not planner.controller.frame.layers["svg_edges"], 20)
         # A student's own copy hides the presenter's explanation and live robot.
         sid = watch.client_id
         watch.click("Make my own copy")
@@ -628,7 +629,10 @@ def test_a_private_copy_has_an_explain_mode_of_its_own(planner):
         private, first = room.seat(sid).private, room.seat(sid).explain
         assert private is not None and private.wait_idle(60)
         # Its explanations take turns with the other copies' (the classroom's bound).
-        assert first is not None and first.panel.explainer._turns is room.explain_turns
+        assert (
+            first is not None
+            and first.panel.explainer._turns is room.shared.explain_turns
+        )
         student.set_gui(student.uuid("Method"), svg)
         assert student.wait_for(lambda: bool(_scoped_explain_nodes(student, str(sid))))
         assert student.wait_for(
@@ -694,7 +698,7 @@ def test_copies_drive_live_robots_of_their_own_on_one_shared_thread(planner):
     only, the presenter's robot does not move, and all the copies' robots are stepped by
     one thread, which ends when the last copy goes."""
     room = planner.classroom
-    ticker = room.ticker
+    ticker = room.shared.ticker
     with (
         client(planner, presenter=True) as pres,
         client(planner) as a,

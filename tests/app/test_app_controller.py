@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import threading
 import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -15,6 +16,12 @@ import planners
 from app.session.controller import Controller, Selection, default_plan, pick
 from app.session.files import ScenesFolder
 from tests.app.app_helpers import SCENARIO_DIR, FakeView, wait_until
+
+
+@pytest.fixture
+def runners(both_lanes: Any) -> Any:
+    """Every test here runs with each scheduler's own threads and with shared runners."""
+    return both_lanes
 
 
 def path_of(frame, name="vg"):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import threading
+from typing import Any
 
 import numpy as np
 import pytest
@@ -17,6 +18,12 @@ from app.session.scheduler import Failed, Pending, SlowResults, lanes_for, merge
 from app.session.scheduler import _Computed as Computed
 from app.session.scheduler import _PlanKey as PlanKey
 from tests.app.app_helpers import SCENARIO_DIR, FakeView
+
+
+@pytest.fixture
+def runners(both_lanes: Any) -> Any:
+    """Every test here runs with each scheduler's own threads and with shared runners."""
+    return both_lanes
 
 
 @dataclasses.dataclass(frozen=True)

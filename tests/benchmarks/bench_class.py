@@ -283,7 +283,10 @@ def worker_pids(app: Any) -> list[int]:
     if process is not None and process.pid is not None:
         pids.append(process.pid)
     room = app.classroom
-    for pool in (room.pool, getattr(room, "fast_pool", None), room.big_pool):
+    shared = getattr(
+        room, "shared", room
+    )  # an older tree (--code) kept them on the room
+    for pool in (shared.pool, getattr(shared, "fast_pool", None), shared.big_pool):
         if pool is not None:
             pids += [w.pid for w in pool._all if w.pid is not None]
     return pids

@@ -231,13 +231,13 @@ class Ticker:
     """Step runs when they are due, from one thread, at most ``rate`` steps a second.
 
     A run is anything :class:`Ticking`: the robot's animation
-    (:class:`app.session.playback.Playback`), the live robot (:class:`app.live.Ticking`).
+    (:class:`app.session.playback.Playback`), the live robot (:class:`app.live.LiveRun`).
     A session's runs have a ticker each (``rate`` None: every step on time). A
     classroom's copies share one with a rate: ten students playing or driving robots
     cost the presenter one thread and a bounded share of the interpreter; each of their
     robots is then drawn less often. Runs due together step earliest first. The thread
-    starts with the first run and ends when the last one leaves, so an empty class holds
-    no thread for it.
+    runs while a run has steps to take: it ends after ``idle`` seconds with none due,
+    and a run that starts (:meth:`wake`) or joins starts it again.
 
     Parameters
     ----------
@@ -245,11 +245,16 @@ class Ticker:
         Most steps a second, all runs together; None for no bound.
     name
         Its thread's name.
+    idle
+        Its thread ends after this long with no run due [s].
     """
 
-    def __init__(self, rate: float | None = None, name: str = "ticker") -> None:
+    def __init__(
+        self, rate: float | None = None, name: str = "ticker", idle: float = 2.0
+    ) -> None:
         self._period = 0.0 if rate is None else 1.0 / rate
         self._name = name
+        self._idle = idle
         self._cond = threading.Condition()
         self._runs: list[Ticking] = []
         self._woken = False
@@ -263,13 +268,7 @@ class Ticker:
             if self._closed:
                 raise RuntimeError("the ticker is closed")
             self._runs.append(run)
-            if self._thread is None:
-                self._thread = threading.Thread(
-                    target=self._loop, name=self._name, daemon=True
-                )
-                self._thread.start()
-            self._woken = True
-            self._cond.notify_all()
+            self._wake_locked()
 
     def remove(self, run: Ticking) -> None:
         """Step ``run`` no more; a step it is taking now finishes first."""
@@ -286,8 +285,17 @@ class Ticker:
     def wake(self) -> None:
         """Look at the runs again (one has just started)."""
         with self._cond:
-            self._woken = True
-            self._cond.notify_all()
+            self._wake_locked()
+
+    def _wake_locked(self) -> None:
+        """Have the thread look at the runs again; start it if it ended."""
+        self._woken = True
+        self._cond.notify_all()
+        if self._thread is None and not self._closed and self._runs:
+            self._thread = threading.Thread(
+                target=self._loop, name=self._name, daemon=True
+            )
+            self._thread.start()
 
     def close(self) -> None:
         """Stop every run's stepping and end the thread."""
@@ -340,7 +348,13 @@ class Ticker:
                     last = time.monotonic()
                     continue
             with self._cond:
-                if not self._woken and not self._closed and self._runs:
+                if self._woken or self._closed or not self._runs:
+                    continue
+                if wait is None and not self._cond.wait(self._idle) and not self._woken:
+                    self._thread = None  # nothing due: a wake starts it again
+                    self._cond.notify_all()
+                    return
+                if wait is not None:
                     self._cond.wait(wait)
 
 

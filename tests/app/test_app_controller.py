@@ -661,8 +661,15 @@ def test_in_a_long_drag_the_robot_follows_at_least_every_robot_lag(
 
 
 def test_close_stops_the_threads(scene):
-    controller = Controller(FakeView(), scene)
+    from app.session import robot
+
+    controller = Controller(
+        FakeView(), scene, trajectory=robot.trajectory, sample=robot.sample
+    )
     assert controller.wait_idle(10)
+    controller.playback.play()  # the robot moves: its ticker's thread runs
+    assert controller.playback.alive
+    ticker = controller.playback._ticker
     controller.close()
     assert not controller.scheduler.alive
-    assert not controller.playback.alive
+    assert not controller.playback.alive and not ticker.alive

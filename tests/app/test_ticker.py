@@ -78,8 +78,8 @@ def test_a_stopped_run_is_not_stepped_and_a_removed_one_never_again():
         ticker.close()
 
 
-def test_its_thread_runs_only_while_it_has_runs():
-    ticker = Ticker(20.0, name="test-ticker")
+def test_its_thread_runs_only_while_a_run_is_due():
+    ticker = Ticker(20.0, name="test-ticker", idle=0.1)
 
     def threads() -> list[Any]:
         return [t for t in threading.enumerate() if t.name == "test-ticker"]
@@ -90,12 +90,18 @@ def test_its_thread_runs_only_while_it_has_runs():
         _add(ticker, first)
         _add(ticker, second)
         assert ticker.alive and len(threads()) == 1  # one thread for every run
+        first.stopped = second.stopped = True  # nothing due: it ends when idle
+        assert wait_until(lambda: not ticker.alive and not threads(), 20)
+        count = len(first.ticks)
+        first.stopped = False
+        ticker.wake()  # a run starts again: so does the thread
+        assert wait_until(lambda: len(first.ticks) >= count + 2, 20)
+        assert len(threads()) == 1
         ticker.remove(cast(Ticking, first))
-        assert ticker.alive
         ticker.remove(cast(Ticking, second))
         assert wait_until(lambda: not ticker.alive and not threads(), 20)
         _add(ticker, first)  # a new run starts it again
-        assert wait_until(lambda: len(first.ticks) >= 2, 20)
+        assert wait_until(lambda: len(first.ticks) >= count + 4, 20)
     finally:
         ticker.close()
     assert wait_until(lambda: not threads(), 20)

@@ -27,7 +27,11 @@ def test_jobs_run_in_the_order_they_were_woken_and_a_waiting_one_once():
     order: list[str] = []
     gate = threading.Event()
     try:
-        runner.wake(lambda: gate.wait(10))  # holds the one thread
+
+        def hold() -> None:  # holds the one thread
+            gate.wait(10)
+
+        runner.wake(hold)
         jobs = {name: (lambda name=name: order.append(name)) for name in "abc"}
         for name in "abcab":  # a and b again while they wait: they keep their place
             runner.wake(jobs[name])

@@ -2,8 +2,8 @@
 
 :class:`LiveRun` is stepped by a :class:`app.session.pool.Ticker`: the app's robot by a
 ticker (a thread) of its own, a classroom's copies all by one they share, at a bounded
-rate in all. While
-running, every ``dt`` (0.05 s) of simulated time it reads the controller's current scene (the newest edit), puts the moving obstacles
+rate in all. While running, every ``dt`` (0.05 s) of simulated time it reads the
+controller's current scene (the newest edit), puts the moving obstacles
 where they are at that time (:func:`planners.scene.scene_at`), takes one
 :func:`planners.bug.live.live_step` and draws the result: the robot (through the 3-D view's
 own :meth:`render_robot`, with the sensing disk, the visible border, the lines r-O_i and

@@ -270,17 +270,17 @@ class Ticker:
             self._runs.append(run)
             self._wake_locked()
 
-    def remove(self, run: Ticking) -> None:
-        """Step ``run`` no more; a step it is taking now finishes first."""
+    def remove(self, run: Ticking, timeout: float = 5.0) -> None:
+        """Step ``run`` no more; wait (at most ``timeout`` s) for a step it is taking."""
+        deadline = time.monotonic() + timeout
         with self._cond:
             self._runs = [r for r in self._runs if r is not run]
             self._woken = True
             self._cond.notify_all()
-            thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
-            with self._cond:  # wait for a step of ``run`` in progress
-                while self._stepping is run:
-                    self._cond.wait(0.05)
+            if self._thread is threading.current_thread():
+                return  # asked by the run's own step
+            while self._stepping is run and time.monotonic() < deadline:
+                self._cond.wait(0.05)
 
     def wake(self) -> None:
         """Look at the runs again (one has just started)."""
@@ -309,7 +309,7 @@ class Ticker:
 
     @property
     def alive(self) -> bool:
-        """Whether its thread runs (it has runs)."""
+        """Whether its thread runs (a run had a step due within the last ``idle`` s)."""
         with self._cond:
             return self._thread is not None
 

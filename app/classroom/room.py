@@ -737,6 +737,9 @@ class Classroom:
         """Move a seat from the presenter's session to its copy (under the lock)."""
         self._unsay(seat)
         self._leave_audience(seat)
+        # The copy first: its gizmo is in the browser as soon as it is made, and a drag
+        # of it (viser's thread, not under this lock) must find the copy to move.
+        seat.private, seat.explain, seat.live = private, explain, live
         own = seat.own = self._own_view(seat, self._private_drag(seat))
         seat.shadows = tuple(
             seat.client.scene.add_frame(root, show_axes=False, visible=False)
@@ -744,7 +747,6 @@ class Classroom:
         )
         # Built before the lock, unless a lab just ended and took it back meanwhile.
         panels = self._ensure_panels(seat)
-        seat.private, seat.explain, seat.live = private, explain, live
         gated = GatedController(
             private, lambda: seat.private is private, self.refusals, never=STUDENT_NEVER
         )

@@ -676,8 +676,9 @@ def test_a_copys_explain_mode_stops_when_its_browser_leaves(planner):
         student.set_gui(student.uuid("Method"), METHOD_TITLES["vg"])
         assert wait_until(lambda: explain.panel.explainer.method == "vg", 20)
         explainer = explain.panel.explainer
-        thread = explainer._thread  # None once idle (app.explain.panel.IDLE_S)
-        assert thread is None or thread.is_alive()
+        # It explains the VG in a thread of its own (idle after, for IDLE_S).
+        assert wait_until(lambda: explainer.explanation is not None, 30)
+        thread = explainer._thread
     assert wait_until(lambda: room.seat(sid) is None, 20)
     assert wait_until(lambda: explainer._closed, 20)
     # Its thread ended with it, and a closed explainer starts none.

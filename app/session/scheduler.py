@@ -586,10 +586,7 @@ class Scheduler:
                     self._lock.wait()
                 if self._closed:
                     return
-            with self._turn() as granted:
-                if granted:
-                    self._work_round()
-            if not granted:
+            if not self._turned_round():
                 return  # closed while it waited for its turn
 
     def _wake_runners(self) -> None:
@@ -604,9 +601,7 @@ class Scheduler:
         with self._lock:
             if self._closed or self._current_locked():
                 return
-        with self._turn() as granted:
-            if granted:
-                self._work_round()
+        self._turned_round()
 
     def _slow_job(self) -> None:
         """One slow call, if the slow lane has not tried the newest key (a runner's)."""
@@ -617,6 +612,13 @@ class Scheduler:
             if self._closed or self._slow_tried == self._key(snapshot):
                 return
         self._slow_once(lane, snapshot)
+
+    def _turned_round(self) -> bool:
+        """Take a turn, then one round; False if closed while waiting for the turn."""
+        with self._turn() as granted:
+            if granted:
+                self._work_round()
+        return granted
 
     def _turn(self) -> contextlib.AbstractContextManager[bool]:
         """Take a round's turn (:class:`app.session.pool.Turns`); False if closed first."""

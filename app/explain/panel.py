@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING, Any
 
 from app.explain.view import ExplainView
 from app.session.big import BIG_SCENE_VERTICES, scene_vertices
+from app.session.pool import Runner
 from app.session.scheduler import Pending
 from app.ui.text import html_text, markdown_text
 from planners import Memo, PlanOptions, plan_all
@@ -146,8 +147,8 @@ def flowchart_html(box: str | None) -> str:
 class Explainer:
     """Keeps the explanation of the newest scene and the current step; computes in a thread.
 
-    The thread runs while there is work: a request starts it, and it ends after
-    :data:`IDLE_S` without one.
+    The thread runs while there is work (a :class:`app.session.pool.Runner` of one): a
+    request starts it, and it ends after :data:`IDLE_S` without one.
 
     Pure of viser: it draws through ``draw(step, explanation)``, a callable the panel
     gives. ``render(frame)`` only stores the frame and wakes the thread, so it never
@@ -178,7 +179,8 @@ class Explainer:
         # The request this thread serves now (None between requests): what a long
         # explanation is asked to go on with (_asked_to_stop).
         self._serving: tuple[int, str, int] | None = None
-        self._thread: threading.Thread | None = None  # while there is work
+        self._server: threading.Thread | None = None  # the thread serving it
+        self._runner = Runner(1, name="explain", idle=IDLE_S)
 
     # ---------------------------------------------------------------- questions
 
@@ -260,46 +262,38 @@ class Explainer:
         with self._cond:
             self._closed = True
             self._cond.notify_all()
-            thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout=5.0)
+        self._runner.close()
 
     # ---------------------------------------------------------------- the thread
 
     def _wake(self) -> None:
-        """Ask the thread for a round (under the condition); start it if it ended."""
+        """Ask the thread for a round (under the condition)."""
         self._dirty = True
         self._cond.notify_all()
-        if self._thread is None and not self._closed:
-            self._thread = threading.Thread(
-                target=self._run, name="explain", daemon=True
-            )
-            self._thread.start()
+        self._runner.wake(self._serve)
 
     def _clamp(self, n: int) -> int:
         count = len(self._explanation.steps) if self._explanation is not None else 1
         return min(max(n, 0), count - 1)
 
-    def _run(self) -> None:
-        while True:
+    def _serve(self) -> None:
+        """Compute and draw the newest request, if there is one (the runner's thread)."""
+        with self._cond:
+            if self._closed or not self._dirty:
+                return
+            self._dirty, self._busy = False, True
+            frame, method, obstacle = self._frame, self._method, self._obstacle
+            self._server = threading.current_thread()
+        try:
+            self._update(frame, method, obstacle)
+        except Abandoned:
+            pass  # something else was asked for meanwhile: the next round takes it
+        finally:
+            self._serving = None
             with self._cond:
-                while not self._dirty and not self._closed:
-                    if not self._cond.wait(IDLE_S) and not self._dirty:
-                        self._thread = None  # idle: the next request starts one
-                        return
-                if self._closed:
-                    return
-                self._dirty, self._busy = False, True
-                frame, method, obstacle = self._frame, self._method, self._obstacle
-            try:
-                self._update(frame, method, obstacle)
-            except Abandoned:
-                pass  # something else was asked for meanwhile: the next turn takes it
-            finally:
-                self._serving = None
-                with self._cond:
-                    self._busy = False
-                    self._cond.notify_all()
+                self._server = None
+                self._busy = False
+                self._cond.notify_all()
 
     def _update(self, frame: Frame | None, method: str, obstacle: int) -> None:
         if method == "off" or frame is None or frame.dragging:
@@ -366,7 +360,7 @@ class Explainer:
         or between requests (a script making a step of :attr:`explanation`), False.
         """
         key = self._serving
-        if key is None or threading.current_thread() is not self._thread:
+        if key is None or threading.current_thread() is not self._server:
             return False
         frame = self._frame  # read without the lock: a stale answer costs a turn
         return (

@@ -678,14 +678,12 @@ def test_a_copys_explain_mode_stops_when_its_browser_leaves(planner):
         explainer = explain.panel.explainer
         # It explains the VG in a thread of its own (idle after, for IDLE_S).
         assert wait_until(lambda: explainer.explanation is not None, 30)
-        thread = explainer._thread
     assert wait_until(lambda: room.seat(sid) is None, 20)
     assert wait_until(lambda: explainer._closed, 20)
     # Its thread ended with it, and a closed explainer starts none.
-    assert wait_until(lambda: thread is None or not thread.is_alive(), 20)
-    assert explainer._thread is None or not explainer._thread.is_alive()
+    assert wait_until(lambda: explainer._runner.threads == 0, 20)
     explainer.choose("svg")
-    assert explainer._thread is None or not explainer._thread.is_alive()
+    assert explainer._runner.threads == 0
 
 
 def _live_nodes(c: ViserClient) -> list[tuple[str, str]]:

@@ -95,23 +95,27 @@ def test_off_computes_nothing(explainer):
     assert drawn.calls == [] and ex.explanation is None
 
 
-def test_its_thread_runs_only_while_there_is_work(explainer, monkeypatch):
+def test_its_thread_runs_only_while_there_is_work(monkeypatch):
     """Off, it holds no thread; a request starts one, which ends once idle; the next
     request starts another and is served as the first was."""
     monkeypatch.setattr(explain_panel, "IDLE_S", 0.2)
-    ex, drawn = explainer
-    scene = load_scene(SCENARIO)
-    ex.render(_frame(scene, 1))  # off: nothing to do
-    assert ex._thread is None
-    ex.choose("svg")
-    first = ex._thread
-    assert first is not None and first.is_alive()
-    assert ex.wait_ready(30) and ex.explanation is not None
-    assert wait_until(lambda: ex._thread is None and not first.is_alive(), 20)
-    ex.move(1)
-    assert ex._thread is not None and ex._thread is not first
-    assert ex.wait_ready(30) and ex.step == 1
-    assert drawn.calls[-1][0] is ex.explanation.steps[1]
+    drawn = Drawn()
+    ex = Explainer(drawn)
+    try:
+        scene = load_scene(SCENARIO)
+        ex.render(_frame(scene, 1))  # off: nothing to do
+        assert ex._runner.threads == 0
+        ex.choose("svg")
+        assert ex._runner.threads == 1
+        assert ex.wait_ready(30) and ex.explanation is not None
+        assert wait_until(lambda: ex._runner.threads == 0, 20)
+        ex.move(1)
+        assert ex._runner.threads == 1
+        assert ex.wait_ready(30) and ex.step == 1
+        assert drawn.calls[-1][0] is ex.explanation.steps[1]
+    finally:
+        ex.close()
+    assert ex._runner.threads == 0
 
 
 def test_steps_clamp_and_survive_an_edit_at_the_same_number(explainer):

@@ -317,6 +317,23 @@ class LiveRun:
             return self._running
 
     @property
+    def speed(self) -> float:
+        """Simulated seconds per wall second (from the next step on when set).
+
+        Only the pace changes: the robot takes the same steps of ``options.dt`` and
+        makes the same decisions at any speed.
+        """
+        with self._cond:
+            return self._speed
+
+    @speed.setter
+    def speed(self, value: float) -> None:
+        if not math.isfinite(value) or value <= 0:
+            raise ValueError(f"speed must be a positive number, not {value!r}")
+        with self._cond:
+            self._speed = float(value)
+
+    @property
     def state(self) -> LiveState | None:
         """The live robot now (None before a start)."""
         with self._cond:

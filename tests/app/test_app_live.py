@@ -27,6 +27,7 @@ DPR = 0.5  # a coarser canvas in the same layout: the test reads the scene, not 
 CAMERA = TopCamera(
     look_at=(7.0, 4.0), height=14.0, fov_deg=50.0, width=WIDTH, px_height=HEIGHT
 )
+FAST = 4.0  # simulated seconds per wall second of the browser test's robot
 SHOTS = os.environ.get("LIVE_SHOTS")  # a folder: save screenshots to look at
 
 
@@ -66,6 +67,7 @@ def _open(browser: Any, app: Any) -> Any:
 def test_live_robot_turns_away_from_a_new_obstacle_before_touching_it(browser, hall):
     page = _open(browser, hall)
     live = hall.live
+    live.speed = FAST  # the same steps and decisions (the test below), sooner
     page.get_by_role("button", name="Start live").click()
     assert wait_until(lambda: live.state is not None and live.state.t > 1.0, 30)
     # The lecturer pauses the robot, drops a block on its way 3 m ahead of it (beyond
@@ -163,5 +165,31 @@ def test_live_runs_a_moving_scenario_without_a_browser():
         assert_allclose(person.min(axis=0), recorded.min(axis=0))
         live.reset()
         assert live.state is None
+    finally:
+        app.stop()
+
+
+def test_the_robot_takes_the_same_steps_and_decisions_at_any_speed():
+    app = start_app(_hall(), port=0, print_url=False)
+    try:
+        live = app.live
+        assert live is not None
+        traces = []
+        for speed in (8.0, 32.0):
+            live.reset()
+            live.speed = speed
+            live.start()
+            assert wait_until(lambda: live.state is not None and not live.running, 60)
+            trace = live.trace()
+            assert trace is not None and trace.status == "reached"
+            traces.append(trace)
+        slow, fast = traces
+        assert len(slow.steps) == len(fast.steps) > 40
+        assert np.array_equal(slow.path, fast.path)
+        assert [s.t for s in slow.steps] == [s.t for s in fast.steps]
+        assert slow.events == fast.events
+        with pytest.raises(ValueError, match="positive"):
+            live.speed = 0.0
+        assert live.speed == 32.0
     finally:
         app.stop()

@@ -97,6 +97,16 @@ def still_running(before: set[int], mark: str, grace: float = 10.0) -> list[str]
     return names
 
 
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists and has not exited (a zombie has)."""
+    try:
+        return (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[
+            1
+        ].split()[0] != "Z"
+    except OSError:
+        return False
+
+
 def _has_mark(pid: int, mark: str) -> bool:
     try:
         return mark.encode() in (Path("/proc") / str(pid) / "environ").read_bytes()
@@ -130,10 +140,13 @@ def test_cli_and_python_give_the_same_picture_and_stop_everything(
 
     # The same picture from Python, in another process's browser and server: repeatable.
     started: list[Any] = []
+    workers: list[int | None] = []
     real_start = app.start_app
 
     def spy(*args: Any, **kwargs: Any) -> Any:
         started.append(real_start(*args, **kwargs))
+        lane = started[-1].controller.scheduler.process
+        workers.append(lane.pid)  # forked from a template: not our child
         return started[-1]
 
     monkeypatch.setattr(app, "start_app", spy)
@@ -154,6 +167,8 @@ def test_cli_and_python_give_the_same_picture_and_stop_everything(
     # Everything it started is gone: the browser, playwright's driver, the app's planner\n    # process and its server.
     left = still_running(before, mark)
     assert not left, f"processes left running after snapshot(): {left}"
+    (worker,) = workers
+    assert worker is not None and not _running(worker), "the planner process runs on"
     (planner_app,) = started
     assert not port_open(planner_app.port), "the app's server still listens"
 

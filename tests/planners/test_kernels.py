@@ -252,7 +252,7 @@ def test_numba_loads_only_with_the_first_compiled_loop():
     # do without; TangentBug's range sensor loads it.
     code = (
         "import sys\n"
-        "from app.session.lanes import _child_main\n"
+        "from app.session.lanes import child_main\n"
         "from planners import load_scene, plan_all\n"
         f"scene = load_scene({str(SCENARIOS[0])!r})\n"
         "assert plan_all(scene, ('bug2',))['bug2'].status == 'reached'\n"

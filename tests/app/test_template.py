@@ -1,0 +1,164 @@
+"""Planner processes forked from a warm template (app.session.lanes): same answers, no leftovers."""
+
+from __future__ import annotations
+
+import functools
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.session import lanes
+from app.session.lanes import ProcessLane, Template, template_pid
+from app.session.scheduler import default_plan
+from planners import load_scene
+from tests.app.app_helpers import wait_until
+from tests.conftest import ROOT, SCENARIOS
+
+pytestmark = pytest.mark.skipif(
+    not hasattr(lanes.os, "pidfd_open"), reason="the template needs Linux's pidfd"
+)  # (the suite runs on Linux; elsewhere the workers are fresh interpreters)
+
+
+def _running(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def nice_of_me(value: object, memo: object = None) -> tuple[int, str]:
+    """Return the worker's niceness and its first import path (run in the worker)."""
+    import os
+
+    return os.nice(0), sys.path[0]
+
+
+@pytest.mark.parametrize("scenario", [SCENARIOS[0], SCENARIOS[5]], ids=lambda p: p.stem)
+def test_a_forked_worker_answers_as_a_fresh_interpreter_does(monkeypatch, scenario):
+    scene = load_scene(scenario)
+    fn = functools.partial(default_plan, which=("dsb",))
+    forked = ProcessLane(fn)
+    try:
+        from_fork = forked(scene)
+    finally:
+        forked.close()
+    monkeypatch.setattr(lanes, "start_worker", lanes.spawn_worker)
+    fresh = ProcessLane(fn)
+    try:
+        from_fresh = fresh(scene)
+    finally:
+        fresh.close()
+    a, b = from_fork["dsb"], from_fresh["dsb"]
+    assert a.status == b.status == "reached"
+    assert np.array_equal(a.path, b.path)
+    assert [e.kind for e in a.events] == [e.kind for e in b.events]
+
+
+def test_workers_are_forks_of_one_template_and_close_ends_each():
+    first, second = ProcessLane(nice_of_me), ProcessLane(nice_of_me, nice=3)
+    try:
+        niceness = first(None)[0]
+        assert second(None)[0] == niceness + 3  # copies plan below the presenter
+        template = template_pid()
+        assert template is not None and _running(template)
+        pids = {first.pid, second.pid}
+        assert len(pids) == 2 and template not in pids
+        for pid in pids:  # the template's children, not ours
+            stat = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            assert int(stat[1]) == template
+        first.interrupt()  # a computation given up: a fresh fork, the same template
+        assert first(None)[0] == niceness and first.pid not in pids
+        assert template_pid() == template
+    finally:
+        first.close()
+        second.close()
+    assert not any(_running(pid) for pid in pids)
+
+
+def test_the_template_leaves_when_idle_and_a_new_one_comes_when_needed():
+    template = Template(linger=0.3)
+    worker = template.fork(0)
+    assert worker.pid is not None and _running(worker.pid)
+    first = template.pid()
+    assert first is not None
+    assert worker.stdin is not None
+    worker.stdin.close()  # a worker ends when its stdin closes
+    assert worker.wait(10) == 0
+    assert wait_until(lambda: not _running(first), 15)  # lingered 0.3 s, then left
+    again = template.fork(0)  # its socket is closed: a new template forks it
+    try:
+        assert again.pid is not None and _running(again.pid)
+        assert template.pid() not in (None, first)
+    finally:
+        again.kill()
+        assert again.wait(10) == 0
+        template.close()
+
+
+def test_a_killed_template_is_replaced_and_its_workers_go_on():
+    template = Template(linger=30.0)
+    worker = template.fork(0)
+    assert worker.pid is not None
+    killed = template.pid()
+    assert killed is not None
+    lanes.os.kill(killed, lanes.signal.SIGKILL)
+    assert wait_until(lambda: not _running(killed), 10)
+    assert _running(worker.pid)  # a fork lives on its own
+    after = template.fork(0)
+    assert after.pid is not None and template.pid() != killed
+    for w in (worker, after):
+        w.kill()
+        assert w.wait(10) == 0
+    template.close()
+
+
+def test_a_worker_sees_import_paths_added_after_its_template_started(tmp_path):
+    module = tmp_path / "late_helper.py"
+    module.write_text("def twice(value, memo=None):\n    return 2 * value\n")
+    lane = ProcessLane(nice_of_me)
+    try:
+        lane(None)  # the template runs (started before the path was added)
+    finally:
+        lane.close()
+    sys.path.insert(0, str(tmp_path))
+    try:
+        import late_helper
+
+        lane = ProcessLane(late_helper.twice)
+        try:
+            assert lane(21) == 42
+        finally:
+            lane.close()
+    finally:
+        sys.path.remove(str(tmp_path))
+        sys.modules.pop("late_helper", None)
+
+
+def test_when_its_parent_dies_the_template_and_workers_end():
+    code = textwrap.dedent(
+        """
+        import os, sys
+        from app.session.lanes import ProcessLane, template_pid
+        from tests.app.test_template import nice_of_me
+        lane = ProcessLane(nice_of_me)
+        lane(None)
+        print(template_pid(), lane.pid, flush=True)
+        os._exit(0)  # no clean-up at all
+        """
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=120,
+    )
+    pids = [int(word) for word in out.stdout.split()]
+    assert len(pids) == 2
+    assert wait_until(lambda: not any(_running(pid) for pid in pids), 15), pids

@@ -7,10 +7,8 @@ A test module that needs the browser defines its own fixture around :func:`use_b
         with use_browser() as shared:
             yield shared
 
-Every fixture of a test process shares one Chromium: it is launched by the first and
-closed when the test session ends (``tests/conftest.py`` calls :func:`close_browser`), so
-the browser modules a worker runs one after the other do not each start their own. A
-browser that crashed or was closed is launched again.
+Fixtures that are alive at the same time share one Chromium; it is closed when the last one
+is torn down.
 
 If Chromium cannot start, every test that needs it *fails* with one clear message (how to
 install the browser): browser tests are never silently skipped, because a snapshot suite
@@ -23,7 +21,7 @@ loaded.
 
 from __future__ import annotations
 
-__all__ = ["AppPage", "close_browser", "open_page", "use_browser"]
+__all__ = ["AppPage", "open_page", "use_browser"]
 
 import contextlib
 from collections.abc import Iterator
@@ -36,7 +34,7 @@ from app.media.browser import AppPage, SnapshotError, launch_browser, open_page
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
 
-_shared: dict[str, Any] = {"browser": None, "exit": None, "error": None}
+_shared: dict[str, Any] = {"browser": None, "exit": None, "users": 0, "error": None}
 
 
 @contextlib.contextmanager
@@ -44,9 +42,7 @@ def use_browser() -> Iterator[Browser]:
     """Lend the shared headless Chromium; fail (never skip) the test if it cannot start."""
     if _shared["error"] is not None:
         pytest.fail(_shared["error"], pytrace=False)
-    browser = _shared["browser"]
-    if browser is None or not browser.is_connected():
-        close_browser()
+    if _shared["browser"] is None:
         stack = contextlib.ExitStack()
         try:
             _shared["browser"] = stack.enter_context(launch_browser())
@@ -57,11 +53,11 @@ def use_browser() -> Iterator[Browser]:
             )
             pytest.fail(_shared["error"], pytrace=False)
         _shared["exit"] = stack
-    yield _shared["browser"]
-
-
-def close_browser() -> None:
-    """Close the shared Chromium, if one was launched (at the end of the test session)."""
-    stack, _shared["exit"], _shared["browser"] = _shared["exit"], None, None
-    if stack is not None:
-        stack.close()
+    _shared["users"] += 1
+    try:
+        yield _shared["browser"]
+    finally:
+        _shared["users"] -= 1
+        if _shared["users"] == 0 and _shared["exit"] is not None:
+            stack, _shared["exit"], _shared["browser"] = _shared["exit"], None, None
+            stack.close()

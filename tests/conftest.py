@@ -28,13 +28,6 @@ DURATIONS = Path(__file__).with_name("durations.json")
 """Seconds each slow test module took (``make durations`` writes it)."""
 
 
-def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
-    """Close the browser the browser tests shared (:mod:`tests.browser`), if they ran."""
-    shared = sys.modules.get("tests.browser")
-    if shared is not None:
-        shared.close_browser()
-
-
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Run the slowest test modules first, so that the parallel workers finish together.
 

@@ -28,7 +28,8 @@ is a fresh ``python -c`` interpreter.
 
 Data flow::
 
-    ProcessLane -> start_worker(nice) -> Template.fork: a request on a socketpair,
+    ProcessLane -> start_worker(nice) -> Template.fork: a request on a socketpair
+        (SOCK_SEQPACKET: one request, one message, its file descriptors with it),
         with the worker's ends of its two pipes passed as file descriptors
         -> serve (the template): fork; the child runs child_main on those pipes
         <- the child's pid, read when first asked for (Forked.pid)
@@ -37,6 +38,7 @@ Data flow::
 from __future__ import annotations
 
 __all__ = [
+    "ANSWER_TIMEOUT_S",
     "LINGER_S",
     "Forked",
     "Interrupted",
@@ -243,6 +245,10 @@ LINGER_S = 8.0
 """Seconds the template waits, without any planner process, for the next one before it
 exits (an app started again soon after, as tests and notebooks do, reuses it)."""
 
+ANSWER_TIMEOUT_S = 120.0
+"""Longest wait for the template's answer [s]: its first one comes once it has loaded
+the planners and compiled loops (seconds; a minute where numba's cache is cold)."""
+
 _PID = struct.Struct("<q")
 _MAX_REQUEST = 1 << 20
 
@@ -269,24 +275,24 @@ class Forked:
         self.stdout: IO[bytes] | None = stdout
         self.returncode: int | None = None
         self._template = template
-        self._ticket = ticket
+        self._ticket: tuple[int, int] | None = ticket
+        self._lock = threading.Lock()
         self._pid: int | None = None
         self._pidfd: int | None = None
 
     @property
     def pid(self) -> int | None:
         """The process's id (None if the template ended before it forked it)."""
-        if self._ticket is not None:
-            ticket, self._ticket = self._ticket, None
-            self._pid = self._template.answer(ticket)
-            if self._pid is None:
-                self.returncode = 0
-            else:
-                with contextlib.suppress(OSError):  # gone already: it ended
-                    self._pidfd = os.pidfd_open(self._pid)
+        with self._lock:
+            if self._ticket is not None:
+                ticket, self._ticket = self._ticket, None
+                self._pid = self._template.answer(ticket)
+                if self._pid is not None:
+                    with contextlib.suppress(OSError):  # gone already: it ended
+                        self._pidfd = os.pidfd_open(self._pid)
                 if self._pidfd is None:
                     self.returncode = 0
-        return self._pid
+            return self._pid
 
     def poll(self) -> int | None:
         """None while it runs, else 0 (its exit status is the template's to read)."""
@@ -377,7 +383,7 @@ class Template:
             return None if self._proc is None else self._proc.pid
 
     def _start(self) -> None:
-        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         paths = [p for p in sys.path if p and Path(p).is_dir()]
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
         with theirs:
@@ -392,6 +398,8 @@ class Template:
                 env=env,
                 cwd=os.getcwd(),
             )
+        # A template that never answers (hung) is given up on, not waited for forever.
+        ours.settimeout(ANSWER_TIMEOUT_S)
         self._sock = ours
         self._generation += 1
         self._sent = self._read = 0
@@ -490,6 +498,9 @@ def _recv_exactly(sock: socket.socket, size: int) -> bytes:
 
 def serve(fd: int, linger: float = LINGER_S) -> None:
     """Run the template process: load what planners need, then fork workers on request."""
+    # Ctrl-C in the lecturer's terminal reaches the whole process group: the template
+    # and its workers end with the app (their pipes close), without tracebacks.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     prepare_worker(warm_up_now=True)
     sock = socket.socket(fileno=fd)
     idle_since: float | None = None

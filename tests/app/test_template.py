@@ -6,6 +6,7 @@ import functools
 import subprocess
 import sys
 import textwrap
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -162,3 +163,22 @@ def test_when_its_parent_dies_the_template_and_workers_end():
     pids = [int(word) for word in out.stdout.split()]
     assert len(pids) == 2
     assert wait_until(lambda: not any(_running(pid) for pid in pids), 15), pids
+
+
+def test_workers_asked_for_at_once_from_many_threads_each_get_their_own():
+    workers = [ProcessLane(nice_of_me, start=False) for _ in range(8)]
+    answers: list[object] = []
+    try:
+        threads = [
+            threading.Thread(target=lambda w=w: answers.append(w(None)))
+            for w in workers
+        ]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join(60)
+        assert len(answers) == len(workers)
+        assert len({w.pid for w in workers}) == len(workers)
+    finally:
+        for w in workers:
+            w.close()

@@ -63,6 +63,7 @@ import subprocess
 import sys
 import threading
 import time
+import traceback
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
@@ -439,7 +440,10 @@ class Template:
         if sock is not None:
             sock.close()  # the template exits when it reads the end
         if proc is not None:
-            with contextlib.suppress(subprocess.TimeoutExpired):
+            try:
+                proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:  # hung: it does not read its socket
+                proc.kill()
                 proc.wait(timeout=5)
 
 
@@ -532,21 +536,27 @@ def _fork_child(sock: socket.socket, request: Any, fds: list[int]) -> int:
         for fd in fds:
             os.close(fd)
         return pid
-    # The planner process: the pipes become its stdin and stdout.
+    # The planner process: the pipes become its stdin and stdout. It never returns into
+    # the template's loop: whatever happens, it ends here.
+    code = 1
     try:
         sock.close()
         os.dup2(fds[0], 0)
         os.dup2(fds[1], 1)
         for fd in fds:
             os.close(fd)
-        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
         if nice:
             os.nice(nice)
         sys.path[:0] = [p for p in paths if p not in sys.path]
-        os.chdir(cwd)
+        with contextlib.suppress(OSError):  # (the caller's folder was removed)
+            os.chdir(cwd)
         child_main(warm_up=False)
+        code = 0
+    except BaseException:
+        traceback.print_exc()
     finally:
-        os._exit(0)
+        sys.stderr.flush()
+        os._exit(code)
 
 
 def _children_left() -> bool:

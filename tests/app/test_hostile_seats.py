@@ -354,8 +354,11 @@ def test_what_a_seat_left_behind_is_freed_when_it_leaves(planner):
     door, fair = planner.door, planner.fair
     guests = door.guests()
     with seat(planner) as student:
-        for _ in range(200):
-            student.click("Make my own copy")
+        student.click("Make my own copy")
+        copy = student.uuid("Make my own copy")
+        for _ in range(199):  # hammered, shown or not (the copy may hide it at once)
+            student.set_gui(copy, True)
+        assert wait_until(lambda: planner.classroom.counts()["private"] == 1, 30)
         assert door.guests() == guests + 1
     assert wait_until(lambda: door.guests() == guests, 20)
     assert wait_until(lambda: fair.waiting() == 0, 60)

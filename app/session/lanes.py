@@ -242,7 +242,7 @@ class ProcessLane:
 # --------------------------------------------------------------------------- worker processes
 
 
-LINGER_S = 8.0
+LINGER_S = 2.0
 """Seconds the template waits, without any planner process, for the next one before it
 exits (an app started again soon after, as tests and notebooks do, reuses it)."""
 

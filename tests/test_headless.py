@@ -22,6 +22,7 @@ from app.media.jobs import snapshot
 from app.media.pictures import open_studio
 from app.media.slide_options import SlideOptions
 from planners.scene import load_scene
+from tests.app.app_helpers import process_running
 from tests.browser import use_browser
 from tests.conftest import ROOT, run_module
 
@@ -97,16 +98,6 @@ def still_running(before: set[int], mark: str, grace: float = 10.0) -> list[str]
     return names
 
 
-def _running(pid: int) -> bool:
-    """Whether process ``pid`` exists and has not exited (a zombie has)."""
-    try:
-        return (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[
-            1
-        ].split()[0] != "Z"
-    except OSError:
-        return False
-
-
 def _has_mark(pid: int, mark: str) -> bool:
     try:
         return mark.encode() in (Path("/proc") / str(pid) / "environ").read_bytes()
@@ -168,7 +159,9 @@ def test_cli_and_python_give_the_same_picture_and_stop_everything(
     left = still_running(before, mark)
     assert not left, f"processes left running after snapshot(): {left}"
     (worker,) = workers
-    assert worker is not None and not _running(worker), "the planner process runs on"
+    assert worker is not None and not process_running(worker), (
+        "the planner process runs on"
+    )
     (planner_app,) = started
     assert not port_open(planner_app.port), "the app's server still listens"
 

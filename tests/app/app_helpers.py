@@ -36,6 +36,15 @@ def wait_until(
     return False
 
 
+def process_running(pid: int) -> bool:
+    """Whether process ``pid`` exists and has not exited (a zombie has exited)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
 def view_and_controller(
     target: viser.ViserServer | ScopedTarget, scene: Scene
 ) -> tuple[PlannerView, Controller]:

@@ -21,7 +21,7 @@ import planners
 from app.session import robot
 from app.session.controller import Controller, Pending, default_plan
 from app.ui.panels import results_markdown
-from tests.app.app_helpers import SCENARIO_DIR, FakeView, wait_until
+from tests.app.app_helpers import SCENARIO_DIR, FakeView, process_running, wait_until
 
 
 @dataclasses.dataclass(frozen=True)
@@ -308,7 +308,7 @@ def test_slow_planners_run_in_a_worker_process_that_close_stops(with_dsb, scene)
         pid = lane.pid
     finally:
         controller.close()
-    assert not _alive(pid)
+    assert not process_running(pid)
 
 
 def test_a_dead_worker_process_is_restarted(with_dsb, scene):
@@ -326,11 +326,3 @@ def test_a_dead_worker_process_is_restarted(with_dsb, scene):
         assert_allclose(view.last.plans["dsb"].path[-1], (9.0, 1.0))
     finally:
         controller.close()
-
-
-def _alive(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().split()[2] != "Z"
-    except FileNotFoundError:
-        return False

@@ -16,20 +16,12 @@ from app.session import lanes
 from app.session.lanes import ProcessLane, Template, template_pid
 from app.session.scheduler import default_plan
 from planners import load_scene
-from tests.app.app_helpers import wait_until
+from tests.app.app_helpers import process_running, wait_until
 from tests.conftest import ROOT, SCENARIOS
 
 pytestmark = pytest.mark.skipif(
     not hasattr(lanes.os, "pidfd_open"), reason="the template needs Linux's pidfd"
 )  # (the suite runs on Linux; elsewhere the workers are fresh interpreters)
-
-
-def _running(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
 
 
 def nice_of_me(value: object, memo: object = None) -> tuple[int, str]:
@@ -66,7 +58,7 @@ def test_workers_are_forks_of_one_template_and_close_ends_each():
         niceness = first(None)[0]
         assert second(None)[0] == niceness + 3  # copies plan below the presenter
         template = template_pid()
-        assert template is not None and _running(template)
+        assert template is not None and process_running(template)
         pids = {first.pid, second.pid}
         assert len(pids) == 2 and template not in pids
         for pid in pids:  # the template's children, not ours
@@ -78,22 +70,24 @@ def test_workers_are_forks_of_one_template_and_close_ends_each():
     finally:
         first.close()
         second.close()
-    assert not any(_running(pid) for pid in pids)
+    assert not any(process_running(pid) for pid in pids)
 
 
 def test_the_template_leaves_when_idle_and_a_new_one_comes_when_needed():
     template = Template(linger=0.3)
     worker = template.fork(0)
-    assert worker.pid is not None and _running(worker.pid)
+    assert worker.pid is not None and process_running(worker.pid)
     first = template.pid()
     assert first is not None
     assert worker.stdin is not None
     worker.stdin.close()  # a worker ends when its stdin closes
     assert worker.wait(10) == 0
-    assert wait_until(lambda: not _running(first), 15)  # lingered 0.3 s, then left
+    assert wait_until(
+        lambda: not process_running(first), 15
+    )  # lingered 0.3 s, then left
     again = template.fork(0)  # its socket is closed: a new template forks it
     try:
-        assert again.pid is not None and _running(again.pid)
+        assert again.pid is not None and process_running(again.pid)
         assert template.pid() not in (None, first)
     finally:
         again.kill()
@@ -108,8 +102,8 @@ def test_a_killed_template_is_replaced_and_its_workers_go_on():
     killed = template.pid()
     assert killed is not None
     lanes.os.kill(killed, lanes.signal.SIGKILL)
-    assert wait_until(lambda: not _running(killed), 10)
-    assert _running(worker.pid)  # a fork lives on its own
+    assert wait_until(lambda: not process_running(killed), 10)
+    assert process_running(worker.pid)  # a fork lives on its own
     after = template.fork(0)
     assert after.pid is not None and template.pid() != killed
     for w in (worker, after):
@@ -162,7 +156,7 @@ def test_when_its_parent_dies_the_template_and_workers_end():
     )
     pids = [int(word) for word in out.stdout.split()]
     assert len(pids) == 2
-    assert wait_until(lambda: not any(_running(pid) for pid in pids), 15), pids
+    assert wait_until(lambda: not any(process_running(pid) for pid in pids), 15), pids
 
 
 def test_workers_asked_for_at_once_from_many_threads_each_get_their_own():

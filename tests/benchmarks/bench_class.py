@@ -518,12 +518,15 @@ def run_one(script: str, flags: list[str], code: str = str(ROOT)) -> dict[str, A
     """Run ``script --one FLAGS`` in a process of its own; return the JSON it printed last.
 
     ``code``: the checkout whose app the process imports first (this one by default).
+    The process runs in that folder: the app's planner processes put their working
+    folder first on their import path, and must import the same app.
     """
     out = subprocess.run(
-        [sys.executable, script, "--one", *flags],
+        [sys.executable, os.path.abspath(script), "--one", *flags],
         check=True,
         stdout=subprocess.PIPE,
         text=True,
+        cwd=code,
         env={
             **os.environ,
             "PYTHONPATH": os.pathsep.join(dict.fromkeys([code, str(ROOT)])),

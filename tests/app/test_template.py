@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import importlib
 import subprocess
 import sys
 import textwrap
@@ -70,7 +71,7 @@ def test_workers_are_forks_of_one_template_and_close_ends_each():
     finally:
         first.close()
         second.close()
-    assert not any(process_running(pid) for pid in pids)
+    assert not any(pid is not None and process_running(pid) for pid in pids)
 
 
 def test_the_template_leaves_when_idle_and_a_new_one_comes_when_needed():
@@ -122,8 +123,7 @@ def test_a_worker_sees_import_paths_added_after_its_template_started(tmp_path):
         lane.close()
     sys.path.insert(0, str(tmp_path))
     try:
-        import late_helper
-
+        late_helper = importlib.import_module("late_helper")  # the folder just added
         lane = ProcessLane(late_helper.twice)
         try:
             assert lane(21) == 42

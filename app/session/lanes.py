@@ -519,7 +519,10 @@ def serve(fd: int, linger: float = LINGER_S) -> None:
                 return  # the parent closed its end (or exited)
             sys.stdout.flush()
             pid = _fork_child(sock, pickle.loads(message), fds)
-            sock.sendall(_PID.pack(pid))
+            try:
+                sock.sendall(_PID.pack(pid))
+            except OSError:
+                return  # the parent is gone: so is the worker's stdin, and the worker
         if _children_left():
             idle_since = None
         elif idle_since is None:

@@ -369,9 +369,9 @@ class Template:
                     return self._pids.pop(number)
                 if number <= self._read:
                     return None
-                try:
-                    (pid,) = _PID.unpack(_recv_exactly(self._sock, _PID.size))
-                except OSError:
+                try:  # one answer, one message (SOCK_SEQPACKET); b"": it exited
+                    (pid,) = _PID.unpack(self._sock.recv(_PID.size))
+                except (OSError, struct.error):
                     self._stop()
                     return None
                 self._read += 1
@@ -385,8 +385,6 @@ class Template:
 
     def _start(self) -> None:
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-        paths = [p for p in sys.path if p and Path(p).is_dir()]
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
         with theirs:
             self._proc = subprocess.Popen(
                 [
@@ -396,7 +394,7 @@ class Template:
                 ],
                 stdin=subprocess.DEVNULL,
                 pass_fds=(theirs.fileno(),),
-                env=env,
+                env=_child_env(),
                 cwd=os.getcwd(),
             )
         # A template that never answers (hung) is given up on, not waited for forever.
@@ -473,8 +471,6 @@ def template_pid() -> int | None:
 
 def spawn_worker(nice: int = 0) -> subprocess.Popen[bytes]:
     """Start the planner process from nothing (where processes cannot be forked safely)."""
-    paths = [p for p in sys.path if p and Path(p).is_dir()]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
     child = "from app.session.lanes import child_main; child_main()"
     if nice:
         child = f"import os; os.nice({nice}); {child}"
@@ -482,19 +478,15 @@ def spawn_worker(nice: int = 0) -> subprocess.Popen[bytes]:
         [sys.executable, "-c", child],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
-        env=env,
+        env=_child_env(),
         cwd=os.getcwd(),
     )
 
 
-def _recv_exactly(sock: socket.socket, size: int) -> bytes:
-    data = b""
-    while len(data) < size:
-        chunk = sock.recv(size - len(data))
-        if not chunk:
-            raise ConnectionError("the planner template exited")
-        data += chunk
-    return data
+def _child_env() -> dict[str, str]:
+    """Our environment, with our import path: a new interpreter finds what we find."""
+    paths = [p for p in sys.path if p and Path(p).is_dir()]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
 
 
 # --------------------------------------------------------------------------- the template

@@ -39,6 +39,24 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     items.sort(key=lambda item: -float(seconds.get(item.nodeid.split("::")[0], 0.0)))
 
 
+def run_code(
+    code: str, *, timeout: float | None = None, env: dict[str, str] | None = None
+) -> str:
+    """Run ``python -c code`` in a new interpreter from the repository; return its output.
+
+    A failing run raises (``check=True``). ``env`` adds to this process's environment.
+    """
+    return subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=None if env is None else {**os.environ, **env},
+        check=True,
+    ).stdout
+
+
 def run_module(
     module: str,
     *args: str,

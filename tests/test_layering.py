@@ -15,14 +15,12 @@ The structural checks are parametrized by package: planners, kinematics and app.
 from __future__ import annotations
 
 import ast
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
 import pytest
 
-from tests.conftest import ROOT
+from tests.conftest import ROOT, run_code
 
 PURE = ["planners", "kinematics"]
 """Packages that import no viser, no app and no plotting."""
@@ -38,14 +36,8 @@ def test_pure_packages_do_not_import_viser(package):
         "bad = [m for m in ('viser', 'app', 'matplotlib', 'playwright') if m in sys.modules]\n"
         "print(','.join(bad))\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    assert out.stdout.strip() == "", f"{package} imported {out.stdout.strip()}"
+    out = run_code(code).strip()
+    assert out == "", f"{package} imported {out}"
 
 
 def test_the_apps_session_does_not_import_viser():
@@ -56,14 +48,8 @@ def test_the_apps_session_does_not_import_viser():
         " if m in sys.modules]\n"
         "print(','.join(bad))\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    assert out.stdout.strip() == "", f"app.session imported {out.stdout.strip()}"
+    out = run_code(code).strip()
+    assert out == "", f"app.session imported {out}"
 
 
 # --------------------------------------------------------------------------- the graph

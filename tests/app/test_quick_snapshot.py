@@ -11,10 +11,7 @@ measured by tests/benchmarks/bench_pictures.py, never asserted here.
 from __future__ import annotations
 
 import io
-import subprocess
-import sys
 import threading
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -24,8 +21,8 @@ from app import start_app
 from app.media.browser import SLIDE_CSS, attach_page, free_port, open_early
 from app.media.jobs import run_with_browser
 from app.media.pictures import FirstPicture, open_studio, shoot
+from tests.conftest import run_code
 
-ROOT = Path(__file__).resolve().parents[2]
 NAME = "02_three_obstacles"
 W, H = 480, 300
 
@@ -117,12 +114,4 @@ def test_the_snapshot_command_does_not_import_the_app_before_the_browser() -> No
         "print(sorted(m for m in ('viser', 'planners', 'app.server', 'app.ui.view')"
         " if m in sys.modules))"
     )
-    result = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=60,
-        check=True,
-    )
-    assert result.stdout.strip() == "[]"
+    assert run_code(code, timeout=60).strip() == "[]"

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import functools
 import importlib
-import subprocess
 import sys
 import textwrap
 import threading
@@ -18,7 +17,7 @@ from app.session.lanes import ProcessLane, Template, template_pid
 from app.session.scheduler import default_plan
 from planners import load_scene
 from tests.app.app_helpers import process_running, wait_until
-from tests.conftest import ROOT, SCENARIOS
+from tests.conftest import SCENARIOS, run_code
 
 pytestmark = pytest.mark.skipif(
     not hasattr(lanes.os, "pidfd_open"), reason="the template needs Linux's pidfd"
@@ -146,15 +145,7 @@ def test_when_its_parent_dies_the_template_and_workers_end():
         os._exit(0)  # no clean-up at all
         """
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        check=True,
-        timeout=120,
-    )
-    pids = [int(word) for word in out.stdout.split()]
+    pids = [int(word) for word in run_code(code, timeout=120).split()]
     assert len(pids) == 2
     assert wait_until(lambda: not any(process_running(pid) for pid in pids), 15), pids
 

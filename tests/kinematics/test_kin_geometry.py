@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 
 import networkx as nx
 import numpy as np
@@ -23,6 +21,7 @@ from kinematics.geometry import (
     wheel_transform,
     yaw_wxyz,
 )
+from tests.conftest import run_code
 from tests.kinematics.kin_helpers import DIFFERENTIAL, HOLONOMIC
 
 Z = np.array([0.0, 0.0, 1.0])
@@ -221,11 +220,4 @@ def test_kinematics_imports_no_ui_or_plotting():
         "bad = [m for m in ('viser', 'matplotlib', 'app', 'planners', 'pyglet') if m in sys.modules]; "
         "print(bad)"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        check=True,
-        cwd=".",
-    )
-    assert out.stdout.strip() == "[]"
+    assert run_code(code).strip() == "[]"

@@ -16,7 +16,7 @@ import sys
 import numpy as np
 
 from planners.maps import OccupancyMap, default_endpoints, scene_from_map
-from tests.conftest import ROOT
+from tests.conftest import ROOT, run_code
 from tests.maps import synthetic
 
 
@@ -76,13 +76,5 @@ def test_yaml_and_numba_load_only_when_a_map_is_read_and_traced(tmp_path):
         "maps.scene_from_map(m, (0.1, 0.1), (1.0, 0.5))\n"
         "print(*loaded())\n"
     )
-    child = subprocess.run(
-        [sys.executable, "-c", code],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
-        timeout=300,
-        check=True,
-    )
-    assert child.stdout.split() == ["False", "False", "True", "False", "True", "True"]
+    out = run_code(code, timeout=300, env={"PYTHONPATH": str(ROOT)})
+    assert out.split() == ["False", "False", "True", "False", "True", "True"]

@@ -7,8 +7,6 @@ screen's tolerance, the signatures the warm-up compiles, and when numba is loade
 """
 
 import math
-import subprocess
-import sys
 import types
 
 import numpy as np
@@ -20,7 +18,7 @@ from planners.space.expansion import configuration_space
 from planners.visibility import _graphs
 from planners.visibility._graphs import _Wedges
 from planners.visibility.incremental import _crossing_box, _outcodes
-from tests.conftest import SCENARIOS, random_scenes
+from tests.conftest import SCENARIOS, random_scenes, run_code
 from tests.planners.astar_reference import search
 from tests.planners.incremental_reference import crossing_box_reference
 from tests.planners.screen_reference import (
@@ -265,10 +263,7 @@ def test_numba_loads_only_with_the_first_compiled_loop():
 
 def _printed_by_a_fresh_python(code):
     """Run ``code`` in a new interpreter; return the words it printed."""
-    out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True
-    )
-    return out.stdout.split()
+    return run_code(code).split()
 
 
 def _directions(rng, count):

@@ -46,15 +46,7 @@ def run_code(
 
     A failing run raises (``check=True``). ``env`` adds to this process's environment.
     """
-    return subprocess.run(
-        [sys.executable, "-c", code],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        env=None if env is None else {**os.environ, **env},
-        check=True,
-    ).stdout
+    return _run_python(["-c", code], timeout, env, check=True).stdout
 
 
 def run_module(
@@ -67,14 +59,20 @@ def run_module(
 
     ``env`` adds to (or overrides) this process's environment.
     """
+    return _run_python(["-m", module, *args], timeout, env, check=False)
+
+
+def _run_python(
+    args: list[str], timeout: float | None, env: dict[str, str] | None, *, check: bool
+) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", module, *args],
+        [sys.executable, *args],
         cwd=ROOT,
         capture_output=True,
         text=True,
         timeout=timeout,
         env=None if env is None else {**os.environ, **env},
-        check=False,
+        check=check,
     )
 
 

@@ -248,6 +248,7 @@ def start_app(
     presenter: bool | None = None,
     copy_workers: int = 1,
     capacity: Capacity | None = None,
+    worker_process: bool = True,
 ) -> PlannerApp:
     """Start the planner's viser server with the full scene drawn.
 
@@ -274,6 +275,11 @@ def start_app(
     capacity
         In presenter mode, the most browsers and copies the class may have
         (:mod:`app.classroom.capacity`); None: what this machine serves.
+    worker_process
+        Compute DSB and Bug2 in a worker process (:mod:`app.session.lanes`), so that they
+        never hold up a redraw during a drag. False computes them in a thread of this
+        process: what a one-shot picture, video or page does, where nobody drags and a
+        worker process would only add its start-up. Presenter mode always uses them.
 
     Returns
     -------
@@ -332,7 +338,14 @@ def start_app(
             door.set_priority(app.classroom.is_presenter_connection)
         else:
             app = _wire(
-                server, scene, key, scenarios, host, folder=folder, floor_map=floor_map
+                server,
+                scene,
+                key,
+                scenarios,
+                host,
+                folder=folder,
+                floor_map=floor_map,
+                worker_process=worker_process,
             )
         app.door, app.fair = door, fair
         if not app.wait_idle(60.0):
@@ -358,6 +371,7 @@ def _wire(
     *,
     folder: ScenesFolder | None = None,
     floor_map: Any = None,
+    worker_process: bool = True,
 ) -> PlannerApp:
     """Wire one session on ``server``: the panel, the 3-D view and their controller."""
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
@@ -378,6 +392,7 @@ def _wire(
         scenario=key,
         folder=folder,
         floor_map=floor_map,
+        slow_process=worker_process,
     )
     controller_box.append(controller)
     panels.attach(controller)

@@ -261,7 +261,13 @@ def start_quietly(scenario: Any) -> Any:
 
     try:
         with quiet_stdout():
-            return start_app(scenario, host="127.0.0.1", port=0, print_url=False)
+            return start_app(
+                scenario,
+                host="127.0.0.1",
+                port=0,
+                print_url=False,
+                worker_process=False,
+            )
     except (ValueError, LookupError, FileNotFoundError) as error:
         raise JobFailure(
             f"cannot load scenario: {first_line(error)}",
@@ -381,7 +387,11 @@ def _take_snapshot(
         try:
             with quiet_stdout():
                 return app.start_app(
-                    scenario, host="127.0.0.1", port=port, print_url=False
+                    scenario,
+                    host="127.0.0.1",
+                    port=port,
+                    print_url=False,
+                    worker_process=False,
                 )
         except (ValueError, LookupError, FileNotFoundError) as error:
             # planners.ScenarioError is a ValueError; an unknown name a LookupError.

@@ -242,9 +242,11 @@ class ProcessLane:
 # --------------------------------------------------------------------------- worker processes
 
 
-LINGER_S = 2.0
+LINGER_S = 30.0
 """Seconds the template waits, without any planner process, for the next one before it
-exits (an app started again soon after, as tests and notebooks do, reuses it)."""
+exits: an app started again within half a minute (a notebook's cell run again, the next
+test) reuses it instead of paying the imports again. Meanwhile it holds about 180 MB
+resident, half of it pages of the libraries' files."""
 
 ANSWER_TIMEOUT_S = 120.0
 """Longest wait for the template's answer [s]: its first one comes once it has loaded

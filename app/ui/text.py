@@ -33,6 +33,7 @@ _ENTITIES = {"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#x27;
 # strike-through) are escaped with a backslash wherever they stand; '&' '<' '>' '"' "'"
 # become entities (no HTML, no autolink); without '[' and ']' no link or image can form.
 _MARKDOWN = frozenset("\\`*_[]|~")
+_ESCAPES = str.maketrans({**{c: "\\" + c for c in _MARKDOWN}, **_ENTITIES})
 # GitHub's autolinks turn "http://...", "www...." and "a@b.c" into links, found in the
 # text after escapes and entities are read (neither stops them), and show the entities
 # inside them as written: an empty comment splits the text where one would begin.
@@ -52,6 +53,8 @@ def one_line(text: object) -> str:
     'a bc'
     """
     joined = _BREAKS.sub(" ", str(text))
+    if joined.isprintable():  # the usual case, decided in one pass
+        return joined
     return "".join(c for c in joined if c.isprintable() or c == "\t")
 
 
@@ -98,7 +101,7 @@ def _cut(text: str, most: int) -> str:
 
 
 def _escape_line(line: str) -> str:
-    escaped = "".join(_escape_char(c) for c in line)
+    escaped = line.translate(_ESCAPES)
     escaped = _AUTOLINK.sub(_SPLIT, escaped)
     block = _LINE_START.match(escaped)
     if block is None:
@@ -108,10 +111,3 @@ def _escape_line(line: str) -> str:
         end = block.end()
         return escaped[:end] + "\\" + escaped[end:]
     return indent + "\\" + escaped[len(indent) :]
-
-
-def _escape_char(c: str) -> str:
-    entity = _ENTITIES.get(c)
-    if entity is not None:
-        return entity
-    return "\\" + c if c in _MARKDOWN else c

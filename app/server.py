@@ -322,13 +322,11 @@ def start_app(
         # In a classroom nobody has priority until the classroom says who presents.
         door, fair = _guard(server, everyone=not presenter)
         _configure(server, scene)
+        # Every session is wired from these.
+        wiring = (server, scene, key, scenarios, host)
         if presenter:
             app = _wire_classroom(
-                server,
-                scene,
-                key,
-                scenarios,
-                host,
+                *wiring,
                 folder=folder,
                 workers=copy_workers,
                 door=door,
@@ -338,11 +336,7 @@ def start_app(
             door.set_priority(app.classroom.is_presenter_connection)
         else:
             app = _wire(
-                server,
-                scene,
-                key,
-                scenarios,
-                host,
+                *wiring,
                 folder=folder,
                 floor_map=floor_map,
                 worker_process=worker_process,

@@ -30,6 +30,7 @@ MODULES = [
     "app.media.explain_slides",
     "app.media.export_html",
     "app.ui.floor_text",
+    "app.ui.text",
     "app.explain.view",
 ]
 

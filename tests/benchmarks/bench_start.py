@@ -30,28 +30,29 @@ from pathlib import Path
 
 sys.path[:0] = [str(Path(__file__).parent), str(Path(__file__).resolve().parents[2])]
 
-from clock import StealMeter, spread  # noqa: E402 - found next to this file
+from clock import StealMeter, busy_cpu_s, spread  # noqa: E402 - found next to this file
 
 from app import start_app  # noqa: E402
 from app.session import lanes  # noqa: E402
 from app.session.scheduler import default_plan  # noqa: E402
 
 
-def busy_cpu_s() -> float:
-    """CPU seconds every core of the machine has been busy since boot."""
-    with open("/proc/stat", encoding="ascii") as stat:
-        fields = [int(v) for v in stat.readline().split()[1:9]]
-    return (sum(fields) - fields[3] - fields[4]) / 100.0
+def busy() -> float:
+    """The machine's busy CPU seconds (:func:`clock.busy_cpu_s`); this needs /proc/stat."""
+    seconds = busy_cpu_s()
+    if seconds is None:
+        raise SystemExit("bench_start.py measures CPU from /proc/stat (Linux)")
+    return seconds
 
 
 def one_start(scenario: str) -> tuple[float, float]:
     """Start the app until its first full frame, stop it; return (wall s, CPU s)."""
-    cpu, wall = busy_cpu_s(), time.perf_counter()
+    cpu, wall = busy(), time.perf_counter()
     with contextlib.redirect_stdout(io.StringIO()):
         app = start_app(scenario, port=0, print_url=False)
     try:
         assert app.wait_idle(120), "the app did not draw its first frame"
-        return time.perf_counter() - wall, busy_cpu_s() - cpu
+        return time.perf_counter() - wall, busy() - cpu
     finally:
         app.stop()
 

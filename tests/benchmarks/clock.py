@@ -50,6 +50,15 @@ class StealMeter:
         return (end[7] - self.start[7]) / total
 
 
+def busy_cpu_s() -> float | None:
+    """CPU seconds every core of the machine has been busy since boot (None without
+    /proc/stat): user, nice, system, interrupts and steal; not idle, not waiting for I/O."""
+    times = _cpu_times()
+    if times is None:
+        return None
+    return (sum(times) - times[3] - times[4]) / 100.0
+
+
 def _cpu_times() -> list[int] | None:
     try:
         with open("/proc/stat", encoding="ascii") as stat:

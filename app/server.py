@@ -424,7 +424,7 @@ def _wire_classroom(
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
     view = PlannerView(ScopedTarget(server, "/shared", inert=True))
     view.robot_model_fn = robot_model.robot_model
-    view.place_dragged = True  # nobody holds the shared gizmos: watchers see every drag
+    view.gizmos.place_dragged = True  # nobody holds the shared gizmos: watchers see it
     # The class's frame rate follows its size; the presenter's own view keeps its own.
     class_view = Paced(view, class_rate(0))
     controller = Controller(

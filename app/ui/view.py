@@ -16,6 +16,8 @@ __all__ = [
     "MAX_NUMBERED_OBSTACLES",
     "MAX_VERTEX_HANDLES",
     "STALE_RGB",
+    "GizmoView",
+    "Gizmos",
     "GraphEdges",
     "Labels",
     "PlannerView",
@@ -912,13 +914,8 @@ class PlannerView:
     ) -> None:
         self.target = target
         self.scene = target.scene
-        self._held: frozenset[Handle] = frozenset()
-        """Handles a user holds now with this view's gizmos (another view's are placed)."""
-        self._on_drag = self._holding(on_drag) if on_drag is not None else None
         self._last: dict[str, Any] = {}
         self.rendered_version = -1
-        self.place_dragged = False
-        """Place gizmos even while they are dragged (a view whose gizmos nobody holds)."""
         self.robot_model_fn: Callable[[Any], tuple[Any, RobotModel]] | None = None
         self._add_scene_nodes()
         # One layer per registered planner, drawn as its kind says (planners.registry).
@@ -932,6 +929,8 @@ class PlannerView:
             for name, spec in registry.items()
             if spec.kind == "trace"
         }
+        self.gizmos = Gizmos(self.scene, on_drag)
+        """The gizmos a user drags (start and goal, vertices and obstacles)."""
         self._add_markers()
         self._add_robot_nodes()
 
@@ -992,26 +991,16 @@ class PlannerView:
         self.draft = Segments(s, "/draft", COLORS["draft"], WIDTHS["outline"] * 1.5)
 
     def _add_markers(self) -> None:
-        """Create the start and goal gizmos, each with its marker, rim and label.
+        """Hang a marker, rim and label from the start and goal gizmos.
 
-        The marker and label are the gizmo's children, so they follow the mouse in the
-        browser even before the server has replanned.
+        As the gizmo's children they follow the mouse in the browser even before the
+        server has replanned.
         """
         s = self.scene
-        self.handles: dict[str, viser.TransformControlsHandle] = {}
         self.markers: dict[str, viser.MeshHandle] = {}
         self.marker_rims: dict[str, viser.LineSegmentsHandle] = {}
         self.marker_labels: dict[str, viser.LabelHandle] = {}
         for name in ("start", "goal"):
-            gizmo = s.add_transform_controls(
-                f"/handles/{name}",
-                scale=0.9,
-                active_axes=(True, True, False),
-                disable_rotations=True,
-                depth_test=False,
-            )
-            gizmo.on_update(self._drag_callback((name,)))
-            self.handles[name] = gizmo
             v, f = disk_mesh(1.0, HEIGHTS["marker"])
             self.markers[name] = s.add_mesh_simple(
                 f"/handles/{name}/marker",
@@ -1034,9 +1023,6 @@ class PlannerView:
                 font_screen_scale=1.3,
                 anchor="bottom-center",
             )
-        self.vertex_handles: list[viser.TransformControlsHandle] = []
-        self.vertex_slots: list[tuple[int, int]] = []
-        self.obstacle_handles: list[viser.TransformControlsHandle] = []
 
     def _add_robot_nodes(self) -> None:
         """Create the robot's frame (body and wheels are its children) and sensor layers."""
@@ -1065,45 +1051,6 @@ class PlannerView:
     def _atomic(self) -> contextlib.AbstractContextManager[None]:
         atomic = getattr(self.target, "atomic", None)
         return atomic() if atomic is not None else contextlib.nullcontext()
-
-    def _holding(self, on_drag: HandleCallback) -> HandleCallback:
-        """Wrap ``on_drag`` to note which handles this view's gizmos hold."""
-
-        def drag(handle: Handle, xy: tuple[float, float], phase: str) -> None:
-            held = self._held - {handle} if phase == "end" else self._held | {handle}
-            self._held = held
-            on_drag(handle, xy, phase)
-
-        return drag
-
-    def _drag_callback(self, handle: Handle) -> Callable[[Any], Any]:
-        async def callback(event: Any) -> None:
-            # async: viser runs these on its event loop in order, so "start", "update"
-            # and "end" of one drag reach the controller in order (def callbacks may not).
-            if self._on_drag is not None:
-                x, y = float(event.target.position[0]), float(event.target.position[1])
-                self._on_drag(handle, (x, y), event.phase)
-
-        return callback
-
-    def _vertex_callback(self, slot: int) -> Callable[[Any], Any]:
-        async def callback(event: Any) -> None:
-            if self._on_drag is None or slot >= len(self.vertex_slots):
-                return
-            i, j = self.vertex_slots[slot]
-            x, y = float(event.target.position[0]), float(event.target.position[1])
-            self._on_drag(("vertex", i, j), (x, y), event.phase)
-
-        return callback
-
-    def _obstacle_callback(self, slot: int) -> Callable[[Any], Any]:
-        async def callback(event: Any) -> None:
-            if self._on_drag is None:
-                return
-            x, y = float(event.target.position[0]), float(event.target.position[1])
-            self._on_drag(("obstacle", slot), (x, y), event.phase)
-
-        return callback
 
     def _changed(self, key: str, value: Any) -> bool:
         """Tell whether ``value`` differs from the last one drawn for ``key`` (and remember it)."""
@@ -1139,7 +1086,7 @@ class PlannerView:
             trace.render(frame, self._changed)
         self._render_event_labels(frame)
         self._render_markers(frame, radius)
-        self._render_handles(frame)
+        self.gizmos.render(frame)
         self._render_selection(frame)
 
     def _render_floor_and_obstacles(self, frame: Frame) -> None:
@@ -1240,71 +1187,6 @@ class PlannerView:
                 self.marker_rims[name].scale = (size, size, 1.0)
                 # Above the marker on screen, so the label never hides the footprint.
                 self.marker_labels[name].position = (0.0, size + 0.05, 0.05)
-
-    def _render_handles(self, frame: Frame) -> None:
-        scene = frame.scene
-        # Gizmos are left alone while a user drags them here, unless this view's are
-        # dragged by nobody (place_dragged: a classroom's shared view), so watchers see it.
-        # A drag held in another view (a second presenter's browser) is placed here.
-        dragging = frozenset() if self.place_dragged else frame.dragging & self._held
-        key = (scene.start, scene.goal, scene.obstacles, frame.tool, dragging)
-        if not self._changed("handles", key):
-            return
-        for name, xy in (("start", scene.start), ("goal", scene.goal)):
-            if (name,) not in dragging:
-                self.handles[name].position = (xy[0], xy[1], 0.0)
-        editing = frame.tool == "edit"
-        slots = [
-            (i, j)
-            for i, o in enumerate(scene.obstacles)
-            for j in range(len(o.exterior.coords) - 1)
-        ]
-        top = HEIGHTS["obstacle"] + 0.01
-        # Gizmos are made when the edit tool first needs them; a scene of thousands of
-        # vertices (a CAD floor plan) gets none: its obstacles are moved whole.
-        wanted = len(slots) if editing and len(slots) <= MAX_VERTEX_HANDLES else 0
-        while len(self.vertex_handles) < wanted:
-            k = len(self.vertex_handles)
-            gizmo = self.scene.add_transform_controls(
-                f"/handles/vertex/{k}",
-                scale=0.45,
-                active_axes=(True, True, False),
-                disable_axes=True,
-                disable_rotations=True,
-                depth_test=False,
-                visible=False,
-            )
-            gizmo.on_update(self._vertex_callback(k))
-            self.vertex_handles.append(gizmo)
-        self.vertex_slots = slots
-        for k, gizmo in enumerate(self.vertex_handles):
-            shown = k < wanted
-            if shown:
-                i, j = slots[k]
-                if ("vertex", i, j) not in dragging:
-                    x, y = scene.obstacles[i].exterior.coords[j]
-                    _place(gizmo, (x, y, top))
-            if gizmo.visible != shown:
-                gizmo.visible = shown
-        n = len(scene.obstacles)
-        while len(self.obstacle_handles) < (n if editing else 0):
-            k = len(self.obstacle_handles)
-            gizmo = self.scene.add_transform_controls(
-                f"/handles/obstacle/{k}",
-                scale=0.8,
-                active_axes=(True, True, False),
-                disable_rotations=True,
-                depth_test=False,
-                visible=False,
-            )
-            gizmo.on_update(self._obstacle_callback(k))
-            self.obstacle_handles.append(gizmo)
-        for k, gizmo in enumerate(self.obstacle_handles):
-            shown = k < n and editing
-            if shown and ("obstacle", k) not in dragging:
-                _place(gizmo, _label_point(scene.obstacles[k], top + 0.01))
-            if gizmo.visible != shown:
-                gizmo.visible = shown
 
     def _render_selection(self, frame: Frame) -> None:
         scene = frame.scene
@@ -1436,7 +1318,7 @@ class PlannerView:
         False the 3-D labels are hidden (the picture draws its own, placed for its size).
         """
         with self._atomic():
-            for gizmo in self.handles.values():
+            for gizmo in self.gizmos.handles.values():
                 gizmo.disable_axes = True
                 gizmo.disable_sliders = True
                 gizmo.disable_rotations = True
@@ -1460,6 +1342,191 @@ class PlannerView:
         """Remember the robot and sensing layer toggles for :meth:`render_robot`."""
         self._last["robot_layer"] = robot
         self._last["sensing_layer"] = sensing
+
+
+# --------------------------------------------------------------------------- gizmos
+
+
+class Gizmos:
+    """The gizmos a user drags in one scope: start, goal, and in the edit tool the rest.
+
+    In the edit tool every vertex and every obstacle has one too. A :class:`PlannerView` hangs its start and goal markers from them (``/handles/start``
+    and ``/handles/goal``); a classroom's presenter has them alone (:class:`GizmoView`),
+    over the class's one drawing.
+
+    Parameters
+    ----------
+    scene
+        The scene the gizmos are added to (a viser ``SceneApi`` or a prefixed one).
+    on_drag
+        Called as ``on_drag(handle, (x, y), phase)`` when a user drags a gizmo.
+    """
+
+    def __init__(self, scene: Any, on_drag: HandleCallback | None = None) -> None:
+        self.scene = scene
+        self._on_drag = on_drag
+        self.held: frozenset[Handle] = frozenset()
+        """Handles a user holds now with these gizmos (another scope's are placed)."""
+        self.place_dragged = False
+        """Place gizmos even while they are dragged (gizmos nobody holds: a classroom's
+        shared view, whose frames stand in for them)."""
+        self.handles: dict[str, viser.TransformControlsHandle] = {
+            name: self._add_end(name) for name in ("start", "goal")
+        }
+        """The start and goal gizmos."""
+        self.vertex_handles: list[viser.TransformControlsHandle] = []
+        self.vertex_slots: list[tuple[int, int]] = []
+        """(obstacle, vertex) of each vertex gizmo shown, in order."""
+        self.obstacle_handles: list[viser.TransformControlsHandle] = []
+        self._drawn: Any = _MISSING
+
+    def _add_end(self, name: str) -> viser.TransformControlsHandle:
+        gizmo = self.scene.add_transform_controls(
+            f"/handles/{name}",
+            scale=0.9,
+            active_axes=(True, True, False),
+            disable_rotations=True,
+            depth_test=False,
+        )
+        gizmo.on_update(self._callback(lambda: (name,)))
+        return gizmo
+
+    def _callback(self, which: Callable[[], Handle | None]) -> Callable[[Any], Any]:
+        """Return a gizmo's update callback, reporting the handle ``which()`` names."""
+
+        async def callback(event: Any) -> None:
+            # async: viser runs these on its event loop in order, so "start", "update"
+            # and "end" of one drag reach the controller in order (def callbacks may not).
+            handle = which()
+            if self._on_drag is None or handle is None:
+                return
+            x, y = float(event.target.position[0]), float(event.target.position[1])
+            if event.phase == "end":
+                self.held = self.held - {handle}
+            else:
+                self.held = self.held | {handle}
+            self._on_drag(handle, (x, y), event.phase)
+
+        return callback
+
+    def _vertex(self, slot: int) -> Handle | None:
+        """Return the handle vertex gizmo ``slot`` moves now (None: it is not shown)."""
+        if slot >= len(self.vertex_slots):
+            return None
+        i, j = self.vertex_slots[slot]
+        return ("vertex", i, j)
+
+    def render(self, frame: Frame) -> None:
+        """Place the gizmos on ``frame``'s scene, shown as its tool asks."""
+        scene = frame.scene
+        # Gizmos are left alone while a user drags them here, unless nobody holds
+        # them (place_dragged), so watchers see the drag. A drag held in another scope
+        # (a second presenter's browser) is placed here.
+        dragging = frozenset() if self.place_dragged else frame.dragging & self.held
+        key = (scene.start, scene.goal, scene.obstacles, frame.tool, dragging)
+        if self._drawn is not _MISSING and _same(self._drawn, key):
+            return
+        self._drawn = key
+        for name, xy in (("start", scene.start), ("goal", scene.goal)):
+            if (name,) not in dragging:
+                self.handles[name].position = (xy[0], xy[1], 0.0)
+        editing = frame.tool == "edit"
+        self._place_vertices(scene, editing, dragging)
+        self._place_obstacles(scene, editing, dragging)
+
+    def _place_vertices(
+        self, scene: Any, editing: bool, dragging: frozenset[Handle]
+    ) -> None:
+        slots = [
+            (i, j)
+            for i, o in enumerate(scene.obstacles)
+            for j in range(len(o.exterior.coords) - 1)
+        ]
+        top = HEIGHTS["obstacle"] + 0.01
+        # Gizmos are made when the edit tool first needs them; a scene of thousands of
+        # vertices (a CAD floor plan) gets none: its obstacles are moved whole.
+        wanted = len(slots) if editing and len(slots) <= MAX_VERTEX_HANDLES else 0
+        while len(self.vertex_handles) < wanted:
+            k = len(self.vertex_handles)
+            gizmo = self.scene.add_transform_controls(
+                f"/handles/vertex/{k}",
+                scale=0.45,
+                active_axes=(True, True, False),
+                disable_axes=True,
+                disable_rotations=True,
+                depth_test=False,
+                visible=False,
+            )
+            gizmo.on_update(self._callback(functools.partial(self._vertex, k)))
+            self.vertex_handles.append(gizmo)
+        self.vertex_slots = slots
+        for k, gizmo in enumerate(self.vertex_handles):
+            shown = k < wanted
+            if shown:
+                i, j = slots[k]
+                if ("vertex", i, j) not in dragging:
+                    x, y = scene.obstacles[i].exterior.coords[j]
+                    _place(gizmo, (x, y, top))
+            if gizmo.visible != shown:
+                gizmo.visible = shown
+
+    def _place_obstacles(
+        self, scene: Any, editing: bool, dragging: frozenset[Handle]
+    ) -> None:
+        top = HEIGHTS["obstacle"] + 0.01
+        n = len(scene.obstacles)
+        while len(self.obstacle_handles) < (n if editing else 0):
+            k = len(self.obstacle_handles)
+            gizmo = self.scene.add_transform_controls(
+                f"/handles/obstacle/{k}",
+                scale=0.8,
+                active_axes=(True, True, False),
+                disable_rotations=True,
+                depth_test=False,
+                visible=False,
+            )
+            gizmo.on_update(self._callback(functools.partial(_obstacle, k)))
+            self.obstacle_handles.append(gizmo)
+        for k, gizmo in enumerate(self.obstacle_handles):
+            shown = k < n and editing
+            if shown and ("obstacle", k) not in dragging:
+                _place(gizmo, _label_point(scene.obstacles[k], top + 0.01))
+            if gizmo.visible != shown:
+                gizmo.visible = shown
+
+
+def _obstacle(slot: int) -> Handle:
+    return ("obstacle", slot)
+
+
+class GizmoView:
+    """A view of the gizmos alone, in one browser's scope (a classroom's presenter).
+
+    The browser sees the class's one drawing (``/shared``, broadcast) and drags these
+    gizmos over it: the session is drawn once for everyone, the presenter included;
+    the markers it moves are the shared drawing's, one frame behind the mouse.
+
+    Parameters
+    ----------
+    target
+        The browser's scope under a root (:class:`app.ui.scoped.ScopedTarget`).
+    on_drag
+        Called as ``on_drag(handle, (x, y), phase)`` when its user drags a gizmo.
+    """
+
+    def __init__(self, target: ScopedTarget, on_drag: HandleCallback) -> None:
+        self.target = target
+        """The scope drawn in (remove it to remove the gizmos)."""
+        self.gizmos = Gizmos(target.scene, on_drag)
+        """The gizmos."""
+
+    def render(self, frame: Frame) -> None:
+        """Place the gizmos on ``frame``, in one atomic batch."""
+        with self.target.atomic():
+            self.gizmos.render(frame)
+
+    def render_robot(self, pose: RobotPose | None) -> None:
+        """Nothing: the robot is the shared drawing's."""
 
 
 # --------------------------------------------------------------------------- DSB adapters

@@ -206,8 +206,8 @@ def test_view_layers_hold_exactly_what_was_planned(drawn):
         sum(o.area for o in frame.scene.obstacles), rel=1e-5
     )
     # Start and goal handles sit on the scene's points; labels name the obstacles.
-    assert_allclose(view.handles["start"].position[:2], frame.scene.start)
-    assert_allclose(view.handles["goal"].position[:2], frame.scene.goal)
+    assert_allclose(view.gizmos.handles["start"].position[:2], frame.scene.start)
+    assert_allclose(view.gizmos.handles["goal"].position[:2], frame.scene.goal)
     labels = [h.text for h in view.obstacle_labels.handles if h.visible]
     assert labels == [str(i + 1) for i in range(len(frame.scene.obstacles))]
 
@@ -215,16 +215,16 @@ def test_view_layers_hold_exactly_what_was_planned(drawn):
 def test_view_follows_edits_and_hides_what_has_no_path(drawn):
     view, controller = drawn
     n_vertices = sum(len(o.exterior.coords) - 1 for o in controller.scene.obstacles)
-    assert not any(h.visible for h in view.vertex_handles)
+    assert not any(h.visible for h in view.gizmos.vertex_handles)
     controller.tools.set_tool("edit")
     assert controller.wait_idle(10)
-    assert sum(h.visible for h in view.vertex_handles) == n_vertices
-    assert sum(h.visible for h in view.obstacle_handles) == len(
+    assert sum(h.visible for h in view.gizmos.vertex_handles) == n_vertices
+    assert sum(h.visible for h in view.gizmos.obstacle_handles) == len(
         controller.scene.obstacles
     )
-    i, j = view.vertex_slots[5]
+    i, j = view.gizmos.vertex_slots[5]
     assert_allclose(
-        view.vertex_handles[5].position[:2],
+        view.gizmos.vertex_handles[5].position[:2],
         controller.scene.obstacles[i].exterior.coords[j],
     )
     # The start inside an obstacle: no path is drawn at all, not an old one.
@@ -251,7 +251,7 @@ def _gizmo_drag(
     """What a gizmo of ``view`` reports when a user drags it (its callback, run as viser
     runs it: a coroutine on the event loop)."""
     event = SimpleNamespace(target=SimpleNamespace(position=(*xy, 0.0)), phase=phase)
-    asyncio.run(view._drag_callback(handle)(event))
+    asyncio.run(view.gizmos._callback(lambda: handle)(event))
 
 
 def test_dragged_handle_is_left_alone_until_the_drag_ends(drawn):
@@ -266,16 +266,16 @@ def test_dragged_handle_is_left_alone_until_the_drag_ends(drawn):
     goal = controller.scene.goal
     _gizmo_drag(held, ("goal",), goal, "start")
     # The browser has moved the gizmo further than the controller has seen.
-    held.handles["goal"].position = (goal[0] - 1.0, goal[1], 0.0)
+    held.gizmos.handles["goal"].position = (goal[0] - 1.0, goal[1], 0.0)
     _gizmo_drag(held, ("goal",), (goal[0] - 0.5, goal[1]), "update")
     assert controller.wait_idle(10)
     assert controller.frame.dragging == frozenset({("goal",)})
-    assert_allclose(held.handles["goal"].position[:2], (goal[0] - 1.0, goal[1]))
-    assert_allclose(other.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
+    assert_allclose(held.gizmos.handles["goal"].position[:2], (goal[0] - 1.0, goal[1]))
+    assert_allclose(other.gizmos.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
     _gizmo_drag(held, ("goal",), (goal[0] - 0.5, goal[1]), "end")
     assert controller.wait_idle(10)
-    assert_allclose(held.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
-    assert_allclose(other.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
+    assert_allclose(held.gizmos.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
+    assert_allclose(other.gizmos.handles["goal"].position[:2], (goal[0] - 0.5, goal[1]))
 
 
 def test_robot_is_posed_and_wheels_spin(drawn):

@@ -82,7 +82,7 @@ def test_labels_are_a_fixed_share_of_the_picture_height(
         legend = studio.shown.page.evaluate(
             "() => !!document.querySelector('.planner-legend')"
         )
-        gizmos = studio.app.view.handles
+        gizmos = studio.app.view.gizmos.handles
     picture = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
     assert picture.shape == (height, width, 3)
     assert legend

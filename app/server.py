@@ -38,7 +38,6 @@ from app.classroom import (
     new_token,
     presenter_url,
 )
-from app.classroom.audience import Paced, class_rate
 from app.classroom.capacity import Capacity
 from app.explain.panel import ExplainPanel
 from app.guard.door import Door, message_limit
@@ -181,8 +180,6 @@ class PlannerApp:
     """What browsers may send (:mod:`app.guard.door`)."""
     fair: FairExecutor | None = None
     """The pool the browsers' callbacks run in, fairly (:mod:`app.guard.fair`)."""
-    class_view: Paced | None = None
-    """In a classroom, :attr:`view` drawn at the class's frame rate (its own thread)."""
 
     @property
     def presenter_url(self) -> str | None:
@@ -211,8 +208,6 @@ class PlannerApp:
     def wait_idle(self, timeout: float = 10.0) -> bool:
         """Block until every edit is planned and drawn, and the messages are sent."""
         ok = self.controller.wait_idle(timeout)
-        if ok and self.class_view is not None:
-            ok = self.class_view.wait_drawn(timeout)
         self.server.flush()
         return ok
 
@@ -225,8 +220,6 @@ class PlannerApp:
         if self.classroom is not None:
             self.classroom.close()
         self.controller.close()
-        if self.class_view is not None:
-            self.class_view.close()
         if self.door is not None:
             self.door.close()
         self.server.stop()
@@ -424,11 +417,10 @@ def _wire_classroom(
     titles = {k: planners.load_scene(p).name or k for k, p in scenarios.items()}
     view = PlannerView(ScopedTarget(server, "/shared", inert=True))
     view.robot_model_fn = robot_model.robot_model
-    view.gizmos.place_dragged = True  # nobody holds the shared gizmos: watchers see it
-    # The class's frame rate follows its size; the presenter's own view keeps its own.
-    class_view = Paced(view, class_rate(0))
+    # Nobody holds the shared gizmos: everyone sees every drag.
+    view.gizmos.place_dragged = True
     controller = Controller(
-        [class_view],
+        [view],
         scene,
         trajectory=robot_model.trajectory,
         sample=robot_model.sample,
@@ -454,7 +446,6 @@ def _wire_classroom(
         broadcast_roots=("/explain", "/live"),
         on_token=functools.partial(_new_token, server, door, host),
         capacity=capacity,
-        class_view=class_view,
     )
     return PlannerApp(
         server=server,
@@ -465,7 +456,6 @@ def _wire_classroom(
         classroom=classroom,
         live=live,
         explain=explain,
-        class_view=class_view,
     )
 
 

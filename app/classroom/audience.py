@@ -2,17 +2,19 @@
 
 Data flow::
 
-    presenter's session -> Paced(shared view).render(frame)
-        -> the class's view: the newest frame, at most class_rate(class size) a second
     presenter's session -> Audience.render(frame)
-        -> members (presenters' own views, editors' views): drawn at once, in order
+        -> members (presenters' and editors' gizmos): drawn at once, in order
         -> deferred members (the watchers' one shared panel, lab panels): the newest
-           frame, by the audience's own thread, at most once per period
+           frame, by the audience's own thread (Paced), at most once per period
+
+The presenter's scene itself is drawn once, for everyone, by the presenter's session
+(``/shared``); the pump sends it to the class at the class's rate
+(:mod:`app.classroom.wire`).
 """
 
 from __future__ import annotations
 
-__all__ = ["BIG_CLASS", "CLASS_FPS", "SEMINAR_FPS", "Audience", "Paced", "class_rate"]
+__all__ = ["Audience", "Paced"]
 
 import logging
 import threading
@@ -22,27 +24,6 @@ from app.session.controller import Frame, RobotPose
 from app.session.frames import View
 
 logger = logging.getLogger(__name__)
-
-CLASS_FPS = 20.0
-"""Frames a second the class's view of the presenter's scene is drawn at, at most, in a
-hall: 300 watchers at 20 frames of a few KB each is what a lecture hall's WiFi carries."""
-
-SEMINAR_FPS = 60.0
-"""The same for a small class: every frame of a presenter's drag (a mouse sends 60)."""
-
-BIG_CLASS = 50
-"""Browsers from which a class is a hall (:data:`CLASS_FPS`), below a seminar."""
-
-
-def class_rate(browsers: int) -> float:
-    """Return the class's frame rate for ``browsers`` watching or editing [frames/s].
-
-    Examples
-    --------
-    >>> class_rate(12), class_rate(300)
-    (60.0, 20.0)
-    """
-    return CLASS_FPS if browsers >= BIG_CLASS else SEMINAR_FPS
 
 
 class Audience:
@@ -54,7 +35,7 @@ class Audience:
     *Deferred* members (the panels of browsers that watch) are drawn by a thread of their
     own with the newest frame, at most once per ``period`` seconds: a class of watchers
     costs the presenter's drawing thread nothing, and their panels a bounded rate (their
-    3-D scene is the shared view, drawn once for everyone, at once).
+    3-D scene is the shared view, drawn once for everyone).
     """
 
     def __init__(self, period: float = 0.1) -> None:
@@ -159,18 +140,13 @@ def _draw(
 class Paced:
     """A view drawn with the newest frame at most ``rate`` times a second, by its own thread.
 
-    The class's view of the presenter's scene (broadcast to every watcher) is drawn at
-    the class's frame rate (:func:`class_rate`), whatever the presenter's: each drawing
-    is a frame the pump sends every watcher (:mod:`app.classroom.wire`), so the rate
-    bounds the hall's WiFi and the server's work. The presenter's own view keeps its
-    full rate. A frame that arrives while one is drawn waits, and only the newest
-    waits: the last frame of a drag is always drawn. An :class:`Audience` draws its
-    deferred members (the watchers' panel) through one too.
+    An :class:`Audience` draws its deferred members (the watchers' one panel) through
+    one: the panel costs the presenter's drawing thread nothing, and at most ``rate``
+    drawings a second whatever the presenter's rate. A frame that arrives while one is
+    drawn waits, and only the newest waits: the last frame of a drag is always drawn.
     """
 
-    def __init__(
-        self, view: View, rate: float = CLASS_FPS, *, name: str = "class-view"
-    ) -> None:
+    def __init__(self, view: View, rate: float, *, name: str = "paced") -> None:
         self.view = view
         """The view drawn."""
         self.rate = rate
@@ -183,7 +159,7 @@ class Paced:
         self._drawn = 0  # of which drawn
         self._closed = False
         self.frames = 0
-        """Frames drawn so far (what the class was sent)."""
+        """Frames drawn so far."""
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
 

@@ -13,14 +13,15 @@ browser is a *seat* that
   seeded from the presenter's current scene, until it follows the presenter again.
 
 One session is shared: the presenter's :class:`app.session.controller.Controller`. It draws its
-scene once for every browser under ``/shared`` (viser's broadcast scope, gizmos replaced
-by frames nobody can drag: :mod:`app.ui.scoped`), at the class's frame rate
-(:class:`app.classroom.audience.Paced`), sent by one pump (:mod:`app.classroom.wire`);
-and, through one :class:`app.classroom.audience.Audience`, on the watchers' one panel,
-the presenters' panels and the *own views* of those that edit (a full 3-D view with live
-gizmos in the seat's client scope under ``/own``, which hides ``/shared`` for that
-browser). A private copy is a second controller whose views are the seat's own view and
-panel, with an *Explain* folder and a *Live DSB* robot of its own drawn in that browser's
+scene once for every browser, the presenters' included, under ``/shared`` (viser's
+broadcast scope, gizmos replaced by frames nobody can drag: :mod:`app.ui.scoped`); one
+pump (:mod:`app.classroom.wire`) sends it to the presenters' browsers at every frame and
+to the class at the class's frame rate. Through one
+:class:`app.classroom.audience.Audience` it also draws the watchers' one panel, the
+presenters' panels and the *gizmos* of those that edit (:class:`app.ui.view.GizmoView`,
+in the seat's client scope under ``/own``, over the shared drawing). A private copy is a
+second controller whose views are the seat's *own view* (a full 3-D view with live
+gizmos under ``/own``, which hides ``/shared`` for that browser) and panel, with an *Explain* folder and a *Live DSB* robot of its own drawn in that browser's
 scope only (:class:`PrivateExplain`, :class:`PrivateLive`; the copies' live robots share
 one :class:`app.session.pool.Ticker` with their robots' animations, at most
 :data:`COPY_TICKS_PER_S` frames a second in all). Its planners run in
@@ -35,9 +36,10 @@ laptop and on the projector's screen (or again after a reload). Every browser wi
 token is a presenter, with its own panel, banner, gizmos and *Explain* and *Live DSB*
 folders, and they share everything else:
 
-- **one scene**: each presenter's own view (``/own``, its client scope) draws the same
-  session, and a gizmo held in one browser moves in the other as the drag goes (a view
-  leaves alone only the gizmos its own user holds: :class:`app.ui.view.PlannerView`);
+- **one scene**: every presenter sees the shared drawing, with gizmos of its own
+  (``/own``, its client scope); a gizmo held in one browser moves in the other as the
+  drag goes (gizmos are left alone only where their own user holds them:
+  :class:`app.ui.view.Gizmos`);
 - **one Explain**: a single :class:`app.explain.panel.ExplainPanel` (the method, the
   step, the layers it hid, its drawing under ``/explain``); each presenter's folder
   shows that state and calls its commands, so a step taken on the laptop is the step on
@@ -56,8 +58,9 @@ Data flow::
 
     presenter's drag (its /own gizmo)  -> Classroom._shared_drag: may this seat edit?
       -> controller.edits.drag_handle  -> scheduler -> frame
-           -> Paced shared view (/shared)  # drawn once, <= 20 a second -> Pump -> all
-           -> Audience: presenters' and editors' own views and panels; the watchers'
+           -> shared view (/shared)  # drawn once -> Pump -> presenters: every frame;
+                                     #   the class: the newest, <= 20 a second in a hall
+           -> Audience: presenters' and editors' gizmos and panels; the watchers'
               one panel (<= 10 a second)
     watcher's crafted message          -> its gate says no: refused, nothing changes
     "Make my own copy"                 -> Classroom.make_copy: a Controller of its own
@@ -97,10 +100,10 @@ from typing import Any, cast
 
 import viser
 
-from app.classroom.audience import Audience, Paced, class_rate
+from app.classroom.audience import Audience
 from app.classroom.capacity import Capacity, Load, full_html, load_text, no_copy_html
 from app.classroom.watch import WatchPanel
-from app.classroom.wire import mute, share_encoding, stop_sharing
+from app.classroom.wire import class_rate, mute, share_encoding, stop_sharing
 from app.explain.panel import ExplainPanel
 from app.guard.door import Bucket
 from app.guard.gate import GatedController, Refusals
@@ -114,7 +117,7 @@ from app.session.pool import Runner, Ticker, Turns, WorkerPool
 from app.session.scheduler import big_plan, default_plan
 from app.ui.panels import Panels
 from app.ui.scoped import ScopedTarget
-from app.ui.view import PlannerView
+from app.ui.view import GizmoView, PlannerView
 from planners.allocator import give_back_freed_memory
 from planners.registry import planners_of_kind
 
@@ -256,11 +259,11 @@ class Seat:
     """The container its own panel hangs from (removed with the panel)."""
     watching: bool = False
     """Whether its browser shows the class's one watcher panel."""
-    own: PlannerView | None = None
-    """Its own 3-D view with live gizmos (while it edits the presenter's scene or its
-    own copy), else None."""
+    own: PlannerView | GizmoView | None = None
+    """Its gizmos over the shared drawing (while it edits the presenter's scene), or its
+    own 3-D view with live gizmos (while it works on its copy), else None."""
     hide: Any = None
-    """Its client-scoped, hidden ``/shared`` (while it has an own view)."""
+    """Its client-scoped, hidden ``/shared`` (while it works on its copy)."""
     private: Controller | None = None
     """Its own session (a private copy), else None: it follows the presenter."""
     tools: PresenterTools | None = None
@@ -468,9 +471,6 @@ class Classroom:
     capacity
         Most browsers and copies (:mod:`app.classroom.capacity`; this machine's by
         default).
-    class_view
-        The class's view of the presenter's scene, whose frame rate follows the class's
-        size (:func:`app.classroom.audience.class_rate`).
     """
 
     def __init__(
@@ -487,10 +487,8 @@ class Classroom:
         broadcast_roots: tuple[str, ...] = (),
         on_token: Callable[[str], None] | None = None,
         capacity: Capacity | None = None,
-        class_view: Paced | None = None,
     ) -> None:
         self.server = server
-        self._class_view = class_view
         self.capacity = capacity or Capacity.of_machine()
         """Most browsers and copies the classroom takes."""
         self.controller = controller
@@ -522,7 +520,8 @@ class Classroom:
         """The watchers' one panel (app.classroom.watch), drawn at a bounded rate."""
         self.audience.add(self.watch.panels, deferred=True)
         self.encoding = share_encoding(server)
-        """Each broadcast window encoded once for every browser (app.classroom.wire)."""
+        """The pump: each broadcast window encoded once for every browser, the class's
+        at the class's frame rate (app.classroom.wire)."""
         self.shared = CopyResources.build(controller, copy_workers)
         """What every private copy shares: worker processes, turns, threads."""
         self._copies = itertools.count(1)  # numbers each copy's Explain root
@@ -599,6 +598,8 @@ class Classroom:
         if seat.full:
             self._turn_away(seat)
             return
+        if presenter:
+            self.encoding.full_rate(client.client_id)  # the scene at every frame
         if presenter or self._open:
             self._ensure_panels(seat)  # a watcher's is the class's one panel
         with self._lock:
@@ -637,6 +638,8 @@ class Classroom:
             seat = self._seats.pop(client.client_id, None)
             if seat is None:
                 return
+            if seat.presenter:
+                self.encoding.full_rate(client.client_id, on=False)
             private, seat.private = seat.private, None
             if private is not None:  # before its view goes: it draws no more
                 private.remove_views()
@@ -860,7 +863,9 @@ class Classroom:
         panels.attach(cast(Controller, gated))
         _lock(panels, editable=True, presenter=seat.presenter)
         if seat.own is None:
-            seat.own = self._own_view(seat, self._shared_drag(cid))
+            seat.own = GizmoView(
+                ScopedTarget(seat.client, "/own"), self._shared_drag(cid)
+            )
         self.audience.add(seat.own, first=seat.presenter)
         # A follower's panel is drawn at a bounded rate; the presenter's at once.
         self.audience.add(panels, first=seat.presenter, deferred=not seat.presenter)
@@ -899,7 +904,7 @@ class Classroom:
             box.remove()
 
     def _own_view(self, seat: Seat, on_drag: Callable[..., None]) -> PlannerView:
-        """Build a 3-D view with live gizmos in the seat's own scope; hide the shared one."""
+        """Build a copy's 3-D view with live gizmos in the seat's scope; hide the shared one."""
         if seat.hide is None:
             seat.hide = seat.client.scene.add_frame(
                 "/shared", show_axes=False, visible=False
@@ -1080,9 +1085,7 @@ class Classroom:
                 seats = list(self._seats.values())
                 counts = self.counts()
             self._write_banners(seats, counts, load_text(self.load()))
-            if self._class_view is not None:
-                following = counts["watching"] + counts["together"]
-                self._class_view.rate = class_rate(following)
+            self.encoding.rate = class_rate(counts["watching"] + counts["together"])
 
     def _write_banners(
         self, seats: list[Seat], counts: dict[str, int], load: str

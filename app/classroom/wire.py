@@ -19,18 +19,30 @@ The bytes are viser's wire format, unchanged (``tests/viser_client.py`` reads it
 
     [8 bytes: msgpack size][8 bytes: zstd size][zstd(msgpack)][padding][binary buffers]
 
+The pump also sets the class's frame rate. The presenter's session is drawn once, at
+the presenter's rate, into the broadcast buffer; the presenters' browsers are sent every
+window, the class's at most :func:`class_rate` a second. Between two of the class's
+windows viser's buffer keeps only the newest message of each kind per node, so a
+class's window is the newest frame, whatever came before it.
+
 Data flow::
 
-    presenter's frame -> broadcast buffer (viser) -> one producer per browser
+    presenter's frame -> broadcast buffer (viser) -> the pump
+        -> presenters' browsers: every window (1/60 s)
+        -> the class: the newest state, at most class_rate(class size) a second
         -> WindowCache.encode(window): the bytes of these messages, encoded once
-        -> websocket.send(bytes) to each browser
+        -> each browser's socket
 """
 
 from __future__ import annotations
 
 __all__ = [
+    "BIG_CLASS",
+    "CLASS_FPS",
+    "SEMINAR_FPS",
     "Pump",
     "WindowCache",
+    "class_rate",
     "encode_window",
     "mute",
     "share_encoding",
@@ -53,6 +65,16 @@ import zstandard
 from viser.infra import _infra
 from websockets.protocol import State
 
+CLASS_FPS = 20.0
+"""Frames a second a hall is sent of the presenter's scene, at most: 300 watchers at 20
+frames of a few KB each is what a lecture hall's WiFi carries."""
+
+SEMINAR_FPS = 60.0
+"""The same for a small class: every frame of a presenter's drag (a mouse sends 60)."""
+
+BIG_CLASS = 50
+"""Browsers from which a class is a hall (:data:`CLASS_FPS`), below a seminar."""
+
 CACHED_WINDOWS = 8
 """Windows a cache keeps: the browsers that keep up share the newest one or two."""
 
@@ -65,6 +87,17 @@ of each kind meanwhile: the browser gets the newest frame when it can take one."
 WRITE_LIMIT = 32 * 1024
 """Bytes waiting in a browser's transport beyond which the pump writes it no frame: it
 lags (:class:`Pump`) until its socket drains."""
+
+
+def class_rate(browsers: int) -> float:
+    """Return the class's frame rate for ``browsers`` watching or editing [frames/s].
+
+    Examples
+    --------
+    >>> class_rate(12), class_rate(300)
+    (60.0, 20.0)
+    """
+    return CLASS_FPS if browsers >= BIG_CLASS else SEMINAR_FPS
 
 
 def encode_window(messages: Sequence[Any], compressor: Any) -> bytes:
@@ -181,6 +214,8 @@ class _Sub:
     """Done when the browser is muted: its producer returns."""
     lagging: bool = True
     """Whether it takes windows of its own (new, or its socket was full)."""
+    full: bool = False
+    """Whether it is sent every window (a presenter's browser), not the class's rate."""
     task: asyncio.Task[None] | None = None
     """Its catch-up while it lags."""
 
@@ -202,6 +237,10 @@ class Pump:
     marker first (as viser's own producer sends them). Every browser's cursor is kept
     in the buffer's ``generator_cursors``, so viser frees no message a browser still
     needs.
+
+    The class is sent at most :attr:`rate` windows a second; a *full-rate* browser (a
+    presenter's: :meth:`full_rate`) every window, from a cursor of its own. When both
+    are level they take the same window, encoded once.
     """
 
     def __init__(self, buffer: Any) -> None:
@@ -209,11 +248,17 @@ class Pump:
         self.cache = WindowCache()
         """The encoded windows (what every browser is sent)."""
         self.cursor = -1
-        """Id of the last message the up-to-date browsers were sent."""
+        """Id of the last message the class's up-to-date browsers were sent."""
+        self.rate = SEMINAR_FPS
+        """The class's most windows a second (set it at any time: from the next on)."""
+        self.frames = 0
+        """The class's windows so far (each one the newest frame, sent to everyone)."""
         self.sent = 0
         """Frames sent to browsers so far (each window's bytes, once per browser)."""
         self._subs: dict[int, _Sub] = {}
         self._muted: set[int] = set()  # muted before their producer started
+        self._full: set[int] = set()  # sent every window
+        self._due = 0.0  # time.monotonic() of the class's next window, at the earliest
         self._task: asyncio.Task[None] | None = None
 
     # ------------------------------------------------------------------ browsers
@@ -231,6 +276,7 @@ class Pump:
             cursor=-1,
             backlog=(backlog_last, marker) if marker is not None else None,
             finished=loop.create_future(),
+            full=client_id in self._full,
         )
         self._subs[client_id] = sub
         self.buffer.generator_cursors[client_id] = -1
@@ -260,6 +306,25 @@ class Pump:
         with contextlib.suppress(RuntimeError):  # the loop is closed: nothing to mute
             self.buffer.event_loop.call_soon_threadsafe(stop)
 
+    def full_rate(self, client_id: int, on: bool = True) -> None:
+        """Send browser ``client_id`` every window (``on``), or the class's (from any thread).
+
+        A browser back to the class's rate may be sent again, once, what it had: the
+        class's next window starts where the class is, behind it.
+        """
+
+        def switch() -> None:
+            if on:
+                self._full.add(client_id)
+            else:
+                self._full.discard(client_id)
+            sub = self._subs.get(client_id)
+            if sub is not None:
+                sub.full = on
+
+        with contextlib.suppress(RuntimeError):  # the loop is closed: nobody to send
+            self.buffer.event_loop.call_soon_threadsafe(switch)
+
     def muted(self, client_id: int) -> bool:
         """Whether browser ``client_id`` was muted before its producer started."""
         return client_id in self._muted
@@ -272,11 +337,11 @@ class Pump:
         try:
             while not buffer.done:
                 head = buffer.message_counter - 1
-                if head > self.cursor and buffer.atomic_counter == 0:
-                    self._round(head)
-                else:
+                if not self._pending(head):
                     await buffer.message_event.wait()
                     buffer.message_event.clear()
+                elif buffer.atomic_counter == 0:
+                    self._rounds(head, time.monotonic())
                 # At most one window per viser window (1/60 s) unless flushed.
                 done, _ = await asyncio.wait(
                     [flush], timeout=buffer.window_duration_sec
@@ -287,32 +352,57 @@ class Pump:
         finally:
             flush.cancel()
 
+    def _pending(self, head: int) -> bool:
+        """Whether messages up to ``head`` are still to go to the class or a presenter."""
+        return head > self.cursor or any(
+            s.full and not s.lagging and head > s.cursor for s in self._subs.values()
+        )
+
+    def _rounds(self, head: int, now: float) -> None:
+        """Send the class its window if one is due; the full-rate browsers theirs."""
+        if head > self.cursor and now >= self._due:
+            self._round(head)
+            self.frames += 1
+            self._due = now + 1.0 / self.rate
+        for sub in list(self._subs.values()):
+            if sub.full and not sub.lagging and head > sub.cursor:
+                window = [
+                    m
+                    for m in self._window(sub.cursor, head)
+                    if m.excluded_self_client != sub.client_id
+                ]
+                self._send(sub, window, sub.cursor, head)
+
     def _round(self, head: int) -> None:
-        """Send messages (cursor, head] to every browser that is up to date."""
+        """Send messages (cursor, head] to every browser of the class that is up to date."""
         window = self._window(self.cursor, head)
         before, self.cursor = self.cursor, head
         data = self.cache.encode(window) if window else b""
         excluded = {m.excluded_self_client for m in window} - {None}
         for sub in list(self._subs.values()):
-            if sub.lagging:
+            if sub.lagging or sub.full:
                 continue
-            if data:
-                mine = data
-                if sub.client_id in excluded:
-                    own = [m for m in window if m.excluded_self_client != sub.client_id]
-                    mine = self.cache.encode(own) if own else b""
-                if mine and _write(sub.websocket, mine):
-                    self.sent += 1
-                elif mine:
-                    # Its socket is full (or closing): it lags from where it was.
-                    sub.lagging = True
-                    sub.cursor = before
-                    sub.task = asyncio.get_running_loop().create_task(
-                        self._catch_up(sub)
-                    )
-                    continue
-            sub.cursor = head
-            self.buffer.generator_cursors[sub.client_id] = head
+            if data and sub.client_id in excluded:
+                own = [m for m in window if m.excluded_self_client != sub.client_id]
+                self._send(sub, own, before, head)
+            else:
+                self._send(sub, window, before, head, data)
+
+    def _send(
+        self, sub: _Sub, window: list[Any], before: int, head: int, data: bytes = b""
+    ) -> None:
+        """Write ``window`` (messages (before, head]) to a browser, or make it lag."""
+        if window:
+            data = data or self.cache.encode(window)
+            if not _write(sub.websocket, data):
+                # Its socket is full (or closing): it lags from where it was.
+                sub.lagging = True
+                sub.cursor = before
+                sub.task = asyncio.get_running_loop().create_task(self._catch_up(sub))
+                return
+            self.sent += 1
+        sub.cursor = head
+        self.buffer.generator_cursors[sub.client_id] = head
 
     def _window(self, after: int, upto: int) -> list[Any]:
         """Return the messages still in the buffer with ids in (after, upto]."""
@@ -324,12 +414,15 @@ class Pump:
         buffer = self.buffer
         try:
             while not buffer.done:
+                # Never past the pump (it sends the rest when the browser rejoins),
+                # nor past the replay before its marker. A full-rate browser's level
+                # is the buffer's head, read before the atomic check (as the pump
+                # does): no half of a frame being drawn.
+                level = buffer.message_counter - 1 if sub.full else self.cursor
                 if buffer.atomic_counter != 0:
                     await asyncio.sleep(buffer.window_duration_sec)
                     continue
-                # Never past the pump (it sends the rest when the browser rejoins),
-                # nor past the replay before its marker.
-                upto = min(self.cursor, sub.cursor + buffer.max_window_size)
+                upto = min(level, sub.cursor + buffer.max_window_size)
                 if sub.backlog is not None:
                     upto = min(upto, sub.backlog[0])
                 upto = max(upto, sub.cursor)
@@ -346,8 +439,10 @@ class Pump:
                 if window:
                     await sub.websocket.send(self.cache.encode(window))
                     self.sent += 1
-                if sub.backlog is None and sub.cursor >= self.cursor:
-                    sub.cursor = self.cursor
+                # Level with where the pump is now (it went on during the send).
+                level = buffer.message_counter - 1 if sub.full else self.cursor
+                if sub.backlog is None and sub.cursor >= level:
+                    sub.cursor = level
                     sub.lagging = False  # the pump writes to it from its next round
                     sub.task = None
                     return

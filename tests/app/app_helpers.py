@@ -185,13 +185,15 @@ def reset_classroom(app: Any) -> None:
 
 
 @contextlib.contextmanager
-def classroom_client(app: Any, presenter: bool = False) -> Iterator[ViserClient]:
-    """A connected client whose seat and panel are built."""
+def classroom_client(
+    app: Any, presenter: bool = False, kind: type[ViserClient] = ViserClient
+) -> Iterator[ViserClient]:
+    """A connected client (of class ``kind``) whose seat and panel are built."""
     from app.classroom import PRESENTER_PATH
 
     path = f"{PRESENTER_PATH}{app.classroom.token}" if presenter else ""
     before = set(app.server.get_clients())
-    c = ViserClient(app.port, path)
+    c = kind(app.port, path)
     try:
         assert wait_until(lambda: len(set(app.server.get_clients()) - before) == 1, 30)
         (cid,) = set(app.server.get_clients()) - before

@@ -28,7 +28,7 @@ from viser import _messages
 
 import planners
 from app import start_app
-from app.classroom import audience, wire
+from app.classroom import wire
 from app.classroom.capacity import Capacity
 from app.classroom.room import FETCH_LABEL
 from app.classroom.wire import WindowCache, encode_window
@@ -139,19 +139,31 @@ def test_the_class_shares_its_windows(hall):
 
 
 def test_the_class_frame_rate_follows_the_class_size(hall, monkeypatch):
-    """A seminar sees every frame; a hall (here: from 2 browsers on) 20 a second."""
-    monkeypatch.setattr("app.classroom.audience.BIG_CLASS", 2)
-    view = hall.class_view
-    with client(hall, presenter=True), client(hall):
-        assert wait_until(lambda: view.rate == audience.SEMINAR_FPS, 10)
-        with client(hall):
-            assert wait_until(lambda: view.rate == audience.CLASS_FPS, 10)
-            frames, start = view.frames, time.monotonic()
-            drag_goal(hall, [(8.0, 1.0 + 0.01 * k) for k in range(60)])
-            # No more frames than the rate allows in the time the drag took.
-            limit = audience.CLASS_FPS * (time.monotonic() - start) + 2
-            assert view.frames - frames <= limit, (view.frames - frames, limit)
-        assert wait_until(lambda: view.rate == audience.SEMINAR_FPS, 10)
+    """A seminar is sent every frame; a hall (here: from 2 browsers on) the newest frame
+    20 times a second, ending on the last; the presenter every frame all along."""
+    monkeypatch.setattr("app.classroom.wire.BIG_CLASS", 2)
+    pump = hall.classroom.encoding
+    with client(hall, presenter=True, kind=Recording) as pres, client(hall):
+        assert wait_until(lambda: pump.rate == wire.SEMINAR_FPS, 10)
+        with client(hall, kind=Recording) as watcher:
+            assert wait_until(lambda: pump.rate == wire.CLASS_FPS, 10)
+            seen = (len(goal_positions(pres)), len(goal_positions(watcher)))
+            frames, start = pump.frames, time.monotonic()
+            points = [(8.0, 1.0 + 0.01 * k) for k in range(60)]
+            drag_goal(hall, points)
+            last = points[-1][1]
+            assert watcher.wait_for(lambda: at(watcher, last), 20)
+            assert pres.wait_for(lambda: at(pres, last), 20)
+            took = time.monotonic() - start
+            # No more class windows than the rate allows in the time the drag took...
+            limit = wire.CLASS_FPS * took + 2
+            assert pump.frames - frames <= limit, (pump.frames - frames, limit)
+            class_seen = len(goal_positions(watcher)) - seen[1]
+            assert class_seen <= limit, (class_seen, limit)
+            # ... while the presenter's browser got (nearly) every frame of the drag.
+            presenter_seen = len(goal_positions(pres)) - seen[0]
+            assert presenter_seen > 2 * class_seen, (presenter_seen, class_seen)
+        assert wait_until(lambda: pump.rate == wire.SEMINAR_FPS, 10)
 
 
 # --------------------------------------------------------------------------- the panel

@@ -23,8 +23,8 @@ What is reported (p50 / p95 in ms; ``time.perf_counter``, one clock for both pro
 ``of frames``, ``of class``, ``fps``
     Share of the presenter's frames (the versions its own view drew during the drag)
     whose goal position reached a probe, averaged over the probes; the same share of
-    the class's frames (what the class's view drew: the presenter's frames at most
-    ``app.classroom.audience.CLASS_FPS`` a second); and the rate they arrived at
+    the class's frames (the windows the pump sent the class: the newest frame at most
+    ``app.classroom.wire.CLASS_FPS`` times a second); and the rate they arrived at
     [frames/s]. The target (>= 90 % at >= 10 frames/s) is read on the class's frames.
 ``KB/frame``
     Bytes a watcher received during the drag, per presenter frame delivered to it.
@@ -276,15 +276,16 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         time.sleep(1.0)
         seated_ = (rss_mb(), threads())
         pids = worker_pids(app)
-        class_view = getattr(app, "class_view", None)
-        class0 = class_view.frames if class_view is not None else 0
+        class0 = _class_frames(app)
         cpu0 = (time.process_time() + cpu_s(pids), time.perf_counter())
         _send(proc, "go")
         points = drag_positions(controller.scene, args.events)
         sent = mouse_drag(controller, ("goal",), points, args.rate)
         drag_s = time.perf_counter() - cpu0[1]
         assert app.wait_idle(120)
-        class_frames = class_view.frames - class0 if class_view is not None else None
+        class_frames = _class_frames(app)
+        if class_frames is not None and class0 is not None:
+            class_frames -= class0
         _send(proc, f"report {json.dumps(list(controller.scene.goal))}")
         report = _read(proc)
         cpu = time.process_time() + cpu_s(pids) - cpu0[0]
@@ -314,6 +315,14 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
             proc.kill()
         with contextlib.redirect_stdout(io.StringIO()):
             app.stop()
+
+
+def _class_frames(app: Any) -> int | None:
+    """Frames the class was sent so far (the pump's; an older tree's paced class view's)."""
+    frames = getattr(app.classroom.encoding, "frames", None)
+    if frames is None and getattr(app, "class_view", None) is not None:
+        frames = app.class_view.frames
+    return frames
 
 
 def _room(watchers: int, copies: int) -> dict[str, Any]:
@@ -472,7 +481,7 @@ def print_row(s: dict[str, Any]) -> None:
 
 def missed(s: dict[str, Any]) -> list[str]:
     """The hall's targets this class missed (watchers' figures only with watchers)."""
-    from app.classroom.audience import BIG_CLASS  # this tree's (not --code's)
+    from app.classroom.wire import BIG_CLASS  # this tree's (not --code's)
 
     out = []
     if s["watchers"] and s["copies"] <= 10:
@@ -509,7 +518,7 @@ CURVE = ((0, 0), (30, 0), (100, 0), (200, 0), (300, 0), (300, 5), (300, 10), (30
 
 def bytes_per_scenario(args: argparse.Namespace) -> int:
     """Bytes per watcher-frame of a goal drag on every shipped scenario, in a hall."""
-    from app.classroom.audience import BIG_CLASS
+    from app.classroom.wire import BIG_CLASS
     from app.server import list_scenarios
 
     print(

@@ -155,11 +155,7 @@ class Paced:
         self._frame: Frame | None = None
         self._pose: RobotPose | None = None
         self._due = (False, False)  # (frame, robot) to draw
-        self._posted = 0  # frames and poses given
-        self._drawn = 0  # of which drawn
         self._closed = False
-        self.frames = 0
-        """Frames drawn so far."""
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
 
@@ -167,22 +163,13 @@ class Paced:
         """Draw ``frame`` soon (a newer one given meanwhile replaces it)."""
         with self._cond:
             self._frame, self._due = frame, (True, self._due[1])
-            self._posted += 1
             self._cond.notify_all()
 
     def render_robot(self, pose: RobotPose | None) -> None:
         """Draw the robot at ``pose`` soon (a newer one given meanwhile replaces it)."""
         with self._cond:
             self._pose, self._due = pose, (self._due[0], True)
-            self._posted += 1
             self._cond.notify_all()
-
-    def wait_drawn(self, timeout: float = 10.0) -> bool:
-        """Block until what was given so far is drawn; False if ``timeout`` [s] passed."""
-        with self._cond:
-            return self._cond.wait_for(
-                lambda: self._drawn >= self._posted or self._closed, timeout
-            )
 
     def close(self) -> None:
         """Stop the thread (what is not drawn yet stays undrawn)."""
@@ -198,11 +185,7 @@ class Paced:
                 if self._closed:
                     return
                 (frame_due, robot_due), self._due = self._due, (False, False)
-                frame, pose, posted = self._frame, self._pose, self._posted
+                frame, pose = self._frame, self._pose
             started = time.monotonic()
             _draw(self.view, frame if frame_due else None, pose, robot=robot_due)
-            with self._cond:
-                self._drawn = posted
-                self.frames += frame_due
-                self._cond.notify_all()
             time.sleep(max(0.0, 1.0 / self.rate - (time.monotonic() - started)))

@@ -8,7 +8,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import viser
@@ -19,6 +19,8 @@ from app.ui.scoped import ScopedTarget
 from app.ui.view import PlannerView
 from planners import Scene
 from tests.viser_client import ViserClient
+
+ClientT = TypeVar("ClientT", bound=ViserClient)
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO_DIR = ROOT / "static_scenarios"
@@ -186,8 +188,8 @@ def reset_classroom(app: Any) -> None:
 
 @contextlib.contextmanager
 def classroom_client(
-    app: Any, presenter: bool = False, kind: type[ViserClient] = ViserClient
-) -> Iterator[ViserClient]:
+    app: Any, presenter: bool = False, kind: type[ClientT] = ViserClient
+) -> Iterator[ClientT]:
     """A connected client (of class ``kind``) whose seat and panel are built."""
     from app.classroom import PRESENTER_PATH
 

@@ -363,7 +363,11 @@ class Pump:
         if head > self.cursor and now >= self._due:
             self._round(head)
             self.frames += 1
-            self._due = now + 1.0 / self.rate
+            # On the beat (rounds come at the pump's windows, a little after their due
+            # time); after a pause, one period from now.
+            period = 1.0 / self.rate
+            late = now - self._due
+            self._due = self._due + period if late < period else now + period
         for sub in list(self._subs.values()):
             if sub.full and not sub.lagging and head > sub.cursor:
                 window = [

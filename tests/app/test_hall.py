@@ -140,8 +140,13 @@ def test_the_class_shares_its_windows(hall):
 
 def test_the_class_frame_rate_follows_the_class_size(hall, monkeypatch):
     """A seminar is sent every frame; a hall (here: from 2 browsers on) the newest frame
-    20 times a second, ending on the last; the presenter every frame all along."""
-    monkeypatch.setattr("app.classroom.wire.BIG_CLASS", 2)
+    at the class's rate, ending on the last; the presenter every frame all along.
+
+    The hall's rate is made 5 frames a second here: whatever the machine's speed, the
+    server draws more frames than that during the drag, and the presenter gets them.
+    """
+    monkeypatch.setattr(wire, "BIG_CLASS", 2)
+    monkeypatch.setattr(wire, "CLASS_FPS", 5.0)
     pump = hall.classroom.encoding
     with client(hall, presenter=True, kind=Recording) as pres, client(hall):
         assert wait_until(lambda: pump.rate == wire.SEMINAR_FPS, 10)
@@ -160,9 +165,9 @@ def test_the_class_frame_rate_follows_the_class_size(hall, monkeypatch):
             assert pump.frames - frames <= limit, (pump.frames - frames, limit)
             class_seen = len(goal_positions(watcher)) - seen[1]
             assert class_seen <= limit, (class_seen, limit)
-            # ... while the presenter's browser got (nearly) every frame of the drag.
+            # ... while the presenter's browser got more than the class's rate allows.
             presenter_seen = len(goal_positions(pres)) - seen[0]
-            assert presenter_seen > 2 * class_seen, (presenter_seen, class_seen)
+            assert presenter_seen > limit, (presenter_seen, limit)
         assert wait_until(lambda: pump.rate == wire.SEMINAR_FPS, 10)
 
 

@@ -283,11 +283,13 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         sent = mouse_drag(controller, ("goal",), points, args.rate)
         drag_s = time.perf_counter() - cpu0[1]
         assert app.wait_idle(120)
+        _send(proc, f"report {json.dumps(list(controller.scene.goal))}")
+        report = _read(proc)
+        # Read once the class has the last position: the pump sends the class its
+        # last window up to a class period after the last frame was drawn.
         class_frames = _class_frames(app)
         if class_frames is not None and class0 is not None:
             class_frames -= class0
-        _send(proc, f"report {json.dumps(list(controller.scene.goal))}")
-        report = _read(proc)
         cpu = time.process_time() + cpu_s(pids) - cpu0[0]
         copy_rates = [
             len([t for t in p.fast.values() if cpu0[1] <= t]) / drag_s

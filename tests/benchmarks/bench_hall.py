@@ -41,9 +41,11 @@ Run: ``python tests/benchmarks/bench_hall.py [--watchers 300] [--copies 0]`` or
 ``--curve`` for the table of classes from 0 to 300 watchers and 0 to 20 copies (each
 class in a fresh server process), ``--every-scenario`` for the bytes per watcher-frame of
 every shipped scenario, ``--code DIR`` to serve another checkout's app (a worktree of an
-older commit, for before/after). A report, not a test: it exits 0 unless ``--strict``
-and a target is missed (presenter -> watcher p95 <= 150 ms, >= 90 % delivered at >= 10
-frames/s, <= 16 KB per watcher-frame).
+older commit, for before/after), ``--busy SHARE`` to burn that share of a core in
+another process during each drag (``--configs 0:0 --busy 0.6``: the presenter alone on a
+machine as busy as the class's client process makes it). A report, not a test: it exits
+0 unless ``--strict`` and a target is missed (presenter -> watcher p95 <= 150 ms, >= 90 %
+delivered at >= 10 frames/s, <= 16 KB per watcher-frame).
 """
 
 from __future__ import annotations
@@ -278,11 +280,15 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         pids = worker_pids(app)
         class0 = _class_frames(app)
         cpu0 = (time.process_time() + cpu_s(pids), time.perf_counter())
+        busy = _burner(args.busy)
         _send(proc, "go")
         points = drag_positions(controller.scene, args.events)
         sent = mouse_drag(controller, ("goal",), points, args.rate)
         drag_s = time.perf_counter() - cpu0[1]
         assert app.wait_idle(120)
+        if busy is not None:
+            busy.kill()
+            busy.wait()
         _send(proc, f"report {json.dumps(list(controller.scene.goal))}")
         report = _read(proc)
         # Read once the class has the last position: the pump sends the class its
@@ -319,9 +325,25 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
             app.stop()
 
 
+def _burner(duty: float) -> subprocess.Popen | None:
+    """Start a process that burns ``duty`` of one core (None for 0)."""
+    if duty <= 0:
+        return None
+    return subprocess.Popen([sys.executable, __file__, "--burn", f"--busy={duty}"])
+
+
+def burn(duty: float) -> int:
+    """Keep one core ``duty`` busy, in 10 ms periods, until killed."""
+    while True:
+        start = time.perf_counter()
+        while time.perf_counter() - start < 0.01 * duty:
+            pass
+        time.sleep(0.01 * (1.0 - duty))
+
+
 def _class_frames(app: Any) -> int | None:
     """Frames the class was sent so far (the pump's; an older tree's paced class view's)."""
-    frames = getattr(app.classroom.encoding, "frames", None)
+    frames = getattr(getattr(app.classroom, "encoding", None), "frames", None)
     if frames is None and getattr(app, "class_view", None) is not None:
         frames = app.class_view.frames
     return frames
@@ -510,6 +532,7 @@ def run_fresh(watchers: int, copies: int, args: argparse.Namespace) -> dict[str,
             f"--probes={args.probes}",
             f"--student-rate={args.student_rate}",
             f"--scenario={args.scenario}",
+            f"--busy={args.busy}",
         ],
         code=args.code,
     )
@@ -564,9 +587,19 @@ def main(argv: list[str] | None = None) -> int:
         help="bytes per watcher-frame on every shipped scenario (a hall's class each)",
     )
     parser.add_argument("--configs", default="", help="WATCHERS:COPIES,... instead")
+    parser.add_argument(
+        "--busy",
+        type=float,
+        default=0.0,
+        metavar="SHARE",
+        help="a process burns this share of one core during each drag (the class's "
+        "client process takes about 0.5 to 0.7 in a full hall: '--configs 0:0 --busy "
+        "0.6' is the presenter alone on a machine as busy as the hall's simulator makes it)",
+    )
     parser.add_argument("--strict", action="store_true")
     parser.add_argument("--json", metavar="FILE", help="write every measurement")
     parser.add_argument("--clients", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--burn", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--port", type=int, help=argparse.SUPPRESS)
     parser.add_argument("--token", help=argparse.SUPPRESS)
@@ -574,6 +607,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.clients:
         return run_clients(args)
+    if args.burn:
+        return burn(args.busy)
     if args.one:
         print(json.dumps(run(args.watchers, args.copies, args)))
         return 0
@@ -595,6 +630,8 @@ def main(argv: list[str] | None = None) -> int:
         f"to watchers p95 <= {P95_TARGET_MS:g} ms, >= {DELIVERED_TARGET:.0%} delivered "
         f"at >= {RATE_TARGET:g} fps, <= {KB_TARGET:g} KB per watcher-frame"
     )
+    if args.busy > 0:
+        print(f"a process burns {args.busy:g} of a core during each drag (--busy)")
     print()
     print(HEADER)
     print("-" * len(HEADER))

@@ -1,8 +1,10 @@
 """A classroom: the presenter edits, the class watches, a student may work on a copy.
 
 - :mod:`app.classroom.room`: the seats, their modes, copies (:class:`Classroom`);
-- :mod:`app.classroom.audience`: the followers' views, drawn from the presenter's session;
-- :mod:`app.classroom.wire`: one encoding of each broadcast window for every browser;
+- :mod:`app.classroom.audience`: the followers' gizmos and panels, drawn from the
+  presenter's session;
+- :mod:`app.classroom.wire`: the pump: each broadcast window encoded once for every
+  browser, the class's at the class's frame rate;
 - :mod:`app.classroom.watch`: the watchers' one shared panel;
 - :mod:`app.classroom.capacity`: how many seats and copies the server takes, and the load.
 

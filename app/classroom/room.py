@@ -21,8 +21,8 @@ to the class at the class's frame rate. Through one
 presenters' panels and the *gizmos* of those that edit (:class:`app.ui.view.GizmoView`,
 in the seat's client scope under ``/own``, over the shared drawing). A private copy is a
 second controller whose views are the seat's *own view* (a full 3-D view with live
-gizmos under ``/own``, which hides ``/shared`` for that browser) and panel, with an *Explain* folder and a *Live DSB* robot of its own drawn in that browser's
-scope only (:class:`PrivateExplain`, :class:`PrivateLive`; the copies' live robots share
+gizmos under ``/own``, which hides ``/shared`` for that browser) and panel, with an
+*Explain* folder and a *Live DSB* robot of its own drawn in that browser's scope only (:class:`PrivateExplain`, :class:`PrivateLive`; the copies' live robots share
 one :class:`app.session.pool.Ticker` with their robots' animations, at most
 :data:`COPY_TICKS_PER_S` frames a second in all). Its planners run in
 :class:`app.session.pool.WorkerPool` s shared by every copy (VG and SVG, DSB, a big

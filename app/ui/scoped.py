@@ -1,10 +1,11 @@
 """Draw a :class:`app.ui.view.PlannerView` under a root node, for everyone or for one browser.
 
 In a classroom (:mod:`app.classroom`) the presenter's scene is drawn once for every
-browser under ``/shared`` (viser's broadcast scope), and a browser that edits draws its
-own view under ``/own`` in its client scope. viser 1.1.1 lets a client-scoped node
-*shadow* the broadcast node of the same name for that one browser; a hidden client-scoped
-``/shared`` therefore hides the whole shared drawing from a browser that has its own.
+browser under ``/shared`` (viser's broadcast scope); a browser that edits it has its
+gizmos under ``/own`` in its client scope, over the shared drawing, and a browser on a
+private copy draws its own view there. viser 1.1.1 lets a client-scoped node *shadow*
+the broadcast node of the same name for that one browser; a hidden client-scoped
+``/shared`` therefore hides the whole shared drawing from a browser on a copy.
 
 :class:`ScopedTarget` is what :class:`PlannerView` takes as its target: a ``scene`` whose
 ``add_*`` methods prefix every node name with the root, and the owner's ``atomic``. With

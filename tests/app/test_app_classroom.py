@@ -235,8 +235,13 @@ def test_the_presenter_url_makes_the_presenter_and_the_plain_url_a_watcher(plann
         )
         assert watch.wait_for(lambda: watch.element("Radius [m]")["props"]["disabled"])
         assert not pres.element("Radius [m]")["props"]["disabled"]
-        # Only the presenter has gizmos: its own, in its client scope.
+        # Only the presenter has gizmos: its own, in its client scope, and nothing else
+        # there: it sees the class's one drawing, which nothing of its own hides.
         assert (str(pres.client_id), f"/own{GOAL}") in pres.nodes
+        own = _own_drawing(pres)
+        assert own and all(n == "/own" or n.startswith("/own/handles") for n in own)
+        assert (str(pres.client_id), "/shared") not in pres.nodes
+        assert ("", "/shared" + GOAL) in pres.nodes
         assert not any(owner for owner, _ in watch.nodes)
     with client(planner) as plain:
         assert connection_path(planner.server, plain.client_id) == "/"

@@ -103,7 +103,7 @@ import viser
 from app.classroom.audience import Audience
 from app.classroom.capacity import Capacity, Load, full_html, load_text, no_copy_html
 from app.classroom.watch import WatchPanel
-from app.classroom.wire import class_rate, mute, share_encoding, stop_sharing
+from app.classroom.wire import class_rate, left, mute, share_encoding, stop_sharing
 from app.explain.panel import ExplainPanel
 from app.guard.door import Bucket
 from app.guard.gate import GatedController, Refusals
@@ -1094,6 +1094,8 @@ class Classroom:
             mode = self.mode(seat.client_id)
             if not mode or seat.banner is None or seat.buttons is None:
                 continue  # its banner and buttons are being built
+            if left(seat.client):
+                continue  # it left meanwhile: its seat goes soon
             if not seat.presenter and seat.shown == (mode, self._open):
                 continue  # a student's banner shows no counts: nothing new for it
             try:

@@ -37,6 +37,7 @@ import viser
 from viser import _messages
 from viser._gui_handles import GuiFolderHandle, _GuiHandleState
 
+from app.classroom.wire import left
 from app.guard.gate import GatedController, Refusals
 from app.session.controller import Controller
 from app.ui.panels import Panels
@@ -112,4 +113,5 @@ class WatchPanel:
 
 def _queue(client: viser.ClientHandle, message: Any) -> None:
     """Send ``message`` to one browser, in order with the rest of its own messages."""
-    client._websock_connection.queue_message(message)
+    if not left(client):
+        client._websock_connection.queue_message(message)

@@ -12,18 +12,19 @@ browser is a *seat* that
 - works on **its own copy**: a session of its own (scene, planners, robot, undo history),
   seeded from the presenter's current scene, until it follows the presenter again.
 
-One session is shared: the presenter's :class:`app.session.controller.Controller`. It draws its
-scene once for every browser, the presenters' included, under ``/shared`` (viser's
-broadcast scope, gizmos replaced by frames nobody can drag: :mod:`app.ui.scoped`); one
-pump (:mod:`app.classroom.wire`) sends it to the presenters' browsers at every frame and
-to the class at the class's frame rate. Through one
+One session is shared: the presenter's :class:`app.session.controller.Controller`. It
+draws its scene once for every browser, the presenters' included, under ``/shared``
+(viser's broadcast scope, gizmos replaced by frames nobody can drag:
+:mod:`app.ui.scoped`); one pump (:mod:`app.classroom.wire`) sends it to the presenters'
+browsers at every frame and to the class at the class's frame rate. Through one
 :class:`app.classroom.audience.Audience` it also draws the watchers' one panel, the
 presenters' panels and the *gizmos* of those that edit (:class:`app.ui.view.GizmoView`,
 in the seat's client scope under ``/own``, over the shared drawing). A private copy is a
 second controller whose views are the seat's *own view* (a full 3-D view with live
 gizmos under ``/own``, which hides ``/shared`` for that browser) and panel, with an
-*Explain* folder and a *Live DSB* robot of its own drawn in that browser's scope only (:class:`PrivateExplain`, :class:`PrivateLive`; the copies' live robots share
-one :class:`app.session.pool.Ticker` with their robots' animations, at most
+*Explain* folder and a *Live DSB* robot of its own drawn in that browser's scope only
+(:class:`PrivateExplain`, :class:`PrivateLive`; the copies' live robots share one
+:class:`app.session.pool.Ticker` with their robots' animations, at most
 :data:`COPY_TICKS_PER_S` frames a second in all). Its planners run in
 :class:`app.session.pool.WorkerPool` s shared by every copy (VG and SVG, DSB, a big
 scene's graphs: at most ``copy_workers`` processes of each kind, at a lower priority),

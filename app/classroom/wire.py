@@ -364,9 +364,12 @@ class Pump:
 
     def _pending(self, head: int) -> bool:
         """Whether messages up to ``head`` are still to go to the class or a presenter."""
-        return head > self.cursor or any(
-            s.full and not s.lagging and head > s.cursor for s in self._subs.values()
-        )
+        return head > self.cursor or any(head > s.cursor for s in self._full_subs())
+
+    def _full_subs(self) -> list[_Sub]:
+        """Return the full-rate browsers the pump writes to (not lagging): a few at most."""
+        subs = (self._subs.get(client_id) for client_id in self._full)
+        return [s for s in subs if s is not None and s.full and not s.lagging]
 
     def _rounds(self, head: int, now: float) -> None:
         """Send the class its window if one is due; the full-rate browsers theirs."""
@@ -378,8 +381,8 @@ class Pump:
             period = 1.0 / self.rate
             late = now - self._due
             self._due = self._due + period if late < period else now + period
-        for sub in list(self._subs.values()):
-            if sub.full and not sub.lagging and head > sub.cursor:
+        for sub in self._full_subs():
+            if head > sub.cursor:
                 window = [
                     m
                     for m in self._window(sub.cursor, head)

@@ -1348,11 +1348,12 @@ class PlannerView:
 
 
 class Gizmos:
-    """The gizmos a user drags in one scope: start, goal, and in the edit tool the rest.
+    """The gizmos a user drags in one scope: start and goal, and in the edit tool more.
 
-    In the edit tool every vertex and every obstacle has one too. A :class:`PlannerView` hangs its start and goal markers from them (``/handles/start``
-    and ``/handles/goal``); a classroom's presenter has them alone (:class:`GizmoView`),
-    over the class's one drawing.
+    In the edit tool every vertex and every obstacle has one too. A :class:`PlannerView`
+    hangs its start and goal markers from them (``/handles/start`` and
+    ``/handles/goal``); a classroom's presenter has them alone (:class:`GizmoView`), over
+    the class's one drawing.
 
     Parameters
     ----------

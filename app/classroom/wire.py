@@ -360,7 +360,9 @@ class Pump:
                     buffer.flush_event.clear()
                     flush = asyncio.ensure_future(buffer.flush_event.wait())
         finally:
-            flush.cancel()
+            # The loop may be closed already (the server stopped under the pump).
+            with contextlib.suppress(RuntimeError):
+                flush.cancel()
 
     def _pending(self, head: int) -> bool:
         """Whether messages up to ``head`` are still to go to the class or a presenter."""

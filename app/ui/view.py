@@ -1382,14 +1382,25 @@ class Gizmos:
         self._drawn: Any = _MISSING
 
     def _add_end(self, name: str) -> viser.TransformControlsHandle:
+        return self._add(f"/handles/{name}", 0.9, lambda: (name,))
+
+    def _add(
+        self,
+        node: str,
+        scale: float,
+        which: Callable[[], Handle | None],
+        **options: Any,
+    ) -> viser.TransformControlsHandle:
+        """Add a gizmo that moves in the floor's plane and reports ``which()`` handle."""
         gizmo = self.scene.add_transform_controls(
-            f"/handles/{name}",
-            scale=0.9,
+            node,
+            scale=scale,
             active_axes=(True, True, False),
             disable_rotations=True,
             depth_test=False,
+            **options,
         )
-        gizmo.on_update(self._callback(lambda: (name,)))
+        gizmo.on_update(self._callback(which))
         return gizmo
 
     def _callback(self, which: Callable[[], Handle | None]) -> Callable[[Any], Any]:
@@ -1449,17 +1460,15 @@ class Gizmos:
         wanted = len(slots) if editing and len(slots) <= MAX_VERTEX_HANDLES else 0
         while len(self.vertex_handles) < wanted:
             k = len(self.vertex_handles)
-            gizmo = self.scene.add_transform_controls(
-                f"/handles/vertex/{k}",
-                scale=0.45,
-                active_axes=(True, True, False),
-                disable_axes=True,
-                disable_rotations=True,
-                depth_test=False,
-                visible=False,
+            self.vertex_handles.append(
+                self._add(
+                    f"/handles/vertex/{k}",
+                    0.45,
+                    functools.partial(self._vertex, k),
+                    disable_axes=True,
+                    visible=False,
+                )
             )
-            gizmo.on_update(self._callback(functools.partial(self._vertex, k)))
-            self.vertex_handles.append(gizmo)
         self.vertex_slots = slots
         for k, gizmo in enumerate(self.vertex_handles):
             shown = k < wanted
@@ -1478,16 +1487,14 @@ class Gizmos:
         n = len(scene.obstacles)
         while len(self.obstacle_handles) < (n if editing else 0):
             k = len(self.obstacle_handles)
-            gizmo = self.scene.add_transform_controls(
-                f"/handles/obstacle/{k}",
-                scale=0.8,
-                active_axes=(True, True, False),
-                disable_rotations=True,
-                depth_test=False,
-                visible=False,
+            self.obstacle_handles.append(
+                self._add(
+                    f"/handles/obstacle/{k}",
+                    0.8,
+                    functools.partial(_obstacle, k),
+                    visible=False,
+                )
             )
-            gizmo.on_update(self._callback(functools.partial(_obstacle, k)))
-            self.obstacle_handles.append(gizmo)
         for k, gizmo in enumerate(self.obstacle_handles):
             shown = k < n and editing
             if shown and ("obstacle", k) not in dragging:

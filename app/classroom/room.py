@@ -104,7 +104,7 @@ import viser
 from app.classroom.audience import Audience
 from app.classroom.capacity import Capacity, Load, full_html, load_text, no_copy_html
 from app.classroom.watch import WatchPanel
-from app.classroom.wire import class_rate, left, mute, share_encoding, stop_sharing
+from app.classroom.wire import class_rate, mute, share_encoding, stop_sharing
 from app.explain.panel import ExplainPanel
 from app.guard.door import Bucket
 from app.guard.gate import GatedController, Refusals
@@ -117,7 +117,7 @@ from app.session.frames import View
 from app.session.pool import Runner, Ticker, Turns, WorkerPool
 from app.session.scheduler import big_plan, default_plan
 from app.ui.panels import Panels
-from app.ui.scoped import ScopedTarget
+from app.ui.scoped import ScopedTarget, batch, left
 from app.ui.view import GizmoView, PlannerView
 from planners.allocator import give_back_freed_memory
 from planners.registry import planners_of_kind
@@ -745,10 +745,7 @@ class Classroom:
         # of it (viser's thread, not under this lock) must find the copy to move.
         seat.private, seat.explain, seat.live = private, explain, live
         own = seat.own = self._own_view(seat, self._private_drag(seat))
-        seat.shadows = tuple(
-            seat.client.scene.add_frame(root, show_axes=False, visible=False)
-            for root in self._roots
-        )
+        seat.shadows = _shadows(seat.client, self._roots)
         # Built before the lock, unless a lab just ended and took it back meanwhile.
         panels = self._ensure_panels(seat)
         gated = GatedController(
@@ -907,9 +904,7 @@ class Classroom:
     def _own_view(self, seat: Seat, on_drag: Callable[..., None]) -> PlannerView:
         """Build a copy's 3-D view with live gizmos in the seat's scope; hide the shared one."""
         if seat.hide is None:
-            seat.hide = seat.client.scene.add_frame(
-                "/shared", show_axes=False, visible=False
-            )
+            (seat.hide,) = _shadows(seat.client, ("/shared",))
         view = PlannerView(ScopedTarget(seat.client, "/own"), on_drag=on_drag)
         view.robot_model_fn = robot_model.robot_model
         return view
@@ -950,10 +945,7 @@ class Classroom:
     def _turn_away(self, seat: Seat) -> None:
         """Tell a browser that every seat is taken; hide what scene it got meanwhile."""
         client = seat.client
-        seat.shadows = tuple(
-            client.scene.add_frame(root, show_axes=False, visible=False)
-            for root in ("/shared", *self._roots)
-        )
+        seat.shadows = _shadows(client, ("/shared", *self._roots))
         seat.banner = client.gui.add_html("", order=-3.0)
         seat.buttons = ()
         self._say(seat, full_html(self.capacity))
@@ -1100,7 +1092,8 @@ class Classroom:
             if not seat.presenter and seat.shown == (mode, self._open):
                 continue  # a student's banner shows no counts: nothing new for it
             try:
-                _set_banner(seat, mode, counts, self._open, load)
+                with batch(seat.client):
+                    _set_banner(seat, mode, counts, self._open, load)
                 seat.shown = (mode, self._open)
             except Exception:
                 logger.exception("could not update a browser's banner")
@@ -1155,6 +1148,19 @@ def banner_html(
         f'<div style="font-size:1.25em;font-weight:bold">{title}</div>'
         f'<div style="font-size:0.85em">{text}</div></div>'
     )
+
+
+def _shadows(client: viser.ClientHandle, roots: tuple[str, ...]) -> tuple[Any, ...]:
+    """Hide the broadcast drawings under ``roots`` from one browser.
+
+    A client-scoped hidden frame shadows the broadcast node of its name
+    (:mod:`app.ui.scoped`).
+    """
+    with batch(client):
+        return tuple(
+            client.scene.add_frame(root, show_axes=False, visible=False)
+            for root in roots
+        )
 
 
 def _set_banner(

@@ -37,10 +37,10 @@ import viser
 from viser import _messages
 from viser._gui_handles import GuiFolderHandle, _GuiHandleState
 
-from app.classroom.wire import left
 from app.guard.gate import GatedController, Refusals
 from app.session.controller import Controller
 from app.ui.panels import Panels
+from app.ui.scoped import left
 from planners.registry import PlannerSpec
 
 CONTAINER = "classroom-watchers-panel"

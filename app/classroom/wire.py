@@ -44,7 +44,6 @@ __all__ = [
     "WindowCache",
     "class_rate",
     "encode_window",
-    "left",
     "mute",
     "share_encoding",
     "stop_sharing",
@@ -167,15 +166,6 @@ _pumps: dict[int, Pump] = {}
 """id(broadcast buffer) -> its pump: the servers that share their broadcast."""
 _pumps_lock = threading.Lock()
 _viser_producer = _infra._message_producer
-
-
-def left(client: viser.ClientHandle) -> bool:
-    """Whether ``client``'s browser has left (what is queued for it is never sent).
-
-    viser warns about a message queued on a closed connection: a banner or panel
-    refreshed for a browser that left meanwhile is skipped instead.
-    """
-    return bool(client._websock_connection.get_message_buffer().done)
 
 
 def share_encoding(server: viser.ViserServer) -> Pump:

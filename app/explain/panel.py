@@ -44,6 +44,7 @@ from app.explain.view import ExplainView
 from app.session.big import BIG_SCENE_VERTICES, scene_vertices
 from app.session.pool import Runner
 from app.session.scheduler import Pending
+from app.ui.scoped import batch
 from app.ui.text import html_text, markdown_text
 from planners import Memo, PlanOptions, plan_all
 from planners.explain import Abandoned, Explanation, Step
@@ -490,6 +491,7 @@ class ExplainFolder:
     """
 
     def __init__(self, gui: viser.GuiApi, panel: ExplainPanel) -> None:
+        self._owner = gui._owner  # the browser (or server) whose panel it is
         self.handle = gui.add_folder("Explain", expand_by_default=False)
         """The folder itself (:meth:`remove` takes it off its browser's panel)."""
         with self.handle:
@@ -539,8 +541,9 @@ class ExplainFolder:
 
     def show_choice(self, method: str, obstacle: int) -> None:
         """Show the method and obstacle chosen (in this browser or another)."""
-        self.method.value = METHOD_TITLES[method]
-        self.obstacle.value = obstacle
+        with batch(self._owner):
+            self.method.value = METHOD_TITLES[method]
+            self.obstacle.value = obstacle
 
     def show(
         self,
@@ -550,6 +553,16 @@ class ExplainFolder:
         words: str,
     ) -> None:
         """Show step ``n`` of ``explanation`` (None: ``words`` say why there is none)."""
+        with batch(self._owner):
+            self._show(step, explanation, n, words)
+
+    def _show(
+        self,
+        step: Step | None,
+        explanation: Explanation | None,
+        n: int,
+        words: str,
+    ) -> None:
         if explanation is None or step is None:
             self.text.content = words
             self.table.content = self.flowchart.content = ""
@@ -591,6 +604,7 @@ class ExplainPanel:
     ) -> None:
         self._controller = controller
         self._view = ExplainView(server.scene)
+        self._atomic = server.atomic  # a step is drawn as one update
         self._saved_layers: dict[str, bool] | None = None
         self._layers: Mapping[str, bool] = {}
         self._scene: Scene | None = None
@@ -689,11 +703,12 @@ class ExplainPanel:
 
     def _draw(self, step: Step | None, explanation: Explanation | None) -> None:
         n = self.explainer.step
+        caption = ""
         if step is None or explanation is None:
             step, explanation = None, None
-            self._view.show(None)
         else:
             caption = f"{n + 1}/{len(explanation.steps)}  {step.text}"
+        with self._atomic():
             self._view.show(step, caption, self._scene)
         with self._lock:
             self._shown = (step, explanation)

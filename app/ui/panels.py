@@ -29,6 +29,7 @@ import planners
 from app.session.controller import MOTION_FILES, TOOLS, Controller, Frame, RobotPose
 from app.session.files import ScenesFolder
 from app.session.tools import layer_names
+from app.ui.scoped import batch
 from app.ui.style import COLORS, hex_color, planner_look
 from app.ui.text import markdown_text
 from app.ui.thinning import frame_note
@@ -506,7 +507,7 @@ class Panels:
 
     def render(self, frame: Frame) -> None:
         """Show ``frame``'s results, messages and settings (in one batch of messages)."""
-        with self.server.atomic():
+        with batch(self.server):
             self._render(frame)
 
     def _render(self, frame: Frame) -> None:
@@ -623,7 +624,11 @@ class Panels:
         self.time.max = max(round(duration, 2), 0.01)
 
     def render_robot(self, pose: RobotPose | None) -> None:
-        """Show the robot's time and wheel rates."""
+        """Show the robot's time and wheel rates (in one batch of messages)."""
+        with batch(self.server):
+            self._render_robot(pose)
+
+    def _render_robot(self, pose: RobotPose | None) -> None:
         if pose is None:
             text = "*No path to follow.*"
         else:

@@ -16,13 +16,37 @@ browser can move them (no transform control of that name exists on the server).
 
 from __future__ import annotations
 
-__all__ = ["InertGizmo", "PrefixedScene", "ScopedTarget"]
+__all__ = ["InertGizmo", "PrefixedScene", "ScopedTarget", "batch", "left"]
 
 import contextlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, cast
 
 import viser
+
+
+def left(client: viser.ClientHandle) -> bool:
+    """Whether ``client``'s browser has left (what is queued for it is never sent)."""
+    return bool(client._websock_connection.get_message_buffer().done)
+
+
+@contextlib.contextmanager
+def batch(owner: Any) -> Iterator[None]:
+    """Batch ``owner``'s messages: browsers apply them as one update.
+
+    ``owner`` is a ``viser.ViserServer`` or a ``viser.ClientHandle``. One browser may
+    leave while its view or panel is drawn: the rest of that drawing goes nowhere,
+    quietly (viser would warn, once per browser, of messages it will never deliver;
+    a view is taken off its session when its browser leaves, so no drawing follows).
+    """
+    with owner.atomic():
+        if isinstance(owner, viser.ClientHandle):
+            with (
+                owner._websock_connection.get_message_buffer().sanctioned_dead_writes()
+            ):
+                yield
+        else:
+            yield
 
 
 class InertGizmo:
@@ -53,18 +77,25 @@ class PrefixedScene:
         Name of the root node, e.g. ``"/shared"``; it is created here, as a frame.
     inert
         Replace transform controls (gizmos) by frames (:class:`InertGizmo`).
-    one_browser
-        The scene is one browser's (``client.scene``): its gizmos echo nothing back.
+    browser
+        The browser whose scene it is (``client``, for ``client.scene``), else None:
+        its gizmos echo nothing back, and what is added after it left goes nowhere,
+        quietly (:func:`batch`).
     """
 
     def __init__(
-        self, scene: Any, root: str, *, inert: bool = False, one_browser: bool = False
+        self,
+        scene: Any,
+        root: str,
+        *,
+        inert: bool = False,
+        browser: viser.ClientHandle | None = None,
     ) -> None:
         self._scene = scene
         self.root_name = root
         """Name of the root node."""
         self._inert = inert
-        self._one_browser = one_browser
+        self._browser = browser
         self.root = scene.add_frame(root, show_axes=False)
         """The root node (remove it to remove everything drawn under it)."""
 
@@ -77,8 +108,11 @@ class PrefixedScene:
 
         def add(node: str, *args: Any, **kwargs: Any) -> Any:
             self._ensure_root()
-            handle = method(self.root_name + node, *args, **kwargs)
-            if name == "add_transform_controls" and self._one_browser:
+            if self._browser is None:
+                return method(self.root_name + node, *args, **kwargs)
+            with batch(self._browser):
+                handle = method(self.root_name + node, *args, **kwargs)
+            if name == "add_transform_controls":
                 _no_echo(handle)
             return handle
 
@@ -139,7 +173,7 @@ class ScopedTarget:
             owner.scene,
             root,
             inert=inert,
-            one_browser=isinstance(owner, viser.ClientHandle),
+            browser=owner if isinstance(owner, viser.ClientHandle) else None,
         )
         """The prefixed scene."""
         # What the view calls on it is SceneApi's add_* methods, prefixed.
@@ -147,8 +181,8 @@ class ScopedTarget:
         """The prefixed scene, as the view sees it (a viser ``SceneApi``)."""
 
     def atomic(self) -> contextlib.AbstractContextManager[None]:
-        """Batch the owner's messages (clients apply it as one update)."""
-        return self.owner.atomic()
+        """Batch the owner's messages (clients apply it as one update: :func:`batch`)."""
+        return batch(self.owner)
 
     def remove(self) -> None:
         """Remove the root and everything drawn under it (in this scope)."""

@@ -246,3 +246,46 @@ def test_a_scoped_view_drawn_after_its_root_is_removed_adds_no_node():
         assert not [name for name in names if name.startswith("/own")]
     finally:
         server.stop()
+
+
+def test_a_view_drawn_after_its_browser_left_goes_nowhere_quietly():
+    """A browser leaves while its view is drawn: the rest of the drawing is dropped
+    without viser's warning of messages it will never deliver (which a bare write to
+    the departed browser still gets: the check can fail)."""
+    import warnings
+
+    from app.ui.scoped import batch, left
+    from tests.app.app_helpers import wait_until
+    from tests.viser_client import ViserClient
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        browser = ViserClient(server.get_port())
+        assert wait_until(lambda: len(server.get_clients()) == 1, 30)
+        (client,) = server.get_clients().values()
+        target = ScopedTarget(client, "/own")
+        scene = planners.load_scene(student_layout(4, layout="apart"))
+        view, controller = view_and_controller(target, scene)
+        assert controller.wait_idle(60)
+        frame = controller.frame
+        controller.close()
+        assert frame is not None
+        browser.close()
+        assert wait_until(lambda: left(client), 30)
+        moved = dataclasses.replace(
+            frame,
+            scene=dataclasses.replace(frame.scene, goal=(1.0, 1.0)),
+            version=frame.version + 1,
+        )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            view.render(moved)
+            with batch(client):
+                client.gui.add_markdown("after")
+        assert not [w for w in caught if "closed connection" in str(w.message)]
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            client.gui.add_markdown("bare")
+        assert [w for w in caught if "closed connection" in str(w.message)]
+    finally:
+        server.stop()

@@ -51,6 +51,7 @@ __all__ = [
     "template_pid",
 ]
 
+import atexit
 import contextlib
 import logging
 import os
@@ -448,6 +449,9 @@ class Template:
 
 
 _template = Template()
+# Let it go when this process exits, rather than leave it to notice the closed socket
+# (Python would warn of a child still running and a socket left open).
+atexit.register(_template.close)
 
 
 def start_worker(nice: int = 0) -> Any:

@@ -52,6 +52,7 @@ import numpy.typing as npt
 
 from app.session.frames import RobotPose
 from app.session.pool import Ticker
+from app.ui.scoped import batch
 from app.ui.text import markdown_text
 from planners.bug.live import (
     LiveEvent,
@@ -553,6 +554,7 @@ class LivePanel:
         self, server: Any, run: LiveRun, rate: float = 4.0, window: float = 10.0
     ) -> None:
         self._run = run
+        self._owner = server  # the server, or the one browser whose folder it is
         self._period = 1.0 / rate
         self._window = window
         self._last = 0.0
@@ -603,11 +605,12 @@ class LivePanel:
         if head == self._head and now - self._last < self._period:
             return
         self._head, self._last = head, now
-        self.status.content = text
-        t = state.t if state is not None else 0.0
-        self.replay.max = max(round(t, 2), 0.05)
-        self.replay.value = min(t, self.replay.max)
-        self._plot()
+        with batch(self._owner):
+            self.status.content = text
+            t = state.t if state is not None else 0.0
+            self.replay.max = max(round(t, 2), 0.05)
+            self.replay.value = min(t, self.replay.max)
+            self._plot()
 
     def _plot(self) -> None:
         data = self._run.recent_rates(self._window)

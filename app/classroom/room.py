@@ -117,7 +117,7 @@ from app.session.frames import View
 from app.session.pool import Runner, Ticker, Turns, WorkerPool
 from app.session.scheduler import big_plan, default_plan
 from app.ui.panels import Panels
-from app.ui.scoped import ScopedTarget, batch, left
+from app.ui.scoped import ScopedTarget, batch, left, quietly
 from app.ui.view import GizmoView, PlannerView
 from planners.allocator import give_back_freed_memory
 from planners.registry import planners_of_kind
@@ -739,22 +739,27 @@ class Classroom:
         live: PrivateLive,
     ) -> None:
         """Move a seat from the presenter's session to its copy (under the lock)."""
-        self._unsay(seat)
-        self._leave_audience(seat)
-        # The copy first: its gizmo is in the browser as soon as it is made, and a drag
-        # of it (viser's thread, not under this lock) must find the copy to move.
-        seat.private, seat.explain, seat.live = private, explain, live
-        own = seat.own = self._own_view(seat, self._private_drag(seat))
-        seat.shadows = _shadows(seat.client, self._roots)
-        # Built before the lock, unless a lab just ended and took it back meanwhile.
-        panels = self._ensure_panels(seat)
-        gated = GatedController(
-            private, lambda: seat.private is private, self.refusals, never=STUDENT_NEVER
-        )
-        panels.attach(cast(Controller, gated))
-        _lock(panels, editable=True, presenter=False)
-        private.add_view(own)
-        private.add_view(panels)
+        # Quietly: the browser may leave while its copy is set up.
+        with quietly(seat.client):
+            self._unsay(seat)
+            self._leave_audience(seat)
+            # The copy first: its gizmo is in the browser as soon as it is made, and a
+            # drag of it (viser's thread, not under this lock) must find the copy.
+            seat.private, seat.explain, seat.live = private, explain, live
+            own = seat.own = self._own_view(seat, self._private_drag(seat))
+            seat.shadows = _shadows(seat.client, self._roots)
+            # Built before the lock, unless a lab just ended and took it back.
+            panels = self._ensure_panels(seat)
+            gated = GatedController(
+                private,
+                lambda: seat.private is private,
+                self.refusals,
+                never=STUDENT_NEVER,
+            )
+            panels.attach(cast(Controller, gated))
+            _lock(panels, editable=True, presenter=False)
+            private.add_view(own)
+            private.add_view(panels)
 
     def follow(self, client_id: int) -> bool:
         """Close browser ``client_id``'s own copy; it follows the presenter again."""
@@ -1156,7 +1161,7 @@ def _shadows(client: viser.ClientHandle, roots: tuple[str, ...]) -> tuple[Any, .
     A client-scoped hidden frame shadows the broadcast node of its name
     (:mod:`app.ui.scoped`).
     """
-    with batch(client):
+    with quietly(client):
         return tuple(
             client.scene.add_frame(root, show_axes=False, visible=False)
             for root in roots

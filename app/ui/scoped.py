@@ -16,7 +16,7 @@ browser can move them (no transform control of that name exists on the server).
 
 from __future__ import annotations
 
-__all__ = ["InertGizmo", "PrefixedScene", "ScopedTarget", "batch", "left"]
+__all__ = ["InertGizmo", "PrefixedScene", "ScopedTarget", "batch", "left", "quietly"]
 
 import contextlib
 from collections.abc import Callable, Iterator
@@ -31,22 +31,27 @@ def left(client: viser.ClientHandle) -> bool:
 
 
 @contextlib.contextmanager
-def batch(owner: Any) -> Iterator[None]:
-    """Batch ``owner``'s messages: browsers apply them as one update.
+def quietly(owner: Any) -> Iterator[None]:
+    """Let what is drawn for one browser meet its leaving quietly.
 
-    ``owner`` is a ``viser.ViserServer`` or a ``viser.ClientHandle``. One browser may
-    leave while its view or panel is drawn: the rest of that drawing goes nowhere,
-    quietly (viser would warn, once per browser, of messages it will never deliver;
-    a view is taken off its session when its browser leaves, so no drawing follows).
+    ``owner`` is a ``viser.ViserServer``, a ``viser.ClientHandle`` or None (nothing to
+    do for a server or None). One browser may
+    leave while its view or panel is drawn: the rest of that drawing goes nowhere
+    (viser would warn, once per browser, of messages it will never deliver; a view is
+    taken off its session when its browser leaves, so no drawing follows).
     """
-    with owner.atomic():
-        if isinstance(owner, viser.ClientHandle):
-            with (
-                owner._websock_connection.get_message_buffer().sanctioned_dead_writes()
-            ):
-                yield
-        else:
+    if isinstance(owner, viser.ClientHandle):
+        with owner._websock_connection.get_message_buffer().sanctioned_dead_writes():
             yield
+    else:
+        yield
+
+
+@contextlib.contextmanager
+def batch(owner: Any) -> Iterator[None]:
+    """Batch ``owner``'s messages (browsers apply them as one update), :func:`quietly`."""
+    with owner.atomic(), quietly(owner):
+        yield
 
 
 class InertGizmo:
@@ -79,8 +84,8 @@ class PrefixedScene:
         Replace transform controls (gizmos) by frames (:class:`InertGizmo`).
     browser
         The browser whose scene it is (``client``, for ``client.scene``), else None:
-        its gizmos echo nothing back, and what is added after it left goes nowhere,
-        quietly (:func:`batch`).
+        its gizmos echo nothing back, and what is added after it left goes nowhere
+        (:func:`quietly`).
     """
 
     def __init__(
@@ -96,7 +101,8 @@ class PrefixedScene:
         """Name of the root node."""
         self._inert = inert
         self._browser = browser
-        self.root = scene.add_frame(root, show_axes=False)
+        with quietly(browser):
+            self.root = scene.add_frame(root, show_axes=False)
         """The root node (remove it to remove everything drawn under it)."""
 
     def __getattr__(self, name: str) -> Any:
@@ -110,7 +116,7 @@ class PrefixedScene:
             self._ensure_root()
             if self._browser is None:
                 return method(self.root_name + node, *args, **kwargs)
-            with batch(self._browser):
+            with quietly(self._browser):
                 handle = method(self.root_name + node, *args, **kwargs)
             if name == "add_transform_controls":
                 _no_echo(handle)

@@ -587,6 +587,10 @@ class Classroom:
 
     def connect(self, client: viser.ClientHandle) -> None:
         """Give a new browser its seat: banner, buttons, panel; watching by default."""
+        with quietly(client):  # it may leave while its seat is built
+            self._connect(client)
+
+    def _connect(self, client: viser.ClientHandle) -> None:
         path = connection_path(self.server, client.client_id)
         presenter = is_presenter_path(path, self.token)
         seat = Seat(client, presenter)

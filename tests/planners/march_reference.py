@@ -116,8 +116,11 @@ def _start_walk(grid: EdgeGrid, segs: Segments, seg: IntArray) -> _Walk:
         step = np.sign(d).astype(np.intp)
         safe = np.where(d != 0, d, 1.0)
         border = low + (at + (step > 0)) * grid.cell
-        nxt = np.where(d != 0, (border - p) / safe, np.inf)
-        delta = np.where(d != 0, grid.cell / np.abs(safe), np.inf)
+        # A component so small that the quotient overflows never reaches the next
+        # border along its axis: infinity is the right answer, not a warning.
+        with np.errstate(over="ignore"):
+            nxt = np.where(d != 0, (border - p) / safe, np.inf)
+            delta = np.where(d != 0, grid.cell / np.abs(safe), np.inf)
         axes.append((at.astype(np.intp), step, nxt, delta))
     (ix, sx, nx_, ddx), (iy, sy, ny_, ddy) = axes
     return _Walk(seg, ix * grid.ny + iy, sx * grid.ny, sy, nx_, ny_, ddx, ddy, t1, t0)

@@ -554,29 +554,20 @@ class ExplainFolder:
     ) -> None:
         """Show step ``n`` of ``explanation`` (None: ``words`` say why there is none)."""
         with batch(self._owner):
-            self._show(step, explanation, n, words)
-
-    def _show(
-        self,
-        step: Step | None,
-        explanation: Explanation | None,
-        n: int,
-        words: str,
-    ) -> None:
-        if explanation is None or step is None:
-            self.text.content = words
-            self.table.content = self.flowchart.content = ""
-            return
-        self.slider.max = max(2, len(explanation.steps))
-        self.slider.value = n + 1
-        self.text.content = (
-            f"**{markdown_text(explanation.title)}**, step {n + 1} of "
-            f"{len(explanation.steps)}\n\n{markdown_text(step.text, lines=True)}"
-        )
-        self.table.content = table_html(step)
-        dsb = explanation.method == "dsb"
-        box = step.kind.split(":", 1)[1] if dsb and ":" in step.kind else None
-        self.flowchart.content = flowchart_html(box) if dsb else ""
+            if explanation is None or step is None:
+                self.text.content = words
+                self.table.content = self.flowchart.content = ""
+                return
+            self.slider.max = max(2, len(explanation.steps))
+            self.slider.value = n + 1
+            self.text.content = (
+                f"**{markdown_text(explanation.title)}**, step {n + 1} of "
+                f"{len(explanation.steps)}\n\n{markdown_text(step.text, lines=True)}"
+            )
+            self.table.content = table_html(step)
+            dsb = explanation.method == "dsb"
+            box = step.kind.split(":", 1)[1] if dsb and ":" in step.kind else None
+            self.flowchart.content = flowchart_html(box) if dsb else ""
 
 
 class ExplainPanel:

@@ -221,6 +221,17 @@ def test_hiding_a_layer_hides_every_chunk_and_showing_it_draws_them_again(room):
     assert len(view.expanded_fill.shown()) == len(view.expanded_fill.layers) == 8
 
 
+def _drawn_then_closed(target: ScopedTarget) -> tuple[PlannerView, Any]:
+    """A view of four obstacles under ``target``, drawn once; its session closed."""
+    scene = planners.load_scene(student_layout(4, layout="apart"))
+    view, controller = view_and_controller(target, scene)
+    assert controller.wait_idle(60)
+    frame = controller.frame
+    controller.close()
+    assert frame is not None
+    return view, frame
+
+
 def test_a_scoped_view_drawn_after_its_root_is_removed_adds_no_node():
     """A classroom's view drawn late, after its browser left and its root was removed:
     chunks (and labels) it would add for a new obstacle are refused, not made again
@@ -228,12 +239,8 @@ def test_a_scoped_view_drawn_after_its_root_is_removed_adds_no_node():
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
         target = ScopedTarget(server, "/own")
-        scene = planners.load_scene(student_layout(4, layout="apart"))
-        view, controller = view_and_controller(target, scene)
-        assert controller.wait_idle(60)
-        frame = controller.frame
-        controller.close()
-        assert frame is not None and len(view.obstacles.layers) == 1
+        view, frame = _drawn_then_closed(target)
+        assert len(view.obstacles.layers) == 1
         target.remove()
         grown = dataclasses.replace(
             frame,
@@ -263,13 +270,7 @@ def test_a_view_drawn_after_its_browser_left_goes_nowhere_quietly():
         browser = ViserClient(server.get_port())
         assert wait_until(lambda: len(server.get_clients()) == 1, 30)
         (client,) = server.get_clients().values()
-        target = ScopedTarget(client, "/own")
-        scene = planners.load_scene(student_layout(4, layout="apart"))
-        view, controller = view_and_controller(target, scene)
-        assert controller.wait_idle(60)
-        frame = controller.frame
-        controller.close()
-        assert frame is not None
+        view, frame = _drawn_then_closed(ScopedTarget(client, "/own"))
         browser.close()
         assert wait_until(lambda: left(client), 30)
         moved = dataclasses.replace(

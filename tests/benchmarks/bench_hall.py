@@ -244,7 +244,7 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
             presenter=True,
             **_room(watchers, copies),
         )
-    proc = None
+    proc = busy = None
     try:
         controller, room = app.controller, app.classroom
         assert room is not None, "the app runs in presenter mode"
@@ -288,7 +288,6 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
         assert app.wait_idle(120)
         if busy is not None:
             busy.kill()
-            busy.wait()
         _send(proc, f"report {json.dumps(list(controller.scene.goal))}")
         report = _read(proc)
         # Read once the class has the last position: the pump sends the class its
@@ -319,8 +318,10 @@ def run(watchers: int, copies: int, args: argparse.Namespace) -> dict[str, Any]:
             class_frames=class_frames,
         )
     finally:
-        if proc is not None and proc.poll() is None:
-            proc.kill()
+        for child in (proc, busy):
+            if child is not None and child.poll() is None:
+                child.kill()
+                child.wait()
         with contextlib.redirect_stdout(io.StringIO()):
             app.stop()
 
@@ -607,6 +608,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.clients:
         return run_clients(args)
+    if not 0.0 <= args.busy <= 1.0:
+        parser.error("--busy is a share of one core, from 0 to 1")
     if args.burn:
         return burn(args.busy)
     if args.one:

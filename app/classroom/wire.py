@@ -375,11 +375,7 @@ class Pump:
             self._due = self._due + period if late < period else now + period
         for sub in self._full_subs():
             if head > sub.cursor:
-                window = [
-                    m
-                    for m in self._window(sub.cursor, head)
-                    if m.excluded_self_client != sub.client_id
-                ]
+                window = _for(sub, self._window(sub.cursor, head))
                 self._send(sub, window, sub.cursor, head)
 
     def _round(self, head: int) -> None:
@@ -392,8 +388,7 @@ class Pump:
             if sub.lagging or sub.full:
                 continue
             if data and sub.client_id in excluded:
-                own = [m for m in window if m.excluded_self_client != sub.client_id]
-                self._send(sub, own, before, head)
+                self._send(sub, _for(sub, window), before, head)
             else:
                 self._send(sub, window, before, head, data)
 
@@ -413,6 +408,10 @@ class Pump:
         sub.cursor = head
         self.buffer.generator_cursors[sub.client_id] = head
 
+    def _level(self, sub: _Sub) -> int:
+        """Return the id of the last message a browser is to have (full rate: the head)."""
+        return self.buffer.message_counter - 1 if sub.full else self.cursor
+
     def _window(self, after: int, upto: int) -> list[Any]:
         """Return the messages still in the buffer with ids in (after, upto]."""
         get = self.buffer.message_from_id.get
@@ -427,7 +426,7 @@ class Pump:
                 # nor past the replay before its marker. A full-rate browser's level
                 # is the buffer's head, read before the atomic check (as the pump
                 # does): no half of a frame being drawn.
-                level = buffer.message_counter - 1 if sub.full else self.cursor
+                level = self._level(sub)
                 if buffer.atomic_counter != 0:
                     await asyncio.sleep(buffer.window_duration_sec)
                     continue
@@ -435,11 +434,7 @@ class Pump:
                 if sub.backlog is not None:
                     upto = min(upto, sub.backlog[0])
                 upto = max(upto, sub.cursor)
-                window = [
-                    m
-                    for m in self._window(sub.cursor, upto)
-                    if m.excluded_self_client != sub.client_id
-                ]
+                window = _for(sub, self._window(sub.cursor, upto))
                 sub.cursor = max(sub.cursor, upto)
                 buffer.generator_cursors[sub.client_id] = sub.cursor
                 if sub.backlog is not None and sub.cursor >= sub.backlog[0]:
@@ -449,7 +444,7 @@ class Pump:
                     await sub.websocket.send(self.cache.encode(window))
                     self.sent += 1
                 # Level with where the pump is now (it went on during the send).
-                level = buffer.message_counter - 1 if sub.full else self.cursor
+                level = self._level(sub)
                 if sub.backlog is None and sub.cursor >= level:
                     sub.cursor = level
                     sub.lagging = False  # the pump writes to it from its next round
@@ -459,6 +454,11 @@ class Pump:
                     await asyncio.sleep(buffer.window_duration_sec)
         except Exception:  # its connection closed: its producer is cancelled soon
             return
+
+
+def _for(sub: _Sub, window: list[Any]) -> list[Any]:
+    """Return the messages of ``window`` a browser is sent: not its own echoes."""
+    return [m for m in window if m.excluded_self_client != sub.client_id]
 
 
 def _write(websocket: Any, data: bytes) -> bool:

@@ -40,7 +40,7 @@ from viser._gui_handles import GuiFolderHandle, _GuiHandleState
 from app.guard.gate import GatedController, Refusals
 from app.session.controller import Controller
 from app.ui.panels import Panels
-from app.ui.scoped import left
+from app.ui.scoped import quietly
 from planners.registry import PlannerSpec
 
 CONTAINER = "classroom-watchers-panel"
@@ -113,5 +113,5 @@ class WatchPanel:
 
 def _queue(client: viser.ClientHandle, message: Any) -> None:
     """Send ``message`` to one browser, in order with the rest of its own messages."""
-    if not left(client):
+    with quietly(client):  # it may have left meanwhile
         client._websock_connection.queue_message(message)

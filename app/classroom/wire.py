@@ -214,8 +214,6 @@ class _Sub:
     """Done when the browser is muted: its producer returns."""
     lagging: bool = True
     """Whether it takes windows of its own (new, or its socket was full)."""
-    full: bool = False
-    """Whether it is sent every window (a presenter's browser), not the class's rate."""
     task: asyncio.Task[None] | None = None
     """Its catch-up while it lags."""
 
@@ -257,7 +255,7 @@ class Pump:
         """Frames sent to browsers so far (each window's bytes, once per browser)."""
         self._subs: dict[int, _Sub] = {}
         self._muted: set[int] = set()  # muted before their producer started
-        self._full: set[int] = set()  # sent every window
+        self._full: set[int] = set()  # the browsers sent every window (presenters)
         self._due = 0.0  # time.monotonic() of the class's next window, at the earliest
         self._task: asyncio.Task[None] | None = None
 
@@ -276,7 +274,6 @@ class Pump:
             cursor=-1,
             backlog=(backlog_last, marker) if marker is not None else None,
             finished=loop.create_future(),
-            full=client_id in self._full,
         )
         self._subs[client_id] = sub
         self.buffer.generator_cursors[client_id] = -1
@@ -318,9 +315,6 @@ class Pump:
                 self._full.add(client_id)
             else:
                 self._full.discard(client_id)
-            sub = self._subs.get(client_id)
-            if sub is not None:
-                sub.full = on
 
         with contextlib.suppress(RuntimeError):  # the loop is closed: nobody to send
             self.buffer.event_loop.call_soon_threadsafe(switch)
@@ -361,7 +355,7 @@ class Pump:
     def _full_subs(self) -> list[_Sub]:
         """Return the full-rate browsers the pump writes to (not lagging): a few at most."""
         subs = (self._subs.get(client_id) for client_id in self._full)
-        return [s for s in subs if s is not None and s.full and not s.lagging]
+        return [s for s in subs if s is not None and not s.lagging]
 
     def _rounds(self, head: int, now: float) -> None:
         """Send the class its window if one is due; the full-rate browsers theirs."""
@@ -385,7 +379,7 @@ class Pump:
         data = self.cache.encode(window) if window else b""
         excluded = {m.excluded_self_client for m in window} - {None}
         for sub in list(self._subs.values()):
-            if sub.lagging or sub.full:
+            if sub.lagging or sub.client_id in self._full:
                 continue
             if data and sub.client_id in excluded:
                 self._send(sub, _for(sub, window), before, head)
@@ -410,7 +404,8 @@ class Pump:
 
     def _level(self, sub: _Sub) -> int:
         """Return the id of the last message a browser is to have (full rate: the head)."""
-        return self.buffer.message_counter - 1 if sub.full else self.cursor
+        full = sub.client_id in self._full
+        return self.buffer.message_counter - 1 if full else self.cursor
 
     def _window(self, after: int, upto: int) -> list[Any]:
         """Return the messages still in the buffer with ids in (after, upto]."""

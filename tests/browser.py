@@ -1,14 +1,10 @@
 """Headless Chromium for the browser tests: one shared browser, clear failures, no skips.
 
-A test module that needs the browser defines its own fixture around :func:`use_browser`::
-
-    @pytest.fixture(scope="module")
-    def browser() -> Iterator[Browser]:
-        with use_browser() as shared:
-            yield shared
-
-Fixtures that are alive at the same time share one Chromium; it is closed when the last one
-is torn down.
+A test that needs the browser asks for the ``browser`` fixture (``tests/conftest.py``):
+one Chromium per test process, started by the first test that asks and closed when the
+session ends. A test that only needs to know Chromium is there (the app then starts a
+browser of its own) holds ``with use_browser():`` around its work. Everyone alive at the
+same time shares one Chromium; it is closed when the last one lets go.
 
 If Chromium cannot start, every test that needs it *fails* with one clear message (how to
 install the browser): browser tests are never silently skipped, because a snapshot suite

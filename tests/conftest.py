@@ -8,7 +8,9 @@ import math
 import os
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import networkx as nx
 import numpy as np
@@ -21,6 +23,10 @@ from shapely.geometry.base import BaseGeometry
 from planners import load_scene
 from planners.space.expansion import ConfigurationSpace
 from planners.visibility import segments_free
+from tests.browser import use_browser
+
+if TYPE_CHECKING:
+    from playwright.sync_api import Browser
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "static_scenarios").glob("*.json"))
@@ -37,6 +43,18 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """
     seconds = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
     items.sort(key=lambda item: -float(seconds.get(item.nodeid.split("::")[0], 0.0)))
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[Browser]:
+    """Headless Chromium, started once per test process and shared by every module.
+
+    Each test opens its pages in a context of its own (:func:`tests.browser.open_page`),
+    so nothing a page did outlives its test; only the browser's start-up (about a second
+    of CPU) is shared. FAILS (never skips) when Chromium cannot start.
+    """
+    with use_browser() as shared:
+        yield shared
 
 
 def run_code(

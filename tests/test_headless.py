@@ -7,7 +7,6 @@ import os
 import socket
 import subprocess
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -22,7 +21,6 @@ from app.media.jobs import snapshot
 from app.media.pictures import open_studio
 from app.media.slide_options import SlideOptions
 from planners.scene import load_scene
-from tests.browser import use_browser
 from tests.conftest import ROOT, run_module
 
 if TYPE_CHECKING:
@@ -30,12 +28,6 @@ if TYPE_CHECKING:
 
 SCENARIO = ROOT / "static_scenarios" / "01_two_convex.json"
 NAME = SCENARIO.stem
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with use_browser() as shared:
-        yield shared
 
 
 def pixels(png: bytes | Path) -> np.ndarray:

@@ -34,7 +34,6 @@ from app.media.pictures import Studio, open_studio
 from app.media.slides import Slide
 from app.ui.labels import Box
 from planners.scene import Scene, load_scene, move_obstacle, save_scene
-from tests.browser import use_browser
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
@@ -165,12 +164,6 @@ def check_snapshot(
         pytrace=False,
     )
     raise AssertionError  # unreachable: pytest.fail raises
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with use_browser() as shared:
-        yield shared
 
 
 # Where the browser drew each label (its element's box, and whether its text fits).

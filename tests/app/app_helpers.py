@@ -123,18 +123,6 @@ class FakeView:
         return self.frames[-1]
 
 
-def launch_chromium(playwright):  # type: ignore[no-untyped-def]
-    """Start Debian's headless Chromium (never a downloaded one); raise with the reason."""
-    return playwright.chromium.launch(
-        executable_path="/usr/bin/chromium",
-        args=[
-            "--no-sandbox",
-            "--disable-background-networking",
-            "--disable-dev-shm-usage",
-        ],
-    )
-
-
 class TopCamera:
     """A camera looking straight down at the floor, and its world -> pixel projection."""
 

@@ -10,7 +10,7 @@ import pytest
 import planners
 from app.session.controller import Controller
 from app.session.pool import Runner
-from tests.app.app_helpers import SCENARIO_DIR, FakeView, launch_chromium
+from tests.app.app_helpers import SCENARIO_DIR, FakeView
 
 
 @pytest.fixture
@@ -64,23 +64,3 @@ def make_controller(
     yield make
     for controller in made:
         controller.close()
-
-
-# The app tests that drive a page share this fixture (one browser per test module).
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    from playwright.sync_api import sync_playwright
-
-    manager = sync_playwright()
-    playwright = manager.start()
-    try:
-        browser = launch_chromium(playwright)
-    except Exception as error:
-        playwright.stop()
-        pytest.fail(
-            f"headless Chromium could not start ({error}); install it with tools/ensure-chromium.sh",
-            pytrace=False,
-        )
-    yield browser
-    browser.close()
-    playwright.stop()

@@ -22,7 +22,6 @@ import pytest
 from app import start_app
 from app.media.browser import open_page
 from tests.app.app_helpers import TopCamera, mouse_drag, settle, wait_until
-from tests.browser import use_browser
 
 WIDTH, HEIGHT = 1280, 800
 DPR = 0.5  # a coarser canvas in the same layout: the test reads the scene, not pixels
@@ -30,12 +29,6 @@ CAMERA = TopCamera(
     look_at=(7.0, 4.0), height=14.0, fov_deg=50.0, width=WIDTH, px_height=HEIGHT
 )
 PLANE_OFFSET = 0.24 * 0.9  # the XY-plane square of a start/goal gizmo (scale 0.9) [m]
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    with use_browser() as shared:
-        yield shared
 
 
 @pytest.fixture

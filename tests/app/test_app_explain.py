@@ -37,7 +37,6 @@ from planners import Scene, load_scene, plan_all
 from planners.explain import ROLES, Abandoned
 from planners.visibility._graphs import build_border
 from tests.app.app_helpers import wait_until
-from tests.browser import use_browser
 from tests.conftest import ROOT, scene_dict
 
 SCENARIO = ROOT / "static_scenarios" / "05_pocket_start.json"
@@ -465,36 +464,34 @@ def test_bad_explain_arguments_exit_2(tmp_path, capsys, kwargs, message):
     assert err.startswith("error: ") and message in err and err.count("\n") == 1
 
 
+@pytest.mark.usefixtures("browser")  # fails, never skips, without Chromium
 def test_a_step_that_does_not_exist_exits_2(tmp_path, capsys):
-    with use_browser():
-        code = explain_snapshots(
-            ROOT / "static_scenarios" / "08_narrow_gap.json",
-            tmp_path / "x.png",
-            method="svg",
-            step=99,
-        )
+    code = explain_snapshots(
+        ROOT / "static_scenarios" / "08_narrow_gap.json",
+        tmp_path / "x.png",
+        method="svg",
+        step=99,
+    )
     assert code == 2
     assert "step 99 does not exist" in capsys.readouterr().err
 
 
+@pytest.mark.usefixtures("browser")  # fails, never skips, without Chromium
 def test_one_step_and_all_steps_pictures(tmp_path):
-    with use_browser():
-        one = tmp_path / "one.png"
-        assert (
-            explain_snapshots(
-                SCENARIO, one, method="svg", step=2, width=320, height=200
-            )
-            == 0
-        )
-        folder = tmp_path / "all"
-        code = explain_snapshots(
-            ROOT / "static_scenarios" / "01_two_convex.json",
-            folder,
-            method="svg",
-            step="all",
-            width=320,
-            height=200,
-        )
+    one = tmp_path / "one.png"
+    assert (
+        explain_snapshots(SCENARIO, one, method="svg", step=2, width=320, height=200)
+        == 0
+    )
+    folder = tmp_path / "all"
+    code = explain_snapshots(
+        ROOT / "static_scenarios" / "01_two_convex.json",
+        folder,
+        method="svg",
+        step="all",
+        width=320,
+        height=200,
+    )
     assert code == 0
     pictures = sorted(folder.glob("*.png"))
     lines = (folder / "steps.txt").read_text().splitlines()
@@ -516,13 +513,13 @@ def test_one_step_and_all_steps_pictures(tmp_path):
     assert html.escape(lines[1][4:]) in page
 
 
+@pytest.mark.usefixtures("browser")  # fails, never skips, without Chromium
 def test_every_step_into_a_video(tmp_path):
     out = tmp_path / "svg.gif"
     scenario = ROOT / "static_scenarios" / "01_two_convex.json"
-    with use_browser():
-        code = explain_record(
-            scenario, out, method="svg", width=320, height=200, fps=10, seconds=0.2
-        )
+    code = explain_record(
+        scenario, out, method="svg", width=320, height=200, fps=10, seconds=0.2
+    )
     assert code == 0
     steps = len(planners.explain_svg(load_scene(scenario)).steps)
     with Image.open(out) as video:

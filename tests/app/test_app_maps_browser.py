@@ -9,12 +9,9 @@ the map changes no pixel.
 from __future__ import annotations
 
 import io
-from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-import pytest
 import shapely
 from PIL import Image
 from shapely import Polygon
@@ -23,17 +20,10 @@ from app import start_app
 from app.media.pictures import open_studio
 from app.media.slides import SlideOptions, project
 from planners import maps
-from tests.browser import use_browser
 from tests.maps.synthetic import write_map
 
 W, H = 480, 360
 BARE = SlideOptions(legend=False, title="", labels=False)
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    with use_browser() as shared:
-        yield shared
 
 
 def _room(tmp_path: Path) -> Path:

@@ -29,15 +29,8 @@ from app.media.browser import open_page
 from tests.app.app_helpers import wait_until
 from tests.app.test_app_browser import CAMERA, choose, settle
 from tests.app.test_app_explain_browser import browser_segments
-from tests.browser import use_browser
 
 DPR = 0.5  # a coarser canvas in the same layout: these tests read the scene, not pixels
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    with use_browser() as shared:
-        yield shared
 
 
 @pytest.fixture

@@ -27,7 +27,6 @@ from app.media.explain_pictures import Asked, explain_in_app, shoot_steps
 from app.media.export_html import step_page
 from app.media.pictures import open_studio
 from planners.explain.dsb import FLOWCHART
-from tests.browser import use_browser
 
 DRAWN_JS = """() => {
     const rect = e => { const r = e.getBoundingClientRect();
@@ -59,36 +58,35 @@ SIZES = [(1920, 1080), (1280, 720)]
 
 
 @pytest.fixture(scope="module")
-def drawn() -> Iterator[list[dict[str, Any]]]:
+def drawn(browser) -> Iterator[list[dict[str, Any]]]:
     """Every sample at both sizes: what the page holds, the picture and the step."""
     out: list[dict[str, Any]] = []
-    with use_browser() as browser:
-        app = start_app(SAMPLES[0][0], port=0, print_url=False)
-        try:
-            with open_studio(app, browser, width=1920, height=1080) as studio:
-                for scenario, sensor, method, numbers in SAMPLES:
-                    if app.controller.scene.name != scenario:
-                        studio.load(scenario)
-                    asked = Asked(method, 1, sensor, (1920, 1080))
-                    explanation = explain_in_app(app, asked)
-                    for (width, height), n in itertools.product(SIZES, numbers):
-                        studio.width, studio.height = width, height
-                        for _, png, layout in shoot_steps(
-                            studio, explanation, [n - 1], asked
-                        ):
-                            page = studio.shown.page.evaluate(DRAWN_JS)
-                            picture = Image.open(io.BytesIO(png)).convert("RGB")
-                            out.append(
-                                {
-                                    "where": (scenario, method, n, (width, height)),
-                                    "page": page,
-                                    "pixels": np.asarray(picture),
-                                    "step": explanation.step(n - 1),
-                                    "layout": layout,
-                                }
-                            )
-        finally:
-            app.stop()
+    app = start_app(SAMPLES[0][0], port=0, print_url=False)
+    try:
+        with open_studio(app, browser, width=1920, height=1080) as studio:
+            for scenario, sensor, method, numbers in SAMPLES:
+                if app.controller.scene.name != scenario:
+                    studio.load(scenario)
+                asked = Asked(method, 1, sensor, (1920, 1080))
+                explanation = explain_in_app(app, asked)
+                for (width, height), n in itertools.product(SIZES, numbers):
+                    studio.width, studio.height = width, height
+                    for _, png, layout in shoot_steps(
+                        studio, explanation, [n - 1], asked
+                    ):
+                        page = studio.shown.page.evaluate(DRAWN_JS)
+                        picture = Image.open(io.BytesIO(png)).convert("RGB")
+                        out.append(
+                            {
+                                "where": (scenario, method, n, (width, height)),
+                                "page": page,
+                                "pixels": np.asarray(picture),
+                                "step": explanation.step(n - 1),
+                                "layout": layout,
+                            }
+                        )
+    finally:
+        app.stop()
     yield out
 
 
@@ -188,7 +186,7 @@ def _png(color: tuple[int, int, int]) -> bytes:
     return out.getvalue()
 
 
-def test_the_step_page_steps_and_plays_offline(tmp_path) -> None:
+def test_the_step_page_steps_and_plays_offline(browser, tmp_path) -> None:
     steps = [
         (_png(c), f"{k + 1}/3 <b>step</b> {k + 1}")
         for k, c in enumerate([(255, 0, 0), (0, 255, 0), (0, 0, 255)])
@@ -198,33 +196,30 @@ def test_the_step_page_steps_and_plays_offline(tmp_path) -> None:
     shown_js = (
         "() => [...document.querySelectorAll('img.step')].findIndex(i => !i.hidden)"
     )
-    with use_browser() as browser:
-        context = browser.new_context()
-        try:
-            page = context.new_page()
-            # Offline: anything but the file itself is refused.
-            page.route(
-                "**/*",
-                lambda r: (
-                    r.continue_() if r.request.url.startswith("file:") else r.abort()
-                ),
-            )
-            page.goto(path.as_uri())
-            assert page.title() == "SVG <script>"
-            assert page.evaluate(shown_js) == 0
-            page.click("#next")
-            assert page.evaluate(shown_js) == 1
-            page.keyboard.press("End")
-            assert page.evaluate(shown_js) == 2
-            assert page.inner_text("#where") == "3 / 3"
-            page.keyboard.press("Home")
-            assert page.evaluate(shown_js) == 0
-            alt = page.evaluate("() => document.querySelector('img.step').alt")
-            assert alt == "1/3 <b>step</b> 1"  # shown as text, never as markup
-            page.click("#play")
-            page.wait_for_function(f"() => ({shown_js})() === 2", timeout=10_000)
-            page.wait_for_function(
-                "() => document.getElementById('play').textContent === 'Play'"
-            )
-        finally:
-            context.close()
+    context = browser.new_context()
+    try:
+        page = context.new_page()
+        # Offline: anything but the file itself is refused.
+        page.route(
+            "**/*",
+            lambda r: r.continue_() if r.request.url.startswith("file:") else r.abort(),
+        )
+        page.goto(path.as_uri())
+        assert page.title() == "SVG <script>"
+        assert page.evaluate(shown_js) == 0
+        page.click("#next")
+        assert page.evaluate(shown_js) == 1
+        page.keyboard.press("End")
+        assert page.evaluate(shown_js) == 2
+        assert page.inner_text("#where") == "3 / 3"
+        page.keyboard.press("Home")
+        assert page.evaluate(shown_js) == 0
+        alt = page.evaluate("() => document.querySelector('img.step').alt")
+        assert alt == "1/3 <b>step</b> 1"  # shown as text, never as markup
+        page.click("#play")
+        page.wait_for_function(f"() => ({shown_js})() === 2", timeout=10_000)
+        page.wait_for_function(
+            "() => document.getElementById('play').textContent === 'Play'"
+        )
+    finally:
+        context.close()

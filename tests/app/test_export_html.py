@@ -28,7 +28,6 @@ from app.ui.style import HEIGHTS
 from app.ui.view import prism_mesh
 from planners.scene import load_scene, scene_at
 from tests.app.app_helpers import live_drawings
-from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]
 NAME = "02_three_obstacles"
@@ -39,12 +38,6 @@ ROBOT_JS = """() => {
     const o = window.__viserMutable.nodeRefFromName['/robot'];
     return o ? [o.position.x, o.position.y] : null;
 }"""
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator:
-    with use_browser() as shared:
-        yield shared
 
 
 @pytest.fixture(scope="module")

@@ -26,15 +26,8 @@ from app import start_app
 from app.media.browser import open_page
 from app.server import SCENARIO_DIR
 from tests.app.app_helpers import classroom_client, wait_until
-from tests.browser import use_browser
 
 DPR = 0.5  # a coarser canvas in the same layout: these tests read the scene, not pixels
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    with use_browser() as shared:
-        yield shared
 
 
 class _Listener(http.server.BaseHTTPRequestHandler):

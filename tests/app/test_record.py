@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import imageio.v2 as iio
@@ -20,18 +19,11 @@ from app import start_app
 from app.media.record import record, record_video
 from app.media.slides import SlideOptions, layout, project
 from app.media.video import frame_times
-from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]
 NAME = "02_three_obstacles"
 W, H, FPS, UNTIL = 480, 300, 5.0, 4.0
 BARE = SlideOptions(legend=False, title="", labels=False)  # nothing over the robot
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator:
-    with use_browser() as shared:
-        yield shared
 
 
 @pytest.fixture(scope="module")

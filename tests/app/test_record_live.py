@@ -12,7 +12,6 @@ from __future__ import annotations
 import dataclasses
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, cast
 
@@ -35,7 +34,6 @@ from planners.bug.live import LiveOptions, live_space
 from planners.scene import Scene, load_scene, scene_at
 from planners.scene.motion import Motion
 from tests.app.app_helpers import live_drawings, shown_mesh
-from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]
 PERSON = "10_person_crossing"  # obstacle 1 walks up at 0.6 m/s after a 1 s pause
@@ -202,12 +200,6 @@ def test_the_view_draws_the_frames_scene_and_robot(planner_app, films) -> None:
                 assert not graph.path.handle.visible or np.ptp(points) == 0
     finally:
         view.render(planner_app.controller.frame)
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator:
-    with use_browser() as shared:
-        yield shared
 
 
 @pytest.fixture(scope="module")

@@ -36,7 +36,6 @@ from app.media.slides import (
 )
 from app.ui.labels import Box
 from planners.scene import load_scene
-from tests.browser import use_browser
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = sorted((ROOT / "static_scenarios").glob("*.json"))
@@ -46,12 +45,6 @@ LABEL_BOXES_JS = """() => [...document.querySelectorAll('.planner-label')].map(e
     const r = e.getBoundingClientRect();
     return {text: e.textContent, kind: e.className, box: [r.left, r.top, r.right, r.bottom]};
 })"""
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator:
-    with use_browser() as shared:
-        yield shared
 
 
 def text_height(picture: np.ndarray, box: list[float]) -> int:

@@ -1,10 +1,11 @@
 """Headless Chromium for the browser tests: one shared browser, clear failures, no skips.
 
-A test that needs the browser asks for the ``browser`` fixture (``tests/conftest.py``):
-one Chromium per test process, started by the first test that asks and closed when the
-session ends. A test that only needs to know Chromium is there (the app then starts a
-browser of its own) holds ``with use_browser():`` around its work. Everyone alive at the
-same time shares one Chromium; it is closed when the last one lets go.
+A test that needs the browser asks for the ``browser`` fixture (``tests/conftest.py``).
+A test process starts one Chromium for a run of modules that use it and closes it before
+a module that does not: playwright's synchronous API keeps an asyncio loop on the main
+thread while a browser is open, and such a module may run a loop of its own there
+(``asyncio.run``). The slowest modules run first (``tests/durations.json``) and most of
+them use the browser, so a process starts Chromium a few times, not once per module.
 
 If Chromium cannot start, every test that needs it *fails* with one clear message (how to
 install the browser): browser tests are never silently skipped, because a snapshot suite
@@ -17,10 +18,9 @@ loaded.
 
 from __future__ import annotations
 
-__all__ = ["AppPage", "open_page", "use_browser"]
+__all__ = ["AppPage", "close_browser", "open_page", "shared_browser"]
 
 import contextlib
-from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
 import pytest
@@ -30,12 +30,11 @@ from app.media.browser import AppPage, SnapshotError, launch_browser, open_page
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
 
-_shared: dict[str, Any] = {"browser": None, "exit": None, "users": 0, "error": None}
+_shared: dict[str, Any] = {"browser": None, "exit": None, "error": None}
 
 
-@contextlib.contextmanager
-def use_browser() -> Iterator[Browser]:
-    """Lend the shared headless Chromium; fail (never skip) the test if it cannot start."""
+def shared_browser() -> Browser:
+    """Return this process's headless Chromium, started if need be; fail (never skip)."""
     if _shared["error"] is not None:
         pytest.fail(_shared["error"], pytrace=False)
     if _shared["browser"] is None:
@@ -49,11 +48,11 @@ def use_browser() -> Iterator[Browser]:
             )
             pytest.fail(_shared["error"], pytrace=False)
         _shared["exit"] = stack
-    _shared["users"] += 1
-    try:
-        yield _shared["browser"]
-    finally:
-        _shared["users"] -= 1
-        if _shared["users"] == 0 and _shared["exit"] is not None:
-            stack, _shared["exit"], _shared["browser"] = _shared["exit"], None, None
-            stack.close()
+    return _shared["browser"]
+
+
+def close_browser() -> None:
+    """Close this process's Chromium if it runs (the next :func:`shared_browser` starts one)."""
+    stack, _shared["exit"], _shared["browser"] = _shared["exit"], None, None
+    if stack is not None:
+        stack.close()

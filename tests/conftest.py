@@ -8,7 +8,6 @@ import math
 import os
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -23,7 +22,7 @@ from shapely.geometry.base import BaseGeometry
 from planners import load_scene
 from planners.space.expansion import ConfigurationSpace
 from planners.visibility import segments_free
-from tests.browser import use_browser
+from tests.browser import close_browser, shared_browser
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
@@ -43,18 +42,36 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """
     seconds = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
     items.sort(key=lambda item: -float(seconds.get(item.nodeid.split("::")[0], 0.0)))
+    _BROWSER_MODULES.update(
+        item.nodeid.split("::")[0]
+        for item in items
+        if "browser" in getattr(item, "fixturenames", ())
+    )
 
 
-@pytest.fixture(scope="session")
-def browser() -> Iterator[Browser]:
-    """Headless Chromium, started once per test process and shared by every module.
+_BROWSER_MODULES: set[str] = set()
+"""Test modules with a test that uses the ``browser`` fixture (filled at collection)."""
+
+
+@pytest.fixture(scope="module")
+def browser() -> Browser:
+    """Headless Chromium, shared by this run of browser modules (see tests/browser.py).
 
     Each test opens its pages in a context of its own (:func:`tests.browser.open_page`),
-    so nothing a page did outlives its test; only the browser's start-up (about a second
-    of CPU) is shared. FAILS (never skips) when Chromium cannot start.
+    so nothing a page did outlives its test; only the browser's start (about a second of
+    CPU) is shared. FAILS (never skips) when Chromium cannot start.
     """
-    with use_browser() as shared:
-        yield shared
+    return shared_browser()
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    """Close the shared Chromium before the first test of a module that does not use it."""
+    if item.nodeid.split("::")[0] not in _BROWSER_MODULES:
+        close_browser()
+
+
+def pytest_sessionfinish() -> None:
+    close_browser()
 
 
 def run_code(

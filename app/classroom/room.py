@@ -127,8 +127,9 @@ logger = logging.getLogger(__name__)
 PRESENTER_PATH = "/presenter/"
 """Websocket path prefix of the presenter's browser; the token follows it."""
 
-COPY_NICE = 5
-"""How much lower the copies' workers' priority is than the server's (``os.nice``): the
+COPY_NICE = 19
+"""How much lower the copies' workers' priority is than the server's (``os.nice``),
+below the presenter's DSB worker (:data:`app.session.scheduler.SLOW_NICE`): the
 presenter's frames come first, the copies share what is left."""
 
 COPY_ROUNDS_PER_S = 20.0

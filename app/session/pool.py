@@ -141,6 +141,12 @@ class WorkerPool:
         with self._ready:
             return len(self._all)
 
+    @property
+    def pids(self) -> list[int]:
+        """Process ids of the workers started so far."""
+        with self._ready:
+            return [w.pid for w in self._all if w.pid is not None]
+
     def close(self) -> None:
         """Stop every worker: a call in progress and a lease that waits end with errors."""
         with self._ready:

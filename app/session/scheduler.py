@@ -84,6 +84,12 @@ GIVE_UP_AFTER_S = 1.0
 [s]. Stopping the worker costs its restart and its memo: during a drag of a start or a
 goal on a map the slow planners' answers, a few tenths of a second each, would never
 arrive. A longer computation still stops (a later round, or the timer, gives it up)."""
+SLOW_NICE = 10
+"""How much lower the slow planners' worker's priority is than the server's
+(``os.nice``). On a busy machine (a lecture hall's server, the lecturer's own browser
+drawing beside it) the round that redraws VG and SVG under the mouse, with the tighter
+budget, goes first; DSB takes what is left, its newest scene when it gets there. With
+a core free, as on a quiet laptop, it runs as fast as before."""
 ROBOT_LAG_S = 0.15
 """During a drag, the robot's trajectory may wait for the edit no newer one overtakes,
 but never longer than this after the robot was last drawn [s]."""
@@ -221,7 +227,7 @@ def lanes_for(
     if slow_process and picklable(fn):
         # A process of its own: TangentBug would otherwise hold the GIL against the
         # VG/SVG lane (see app.session.lanes). Its child keeps its own Memo.
-        process = ProcessLane(fn)
+        process = ProcessLane(fn, nice=SLOW_NICE)
         return fast, Lane(slow, _remote(process), process=process)
     memo = planners.Memo()
     return fast, Lane(slow, functools.partial(_run, registry=registry, memo=memo))

@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import inspect
 import json
+import os
 import threading
 from collections.abc import Iterator
 from typing import Any
@@ -30,10 +31,12 @@ from app.classroom import (
     is_presenter_path,
     presenter_url,
 )
+from app.classroom.room import COPY_NICE
 from app.explain.panel import METHOD_TITLES
 from app.guard.gate import GatedController, Refusals
 from app.server import _is_loopback
 from app.session.big import SharedWorkers
+from app.session.scheduler import SLOW_NICE
 from tests.app.app_helpers import classroom_client as client
 from tests.app.app_helpers import has_label as _has
 from tests.app.app_helpers import live_time, markdowns, reset_classroom, wait_until
@@ -441,6 +444,11 @@ def test_private_copies_share_a_bounded_pool_of_workers(planner):
             assert private.wait_idle(90)
             assert private.frame.plans["dsb"].status in ("reached", "unreachable")
         assert 1 <= room.shared.pool.processes <= room.shared.pool.size
+        # The copies plan below the presenter's DSB worker, itself below the server.
+        assert COPY_NICE > SLOW_NICE
+        for pid in room.shared.pool.pids:
+            niceness = os.getpriority(os.PRIO_PROCESS, pid)
+            assert niceness == min(19, os.nice(0) + COPY_NICE)
     assert wait_until(lambda: room.counts()["sessions"] == 0, 20)
 
 

@@ -451,6 +451,9 @@ def _summary(**m: Any) -> dict[str, Any]:
         "ready": m["ready"],
         "copies": m["copies"],
         "fast": latencies(probe, probe.fast, sent),
+        # The presenter's DSB: frames drawn with every slow planner's result, a second.
+        "dsb_rate": len([t for t in probe.full.values() if t >= sent[0][0]])
+        / m["drag_s"],
         "wire": wire,
         "frames": frames,
         "delivered": float(np.mean(delivered)) / max(1, frames) if delivered else 0.0,
@@ -480,7 +483,7 @@ def pair(values: list[float]) -> str:
 
 
 HEADER = (
-    f"{'watchers':>8s} {'copies':>6s} | {'presenter':>13s} {'to watchers':>13s} | "
+    f"{'watchers':>8s} {'copies':>6s} | {'presenter':>13s} {'DSB/s':>5s} {'to watchers':>13s} | "
     f"{'of frames':>9s} {'of class':>8s} {'fps':>5s} {'KB/frame':>8s} | {'copy fps':>12s} | "
     f"{'MB: alone -> in -> left':>24s} {'threads':>14s} | {'CPU s srv/cli':>13s} "
     f"{'encodes':>13s} {'steal':>5s}"
@@ -495,7 +498,7 @@ def print_row(s: dict[str, Any]) -> None:
     encodes = f"{enc[0]}/{enc[1]}" if enc else "n/a"
     print(
         f"{s['watchers']:8d} {s['copies']:6d} | {pair(s['fast']):>13s} "
-        f"{pair(s['wire']):>13s} | {s['delivered']:9.0%} {s['delivered_class']:8.0%} "
+        f"{s['dsb_rate']:5.1f} {pair(s['wire']):>13s} | {s['delivered']:9.0%} {s['delivered_class']:8.0%} "
         f"{s['rate']:5.1f} "
         f"{s['kb_frame']:8.1f} | {copy:>12s} | {m0:6.0f} -> {m1:5.0f} -> {m2:5.0f} "
         f"{t0:4d}/{t1:4d}/{t2:4d} | {s['cpu_server']:6.1f}/{s['cpu_clients']:6.1f} "

@@ -18,7 +18,7 @@ loaded.
 
 from __future__ import annotations
 
-__all__ = ["AppPage", "close_browser", "open_page", "shared_browser"]
+__all__ = ["AppPage", "close_browser", "close_pages", "open_page", "shared_browser"]
 
 import contextlib
 from typing import TYPE_CHECKING, Any
@@ -56,3 +56,11 @@ def close_browser() -> None:
     stack, _shared["exit"], _shared["browser"] = _shared["exit"], None, None
     if stack is not None:
         stack.close()
+
+
+def close_pages() -> None:
+    """Close every page still open in this process's Chromium (a failed test's, say)."""
+    browser = _shared["browser"]
+    if browser is not None:
+        for context in browser.contexts:
+            context.close()

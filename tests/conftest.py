@@ -22,7 +22,7 @@ from shapely.geometry.base import BaseGeometry
 from planners import load_scene
 from planners.space.expansion import ConfigurationSpace
 from planners.visibility import segments_free
-from tests.browser import close_browser, shared_browser
+from tests.browser import close_browser, close_pages, shared_browser
 
 if TYPE_CHECKING:
     from playwright.sync_api import Browser
@@ -65,9 +65,23 @@ def browser() -> Browser:
 
 
 def pytest_runtest_setup(item: pytest.Item) -> None:
-    """Close the shared Chromium before the first test of a module that does not use it."""
-    if item.nodeid.split("::")[0] not in _BROWSER_MODULES:
+    """At a module's first test, close what the modules before it left of the browser.
+
+    Pages a test left open (it failed before closing them) go; the browser itself goes
+    before a module that does not use it.
+    """
+    module = item.nodeid.split("::")[0]
+    if module == _MODULE["now"]:
+        return
+    _MODULE["now"] = module
+    if module in _BROWSER_MODULES:
+        close_pages()
+    else:
         close_browser()
+
+
+_MODULE: dict[str, str | None] = {"now": None}
+"""The module whose tests run now in this process."""
 
 
 def pytest_sessionfinish() -> None:

@@ -302,8 +302,9 @@ def test_slow_planners_run_in_a_worker_process_that_close_stops(with_dsb, scene)
         assert lane is not None and lane.pid is not None and lane.pid != os.getpid()
         assert controller.wait_idle(60)
         # Below the server's priority: on a busy machine the VG/SVG round goes first.
+        assert SLOW_NICE > 0
         niceness = os.getpriority(os.PRIO_PROCESS, lane.pid)
-        assert niceness == min(19, os.nice(0) + SLOW_NICE) > os.nice(0)
+        assert niceness == min(19, os.nice(0) + SLOW_NICE)
         dsb = view.last.plans["dsb"]
         assert dsb.status == "reached"
         assert_allclose(dsb.path[-1], scene.goal)

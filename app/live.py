@@ -16,7 +16,7 @@ Data flow::
     ticker's thread, every dt / speed wall seconds (later when its runs share a rate):
       scene = controller.scene                    (the newest edit, read without waiting)
       state = live_step(state, scene_at(scene, t), options, memo)   (pure)
-      view.render_robot(pose); live nodes .points = ...             (property sets)
+      view.render_robot(pose); live nodes .points = ...   (one atomic update)
 
 The loop never takes the controller's lock for longer than reading a field, so edits,
 other browsers and the planners go on as usual; an edit reaches the robot at its next
@@ -378,15 +378,16 @@ class LiveRun:
             return
         scene = self._scene_fn()
         pose = live_pose_at(trace, t, scene, self._memo)
-        for view in self._views:
-            view.render_robot(pose)
         shown = [s for s in trace.steps if s.t <= t + 1e-9]
         path = [trace.start, *(s.pose for s in shown)]
         pts = np.asarray([p[:2] for p in path], dtype=np.float64).reshape(-1, 2)
-        self._trail.points = _polyline_segments(pts, _Z)
         step = shown[-1] if shown else None
         moved = [o for o in step.obstacles if o not in scene.obstacles] if step else []
-        self._moving.points = _outline_segments(moved, _Z + 0.01)
+        with self._server.atomic():  # one update; quiet if a copy's browser has left
+            for view in self._views:
+                view.render_robot(pose)
+            self._trail.points = _polyline_segments(pts, _Z)
+            self._moving.points = _outline_segments(moved, _Z + 0.01)
 
     # ------------------------------------------------------------------ internals
 
@@ -450,12 +451,13 @@ class LiveRun:
         self, state: LiveState, now: Scene, scene: Scene, path: list[Any]
     ) -> None:
         pose = live_pose(state, now, self._memo)
-        for view in self._views:
-            view.render_robot(pose)
         pts = np.asarray([p[:2] for p in path], dtype=np.float64).reshape(-1, 2)
-        self._trail.points = _polyline_segments(pts, _Z)
         outlines = [now.obstacles[m.obstacle] for m in scene.motions]
-        self._moving.points = _outline_segments(outlines, _Z + 0.01)
+        with self._server.atomic():  # one update; quiet if a copy's browser has left
+            for view in self._views:
+                view.render_robot(pose)
+            self._trail.points = _polyline_segments(pts, _Z)
+            self._moving.points = _outline_segments(outlines, _Z + 0.01)
 
 
 def _polyline_segments(points: FloatArray, z: float) -> FloatArray:

@@ -290,3 +290,37 @@ def test_a_view_drawn_after_its_browser_left_goes_nowhere_quietly():
         assert [w for w in caught if "closed connection" in str(w.message)]
     finally:
         server.stop()
+
+
+def test_a_live_robot_drawn_after_its_browser_left_goes_nowhere_quietly():
+    """A copy's live robot steps or replays after its student's browser left: its trail
+    and moving outlines (one atomic update with the robot) are dropped without viser's
+    warning of messages it will never deliver."""
+    import warnings
+
+    from app.live import LiveRun
+    from app.ui.scoped import left
+    from tests.app.app_helpers import wait_until
+    from tests.viser_client import ViserClient
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    run = None
+    try:
+        browser = ViserClient(server.get_port())
+        assert wait_until(lambda: len(server.get_clients()) == 1, 30)
+        (client,) = server.get_clients().values()
+        scene = planners.load_scene(student_layout(4, layout="apart"))
+        run = LiveRun(lambda: scene, ScopedTarget(client, "/copy"), [], speed=20.0)
+        run.start()
+        assert wait_until(lambda: run.state is not None and run.state.t > 0.5, 60)
+        run.stop()
+        browser.close()
+        assert wait_until(lambda: left(client), 30)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            run.show_at(0.25)
+        assert not [w for w in caught if "closed connection" in str(w.message)]
+    finally:
+        if run is not None:
+            run.close()
+        server.stop()

@@ -38,7 +38,9 @@ __all__ = [
 import dataclasses
 import math
 import textwrap
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
+
+import numpy as np
 
 FONT_SHARE = 0.03
 """Label and caption size as a share of a picture's height (32 px at 1080, 15 px at 500);
@@ -217,29 +219,38 @@ def _centred(anchor: tuple[float, float], size: tuple[float, float]) -> Box:
     )
 
 
-def _candidates(
-    request: LabelRequest,
-    size: tuple[float, float],
-    gap: float,
-    picture: tuple[float, float],
-) -> Iterable[Box]:
-    """Candidate boxes for ``request``, nearest to its anchor first."""
+# The ring directions' (cos, sin), from the angles _ring_boxes names.
+_RING_UNIT = np.array(
+    [
+        (math.cos(a), math.sin(a))
+        for a in (
+            2 * math.pi * k / _RING_DIRECTIONS - math.pi / 4
+            for k in range(_RING_DIRECTIONS)
+        )
+    ]
+)
+
+
+def _near(request: LabelRequest, size: tuple[float, float], gap: float) -> np.ndarray:
+    """Rows (x0, y0, x1, y1) of the candidates near the anchor, nearest first.
+
+    Centred on it (``centred`` requests only), beside it in the eight
+    :data:`_DIRECTIONS`, then centred on :data:`_RINGS` rings further out,
+    :data:`_RING_DIRECTIONS` around each (angle ``2 pi k / n - pi / 4``), with the
+    arithmetic of :func:`_centred` and :func:`_beside`.
+    """
     anchor = request.anchor
-    if request.centred:
-        yield _centred(anchor, size)
-    for d in _DIRECTIONS:
-        yield _beside(anchor, size, d, gap)
-    step = max(size[1], gap)
-    for ring in range(1, _RINGS + 1):
-        radius = gap + ring * step
-        for k in range(_RING_DIRECTIONS):
-            a = 2 * math.pi * k / _RING_DIRECTIONS - math.pi / 4
-            centre = (
-                anchor[0] + math.cos(a) * (radius + size[0] / 2),
-                anchor[1] + math.sin(a) * (radius + size[1] / 2),
-            )
-            yield _centred(centre, size)
-    yield from _scan(anchor, size, picture)
+    first = [_centred(anchor, size)] if request.centred else []
+    first += [_beside(anchor, size, d, gap) for d in _DIRECTIONS]
+    w, h = size
+    step = max(h, gap)
+    radius = (gap + np.arange(1, _RINGS + 1, dtype=float) * step)[:, None]
+    cx = anchor[0] + _RING_UNIT[:, 0] * (radius + w / 2)
+    cy = anchor[1] + _RING_UNIT[:, 1] * (radius + h / 2)
+    rings = np.stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], axis=-1).reshape(
+        -1, 4
+    )
+    return np.vstack([_corners(first), rings])
 
 
 def _scan(
@@ -255,10 +266,6 @@ def _scan(
         for j in range(ny)
     ]
     return sorted(boxes, key=lambda b: (b.distance_to(anchor), b.x0, b.y0))
-
-
-def _free(box: Box, taken: Sequence[Box], picture: tuple[float, float]) -> bool:
-    return box.inside(*picture) and not any(box.overlaps(t) for t in taken)
 
 
 def place_labels(
@@ -302,26 +309,51 @@ def place_labels(
     >>> [b.box.overlaps(p.placed[0].box) for b in p.placed[1:]], p.dropped
     ([False], ())
     """
-    taken: list[Box] = [*markers, *reserved]
+    taken = _corners([*markers, *reserved])
     placed: list[PlacedLabel] = []
     dropped: list[LabelRequest] = []
     for request in requests:
         size = label_size(request.text, font_px)
         gap = max(font_px / 2, request.clearance)
-        box = next(
-            (
-                b
-                for b in _candidates(request, size, gap, picture)
-                if _free(b, taken, picture)
-            ),
-            None,
-        )
+        box = _first_free(_near(request, size, gap), taken, picture)
+        if box is None:
+            box = _first_free(_scan(request.anchor, size, picture), taken, picture)
         if box is None:
             dropped.append(request)
             continue
-        taken.append(box)
+        taken = np.vstack([taken, _corners([box])])
         placed.append(PlacedLabel(request, box, _leader(request, box, gap)))
     return Placement(tuple(placed), tuple(dropped))
+
+
+def _corners(boxes: Sequence[Box]) -> np.ndarray:
+    """Return the boxes as rows (x0, y0, x1, y1)."""
+    return np.array([(b.x0, b.y0, b.x1, b.y1) for b in boxes], float).reshape(-1, 4)
+
+
+def _first_free(
+    candidates: Sequence[Box] | np.ndarray,
+    taken: np.ndarray,
+    picture: tuple[float, float],
+) -> Box | None:
+    """Return the first candidate inside the picture that overlaps no taken box.
+
+    ``candidates``: boxes, or their rows (x0, y0, x1, y1). The tests are those of
+    :meth:`Box.inside` and :meth:`Box.overlaps`, on the same numbers, all at once.
+    """
+    c = candidates if isinstance(candidates, np.ndarray) else _corners(candidates)
+    x0, y0, x1, y1 = c[:, 0:1], c[:, 1:2], c[:, 2:3], c[:, 3:4]
+    free = (x0 >= 0) & (y0 >= 0) & (x1 <= picture[0]) & (y1 <= picture[1])
+    if len(taken):
+        t0, u0, t1, u1 = taken[:, 0], taken[:, 1], taken[:, 2], taken[:, 3]
+        hit = (x0 < t1) & (t0 < x1) & (y0 < u1) & (u0 < y1)
+        free &= ~hit.any(axis=1, keepdims=True)
+    first = np.flatnonzero(free[:, 0])
+    if not first.size:
+        return None
+    if not isinstance(candidates, np.ndarray):
+        return candidates[int(first[0])]
+    return Box(*(float(v) for v in c[first[0]]))
 
 
 def _leader(

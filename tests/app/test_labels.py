@@ -8,13 +8,15 @@ rectangle, and placement again from scratch (the placer is a pure function).
 from __future__ import annotations
 
 import itertools
+import math
 
 import pytest
 import shapely
 from hypothesis import given
 from hypothesis import strategies as st
 
-from app.ui.labels import Box, LabelRequest, label_size, place_labels
+from app.ui import labels
+from app.ui.labels import Box, LabelRequest, PlacedLabel, label_size, place_labels
 
 PICTURE = (640.0, 400.0)
 
@@ -85,6 +87,72 @@ def test_no_box_overlaps_another_a_marker_or_the_reserved_and_all_are_inside(
         )
         == placement
     )
+
+
+def reference_candidates(request: LabelRequest, size, gap, picture):
+    """Reference: the candidate boxes in the placer's documented order, one by one.
+
+    Centred on the anchor (``centred`` only), beside it in the eight directions, on
+    the rings (16 angles ``2 pi k / 16 - pi / 4`` each), then the picture's grid.
+    """
+    anchor = request.anchor
+    if request.centred:
+        yield labels._centred(anchor, size)
+    for d in labels._DIRECTIONS:
+        yield labels._beside(anchor, size, d, gap)
+    step = max(size[1], gap)
+    for ring in range(1, labels._RINGS + 1):
+        radius = gap + ring * step
+        for k in range(labels._RING_DIRECTIONS):
+            a = 2 * math.pi * k / labels._RING_DIRECTIONS - math.pi / 4
+            centre = (
+                anchor[0] + math.cos(a) * (radius + size[0] / 2),
+                anchor[1] + math.sin(a) * (radius + size[1] / 2),
+            )
+            yield labels._centred(centre, size)
+    yield from labels._scan(anchor, size, picture)
+
+
+def reference_place(asked, *, font_px, picture, markers=(), reserved=()):
+    """Reference: each label takes the first candidate inside the picture that overlaps
+    no box taken, tried one at a time with :meth:`Box.inside` and :meth:`Box.overlaps`."""
+    taken, placed, dropped = [*markers, *reserved], [], []
+    for request in asked:
+        size = label_size(request.text, font_px)
+        gap = max(font_px / 2, request.clearance)
+        box = next(
+            (
+                b
+                for b in reference_candidates(request, size, gap, picture)
+                if b.inside(*picture) and not any(b.overlaps(t) for t in taken)
+            ),
+            None,
+        )
+        if box is None:
+            dropped.append(request)
+            continue
+        taken.append(box)
+        placed.append(PlacedLabel(request, box, labels._leader(request, box, gap)))
+    return placed, dropped
+
+
+@given(requests, st.lists(boxes, max_size=40), st.lists(boxes, max_size=2))
+def test_the_placer_takes_the_first_free_candidate_as_a_plain_loop_does(
+    asked, markers, reserved
+) -> None:
+    """All candidates of a ring tested at once (arrays) place every label exactly where
+    the loop over them one by one does: the same boxes to the last bit, the same drops."""
+    placement = place_labels(
+        asked, font_px=14, picture=PICTURE, markers=markers, reserved=reserved
+    )
+    placed, dropped = reference_place(
+        asked, font_px=14, picture=PICTURE, markers=markers, reserved=reserved
+    )
+    assert list(placement.placed) == placed
+    assert [(b.x0, b.y0, b.x1, b.y1) for b in (p.box for p in placement.placed)] == [
+        (b.x0, b.y0, b.x1, b.y1) for b in (p.box for p in placed)
+    ]
+    assert list(placement.dropped) == dropped
 
 
 @given(st.lists(points, min_size=1, max_size=12))

@@ -219,7 +219,7 @@ def _centred(anchor: tuple[float, float], size: tuple[float, float]) -> Box:
     )
 
 
-# The ring directions' (cos, sin), from the angles _ring_boxes names.
+# (cos, sin) of the ring directions, at the angles :func:`_near` documents.
 _RING_UNIT = np.array(
     [
         (math.cos(a), math.sin(a))

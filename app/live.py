@@ -379,15 +379,9 @@ class LiveRun:
         scene = self._scene_fn()
         pose = live_pose_at(trace, t, scene, self._memo)
         shown = [s for s in trace.steps if s.t <= t + 1e-9]
-        path = [trace.start, *(s.pose for s in shown)]
-        pts = np.asarray([p[:2] for p in path], dtype=np.float64).reshape(-1, 2)
         step = shown[-1] if shown else None
         moved = [o for o in step.obstacles if o not in scene.obstacles] if step else []
-        with self._server.atomic():  # one update; quiet if a copy's browser has left
-            for view in self._views:
-                view.render_robot(pose)
-            self._trail.points = _polyline_segments(pts, _Z)
-            self._moving.points = _outline_segments(moved, _Z + 0.01)
+        self._show(pose, [trace.start, *(s.pose for s in shown)], moved)
 
     # ------------------------------------------------------------------ internals
 
@@ -450,14 +444,20 @@ class LiveRun:
     def _draw(
         self, state: LiveState, now: Scene, scene: Scene, path: list[Any]
     ) -> None:
-        pose = live_pose(state, now, self._memo)
-        pts = np.asarray([p[:2] for p in path], dtype=np.float64).reshape(-1, 2)
         outlines = [now.obstacles[m.obstacle] for m in scene.motions]
-        with self._server.atomic():  # one update; quiet if a copy's browser has left
+        self._show(live_pose(state, now, self._memo), path, outlines)
+
+    def _show(self, pose: Any, path: list[Any], moving: list[Any]) -> None:
+        """Draw the robot, its trail and the moving obstacles' outlines, as one update.
+
+        Quiet if a copy's browser has left (:meth:`ScopedTarget.atomic`).
+        """
+        pts = np.asarray([p[:2] for p in path], dtype=np.float64).reshape(-1, 2)
+        with self._server.atomic():
             for view in self._views:
                 view.render_robot(pose)
             self._trail.points = _polyline_segments(pts, _Z)
-            self._moving.points = _outline_segments(outlines, _Z + 0.01)
+            self._moving.points = _outline_segments(moving, _Z + 0.01)
 
 
 def _polyline_segments(points: FloatArray, z: float) -> FloatArray:

@@ -317,7 +317,8 @@ def place_labels(
         gap = max(font_px / 2, request.clearance)
         box = _first_free(_near(request, size, gap), taken, picture)
         if box is None:
-            box = _first_free(_scan(request.anchor, size, picture), taken, picture)
+            grid = _corners(_scan(request.anchor, size, picture))
+            box = _first_free(grid, taken, picture)
         if box is None:
             dropped.append(request)
             continue
@@ -332,28 +333,23 @@ def _corners(boxes: Sequence[Box]) -> np.ndarray:
 
 
 def _first_free(
-    candidates: Sequence[Box] | np.ndarray,
-    taken: np.ndarray,
-    picture: tuple[float, float],
+    candidates: np.ndarray, taken: np.ndarray, picture: tuple[float, float]
 ) -> Box | None:
     """Return the first candidate inside the picture that overlaps no taken box.
 
-    ``candidates``: boxes, or their rows (x0, y0, x1, y1). The tests are those of
+    ``candidates`` and ``taken`` are rows (x0, y0, x1, y1). The tests are those of
     :meth:`Box.inside` and :meth:`Box.overlaps`, on the same numbers, all at once.
     """
-    c = candidates if isinstance(candidates, np.ndarray) else _corners(candidates)
-    x0, y0, x1, y1 = c[:, 0:1], c[:, 1:2], c[:, 2:3], c[:, 3:4]
+    x0, y0, x1, y1 = (candidates[:, k : k + 1] for k in range(4))
     free = (x0 >= 0) & (y0 >= 0) & (x1 <= picture[0]) & (y1 <= picture[1])
     if len(taken):
-        t0, u0, t1, u1 = taken[:, 0], taken[:, 1], taken[:, 2], taken[:, 3]
+        t0, u0, t1, u1 = taken.T
         hit = (x0 < t1) & (t0 < x1) & (y0 < u1) & (u0 < y1)
         free &= ~hit.any(axis=1, keepdims=True)
     first = np.flatnonzero(free[:, 0])
     if not first.size:
         return None
-    if not isinstance(candidates, np.ndarray):
-        return candidates[int(first[0])]
-    return Box(*(float(v) for v in c[first[0]]))
+    return Box(*(float(v) for v in candidates[first[0]]))
 
 
 def _leader(

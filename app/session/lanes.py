@@ -253,6 +253,18 @@ ANSWER_TIMEOUT_S = 120.0
 """Longest wait for the template's answer [s]: its first one comes once it has loaded
 the planners and compiled loops (seconds; a minute where numba's cache is cold)."""
 
+
+def readable(fd: int, timeout: float | None) -> bool:
+    """Whether ``fd`` becomes readable within ``timeout`` seconds (None: wait for it).
+
+    ``poll``, not ``select``: a server with a hall's websockets open holds more than
+    ``select``'s 1024 file descriptors, and a worker started then gets a number above it.
+    """
+    poller = select.poll()
+    poller.register(fd, select.POLLIN)
+    return bool(poller.poll(None if timeout is None else max(0, round(timeout * 1e3))))
+
+
 _PID = struct.Struct("<q")
 _MAX_REQUEST = 1 << 20
 
@@ -305,8 +317,7 @@ class Forked:
     def wait(self, timeout: float | None = None, *, raising: bool = True) -> int | None:
         """Wait until the process ended; ``subprocess.TimeoutExpired`` if it did not."""
         if self.pid is not None and self.returncode is None and self._pidfd is not None:
-            ready, _, _ = select.select([self._pidfd], [], [], timeout)
-            if ready:
+            if readable(self._pidfd, timeout):
                 self.returncode = 0
                 os.close(self._pidfd)
                 self._pidfd = None
@@ -507,8 +518,7 @@ def serve(fd: int, linger: float = LINGER_S) -> None:
     sock = socket.socket(fileno=fd)
     idle_since: float | None = None
     while True:
-        ready, _, _ = select.select([sock], [], [], 1.0)
-        if ready:
+        if readable(sock.fileno(), 1.0):
             try:
                 message, fds, _, _ = socket.recv_fds(sock, _MAX_REQUEST, 2)
             except OSError:
@@ -526,7 +536,7 @@ def serve(fd: int, linger: float = LINGER_S) -> None:
         elif idle_since is None:
             idle_since = time.monotonic()
         elif time.monotonic() - idle_since > linger:
-            if not select.select([sock], [], [], 0.0)[0]:
+            if not readable(sock.fileno(), 0.0):
                 return  # (a request that arrives after this finds the socket closed)
 
 

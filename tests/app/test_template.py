@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib
+import os
+import resource
 import sys
 import textwrap
 import threading
@@ -71,6 +74,37 @@ def test_workers_are_forks_of_one_template_and_close_ends_each():
         first.close()
         second.close()
     assert not any(pid is not None and process_running(pid) for pid in pids)
+
+
+@contextlib.contextmanager
+def descriptors_taken_up_to(highest: int):
+    """Hold every free file descriptor up to ``highest`` (a hall's open websockets)."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    assert hard == resource.RLIM_INFINITY or hard > highest + 64, "raise ulimit -n"
+    resource.setrlimit(resource.RLIMIT_NOFILE, (max(soft, highest + 64), hard))
+    held = [os.open(os.devnull, os.O_RDONLY)]
+    try:
+        while held[-1] < highest:
+            held.append(os.open(os.devnull, os.O_RDONLY))
+        yield
+    finally:
+        for fd in held:
+            os.close(fd)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+
+
+def test_a_worker_numbered_past_selects_limit_answers_and_ends():
+    # select() refuses descriptors from 1024 on; a server with 1,100 browsers connected
+    # gives a new worker's pidfd and pipes numbers above that.
+    with descriptors_taken_up_to(1100):
+        lane = ProcessLane(nice_of_me)
+        try:
+            assert lane(None)[0] >= 0
+            pid = lane.pid
+            assert pid is not None and process_running(pid)
+        finally:
+            lane.close()
+    assert not process_running(pid)
 
 
 def test_the_template_leaves_when_idle_and_a_new_one_comes_when_needed():

@@ -28,6 +28,7 @@ from viser import _messages
 
 import planners
 from app import start_app
+from app.classroom import room as room_module
 from app.classroom import wire
 from app.classroom.capacity import Capacity
 from app.classroom.room import FETCH_LABEL
@@ -373,3 +374,30 @@ def test_the_threads_a_class_took_come_back(hall):
         assert hall.wait_idle(30)
     assert wait_until(lambda: fair.threads() == 0, 20)
     assert threading.active_count() <= before + 1
+
+
+def test_what_a_class_freed_is_given_back_a_tick_after_it_left(hall, monkeypatch):
+    room = hall.classroom
+    given: list[float] = []
+    monkeypatch.setattr(
+        room_module, "give_back_freed_memory", lambda: given.append(time.monotonic())
+    )
+
+    def left() -> None:
+        assert wait_until(lambda: not room.counts()["watching"], 30)
+
+    with client(hall):
+        pass
+    left()
+    assert room._emptied_at is not None
+    room._give_back_memory()  # the class has just left: viser still holds its buffers
+    assert not given
+    with client(hall):  # a student comes back before the tick: nothing is given back
+        room._emptied_at = time.monotonic() - room_module.LOAD_SECONDS
+        room._give_back_memory()
+        assert not given and room._emptied_at is None
+    left()
+    room._emptied_at = time.monotonic() - room_module.LOAD_SECONDS  # a tick ago
+    assert wait_until(lambda: given, 10)  # the load thread's next tick
+    room._give_back_memory()
+    assert len(given) == 1  # once per class that leaves

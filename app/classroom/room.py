@@ -1040,10 +1040,9 @@ class Classroom:
         in reference cycles, which only a full collection frees: it runs here, once, when
         no one is dragging for the class, rather than in a random later edit of the
         presenter's (it holds the interpreter about 40 ms after 300 watchers, 0.3 s after
-        1,200). Then
-        :func:`planners.allocator.give_back_freed_memory` returns the memory to the
-        system. Not at the last student's disconnect: viser drops a connection's
-        buffers after that callback.
+        1,200). Then :func:`planners.allocator.give_back_freed_memory` returns the
+        memory to the system. Not at the last student's disconnect: viser drops a
+        connection's buffers after that callback.
         """
         emptied = self._emptied_at
         if emptied is None or time.monotonic() - emptied < LOAD_SECONDS:

@@ -253,6 +253,11 @@ ANSWER_TIMEOUT_S = 120.0
 """Longest wait for the template's answer [s]: its first one comes once it has loaded
 the planners and compiled loops (seconds; a minute where numba's cache is cold)."""
 
+_PID = struct.Struct("<q")
+_MAX_REQUEST = 1 << 20
+
+_TEMPLATE = "from app.session.lanes import serve; serve({fd}, {linger!r})"
+
 
 def readable(fd: int, timeout: float | None) -> bool:
     """Whether ``fd`` becomes readable within ``timeout`` seconds (None: wait for it).
@@ -263,12 +268,6 @@ def readable(fd: int, timeout: float | None) -> bool:
     poller = select.poll()
     poller.register(fd, select.POLLIN)
     return bool(poller.poll(None if timeout is None else max(0, round(timeout * 1e3))))
-
-
-_PID = struct.Struct("<q")
-_MAX_REQUEST = 1 << 20
-
-_TEMPLATE = "from app.session.lanes import serve; serve({fd}, {linger!r})"
 
 
 class Forked:

@@ -363,6 +363,11 @@ class Template:
         """Ask for a planner process; start the template first if there is none."""
         with self._lock:
             for attempt in (1, 2):
+                if self._proc is not None and self._proc.poll() is not None:
+                    # It lingered out or died. Asked anyway, it might not refuse: a
+                    # worker it forked an instant before holds its end of the socket
+                    # until that worker closes it, and the request would get no pid.
+                    self._stop()
                 if self._sock is None:
                     self._start()
                 try:

@@ -129,7 +129,7 @@ def test_the_template_leaves_when_idle_and_a_new_one_comes_when_needed():
         template.close()
 
 
-def test_a_killed_template_is_replaced_and_its_workers_go_on():
+def test_a_killed_template_is_replaced_and_its_workers_go_on(monkeypatch):
     template = Template(linger=30.0)
     worker = template.fork(0)
     assert worker.pid is not None
@@ -138,7 +138,19 @@ def test_a_killed_template_is_replaced_and_its_workers_go_on():
     lanes.os.kill(killed, lanes.signal.SIGKILL)
     assert wait_until(lambda: not process_running(killed), 10)
     assert process_running(worker.pid)  # a fork lives on its own
+    # The next request goes to a new template, never to the dead one's socket: a
+    # worker it forked an instant before its death may still hold that socket, and a
+    # request sent there would get no pid.
+    dead = template._sock
+    asked = []
+    send_fds = lanes.socket.send_fds
+    monkeypatch.setattr(
+        lanes.socket,
+        "send_fds",
+        lambda sock, *a: asked.append(sock) or send_fds(sock, *a),
+    )
     after = template.fork(0)
+    assert asked and dead not in asked
     assert after.pid is not None and template.pid() != killed
     for w in (worker, after):
         w.kill()

@@ -326,6 +326,7 @@ def start_app(
                 floor_map=floor_map,
                 capacity=capacity,
             )
+            assert app.classroom is not None  # _wire_classroom always makes one
             door.set_priority(app.classroom.is_presenter_connection)
         else:
             app = _wire(
@@ -486,8 +487,9 @@ def _guard(server: viser.ViserServer, *, everyone: bool) -> tuple[Door, FairExec
     )
     fair = FairExecutor(priority=door.is_priority)
     old = server._thread_executor
-    server._thread_executor = server.gui._thread_executor = fair
-    server.scene._thread_executor = fair
+    # viser's private pools, typed ThreadPoolExecutor, replaced on purpose by ours.
+    server._thread_executor = server.gui._thread_executor = fair  # pyright: ignore[reportAttributeAccessIssue]
+    server.scene._thread_executor = fair  # pyright: ignore[reportAttributeAccessIssue]
     old.shutdown(wait=False)
     for client_id in list(server._websock_server._live_connections):
         if not door.knows(client_id):

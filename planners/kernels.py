@@ -962,7 +962,7 @@ def occluded_by_cover(
     :func:`planners.visibility.sightlines.occluded_pairs`'s numpy version, with the C
     library's atan2 (which numpy's own can differ from in the last bit).
     """
-    sectors = table.shape[1]
+    sectors: int = table.shape[1]
     width = 2.0 * math.pi / sectors
     blocked = np.zeros(len(i), dtype=np.bool_)
     for k in range(len(i)):

@@ -917,7 +917,7 @@ def _sights(
     extra_free = np.zeros(0, dtype=bool)
     with _Helper(n >= _PIPELINED_VERTICES) as helper:
         if helper.threaded and len(border.edge_a):  # built here, not on the helper's
-            border.grid, border.edges.length  # noqa: B018
+            _ = border.grid, border.edges.length  # cached properties, filled in now
         table = _cover_on_both(helper, disks, points, sectors)
         pending: list[tuple[bool, int, IntArray, IntArray, Future[_Looked]]] = []
         for last, (bi, bj) in _last_marked(blocks):

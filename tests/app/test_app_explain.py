@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from PIL import Image
+from PIL import GifImagePlugin, Image
 from shapely import Polygon
 
 import planners
@@ -523,6 +523,7 @@ def test_every_step_into_a_video(tmp_path):
     assert code == 0
     steps = len(planners.explain_svg(load_scene(scenario)).steps)
     with Image.open(out) as video:
+        assert isinstance(video, GifImagePlugin.GifImageFile)
         # Pillow keeps a frame repeated as one frame shown as long: each step is one
         # picture shown 0.2 s (two frames at 10 frames a second).
         assert video.n_frames == steps

@@ -227,6 +227,7 @@ def test_the_live_caption_and_labels_read_from_the_back_of_the_hall(browser):
 
     app = start_app("06_four_obstacles_sensor", port=0, print_url=False)
     try:
+        assert app.explain is not None
         app.controller.edits.set_sensor_range(0.6)
         assert app.wait_idle(30)
         app.explain.choose("dsb")
@@ -255,6 +256,7 @@ def test_the_live_caption_and_labels_read_from_the_back_of_the_hall(browser):
         bounds = floor_bounds(scene)
         font = floor_font(bounds)
         explanation = app.explain.explainer.explanation
+        assert explanation is not None
         text = f"20/{len(explanation.steps)}  {explanation.steps[19].text}"
         caption = floor_caption(text, font, bounds)
         x0, y0, x1, y1 = caption.box

@@ -19,7 +19,7 @@ import pytest
 from PIL import Image
 
 import planners
-from app import start_app
+from app import Frame, PlannerApp, start_app
 from app.server import open_scenario
 from app.session import files
 from app.session.files import (
@@ -85,6 +85,13 @@ def _tree(root: Path) -> dict[str, bytes]:
         for p in sorted(root.rglob("*"))
         if p.is_file()
     }
+
+
+def _frame(planner: PlannerApp) -> Frame:
+    """The app's last frame (start_app returns once the first is drawn)."""
+    frame = planner.controller.frame
+    assert frame is not None
+    return frame
 
 
 # --------------------------------------------------------------------------- opening
@@ -441,7 +448,7 @@ def test_the_app_lays_the_map_on_the_floor_for_every_browser(scenes):
         try:
             assert client.wait_for(lambda: ("", "/floor_map") in client.nodes, 30)
             node = client.nodes[("", "/floor_map")]
-            shown = backdrop_of(planner.controller.frame.floor_map)
+            shown = backdrop_of(_frame(planner).floor_map)
             assert node["type"] == "ImageMessage"
             assert node["props"]["render_width"] == pytest.approx(shown.size[0])
             assert node["props"]["render_height"] == pytest.approx(shown.size[1])
@@ -468,13 +475,11 @@ def test_a_zip_uploaded_through_the_page_opens_and_a_bomb_does_not(scenes):
             assert client.wait_for(lambda: has_label(client, UPLOAD), 30)
             client.upload(UPLOAD, "bomb.zip", _bomb())
             assert wait_until(
-                lambda: "bytes unpacked" in (planner.controller.frame.message or ""), 30
-            ), planner.controller.frame.message
-            assert planner.controller.frame.floor_map is None
+                lambda: "bytes unpacked" in (_frame(planner).message or ""), 30
+            ), _frame(planner).message
+            assert _frame(planner).floor_map is None
             client.upload(UPLOAD, "lab.zip", _lab_zip())
-            assert wait_until(
-                lambda: planner.controller.frame.floor_map is not None, 30
-            )
+            assert wait_until(lambda: _frame(planner).floor_map is not None, 30)
             assert client.wait_for(lambda: ("", "/floor_map") in client.nodes, 30)
         finally:
             client.close()
@@ -493,7 +498,7 @@ def test_the_motion_downloads_are_what_the_robot_drives(scenes):
             assert client.wait_for(
                 lambda: has_label(client, "Download the path .csv"), 30
             )
-            frame = planner.controller.frame
+            frame = _frame(planner)
             path = frame.plans[frame.follow].path
             for kind in ("path .csv", "motion .csv", "path and motion .json"):
                 client.set_gui(client.uuid(f"Download the {kind}"), True)

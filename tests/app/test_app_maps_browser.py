@@ -44,14 +44,19 @@ def _pixels(png: bytes, points: np.ndarray) -> np.ndarray:
 def test_the_maps_picture_lies_under_the_scene_where_the_map_says(browser, tmp_path):
     planner = start_app(_room(tmp_path), print_url=False)
     try:
-        floor_map = planner.controller.frame.floor_map
+        frame = planner.controller.frame
+        assert frame is not None
+        floor_map = frame.floor_map
         with open_studio(planner, browser, width=W, height=H) as studio:
             shown = studio.picture(options=BARE)
+            assert studio.slide is not None
             camera = studio.slide.camera
             planner.controller.set_layer("map", False)
             assert planner.wait_idle(30)
             hidden = studio.picture(options=BARE)
-        boundary = np.asarray(planner.controller.scene.boundary.exterior.coords)
+        scene = planner.controller.scene
+        assert scene.boundary is not None
+        boundary = np.asarray(scene.boundary.exterior.coords)
     finally:
         planner.stop()
     # Unknown cells just beyond the walls' mesh (0.12 m thick), on all four sides.

@@ -47,7 +47,7 @@ DRAWN_JS = """() => {
     };
 }"""
 
-SAMPLES = [
+SAMPLES: list[tuple[str, float | None, str, list[int]]] = [
     # scenario, sensor range, method, steps (from 1)
     ("06_four_obstacles_sensor", 0.6, "dsb", [20]),
     ("06_four_obstacles_sensor", 0.6, "vg", [2]),

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import itertools
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -46,7 +47,7 @@ def explanations(path: Path):
     scene = planners.load_scene(path)
     plans = dict(planners.plan_all(scene))
     for method in METHODS:
-        kwargs = {} if method == "expansion" else {"plans": plans}
+        kwargs: dict[str, Any] = {} if method == "expansion" else {"plans": plans}
         layers = {k: k not in hidden_layers(method) for k in LAYERS}
         yield scene, plans, layers, explain(scene, method, **kwargs)
 
@@ -167,6 +168,7 @@ def test_a_sequence_keeps_its_layout_and_a_whole_scene_its_camera() -> None:
     for picture in pictures[1:]:
         assert picture.slide.camera == first.slide.camera
         assert picture.caption.box == first.caption.box
+        assert picture.slide.legend is not None and first.slide.legend is not None
         assert picture.slide.legend[1] == first.slide.legend[1]
         assert [r.text for r in picture.slide.legend[0]] == [
             r.text for r in first.slide.legend[0]
@@ -198,6 +200,7 @@ def test_options_title_and_legend() -> None:
         layers=layers,
         options=SlideOptions(title="Lecture 9"),
     )
+    assert titled.slide.title is not None
     assert titled.slide.title[0] == f"Lecture 9, step 3 of {len(explanation.steps)}"
     no_labels = explain_layout(
         scene,

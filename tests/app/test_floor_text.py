@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
 import shapely
@@ -113,7 +114,7 @@ def test_every_explain_steps_labels_are_placed_apart(path) -> None:
     bounds = floor_bounds(scene)
     font = floor_font(bounds)
     for method in METHODS:
-        kwargs = {} if method == "expansion" else {"plans": plans}
+        kwargs: dict[str, Any] = {} if method == "expansion" else {"plans": plans}
         explanation = explain(scene, method, **kwargs)
         for n in range(len(explanation.steps)):
             step = explanation.step(n)

@@ -38,14 +38,14 @@ class _Listener(http.server.BaseHTTPRequestHandler):
         self.send_response(204)
         self.end_headers()
 
-    def log_message(self, *args: Any) -> None:
+    def log_message(self, format: str, *args: Any) -> None:
         pass
 
 
 @pytest.fixture
 def listener() -> Iterator[tuple[int, list[str]]]:
     """An HTTP server on loopback that records every request it gets."""
-    heard: ClassVar[list[str]] = []
+    heard: list[str] = []
     handler = type("Listener", (_Listener,), {"heard": heard})
     server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
     thread = threading.Thread(target=server.serve_forever, daemon=True)
@@ -68,6 +68,7 @@ def test_the_presenters_page_shows_a_students_markup_as_text(browser, listener):
     port, heard = listener
     app = start_app("01_two_convex", port=0, print_url=False, presenter=True)
     try:
+        assert app.classroom is not None
         app.classroom.set_open(True)
         with (
             open_page(app, browser, url=app.presenter_url, dpr=DPR) as pres,

@@ -242,7 +242,8 @@ def round_(tree: Path, name: str, seconds: float) -> dict[str, Any]:
         stop = threading.Event()
         thread = threading.Thread(target=attack(name, server, stop), daemon=True)
         thread.start()
-        presenter.drag("/own" + GOAL, (5.0, 5.0), "start", owner)
+        xy = (5.0, 5.0)  # where the goal is dragged from; then the last place sent
+        presenter.drag("/own" + GOAL, xy, "start", owner)
         events = int(seconds * 30)
         start = time.perf_counter()
         for k in range(events):
@@ -269,7 +270,7 @@ def round_(tree: Path, name: str, seconds: float) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     parser.add_argument("--before", type=Path, required=True, help="the older tree")
     parser.add_argument("--rounds", type=int, default=1)
     parser.add_argument("--seconds", type=float, default=6.0)

@@ -52,7 +52,7 @@ import numpy.typing as npt
 
 from app.session.frames import RobotPose
 from app.session.pool import Ticker
-from app.ui.scoped import batch
+from app.ui.scoped import batch, quietly
 from app.ui.text import markdown_text
 from planners.bug.live import (
     LiveEvent,
@@ -523,7 +523,7 @@ class LivePanels:
             others = [p for p in self._panels if p is not moved]
         for panel in others:
             try:
-                panel.replay.value = min(t, panel.replay.max)
+                panel.show_replay(t)
             except Exception:
                 logger.exception("a Live DSB folder failed to update")
 
@@ -613,6 +613,14 @@ class LivePanel:
             self.replay.max = max(round(t, 2), 0.05)
             self.replay.value = min(t, self.replay.max)
             self._plot()
+
+    def show_replay(self, t: float) -> None:
+        """Move the replay slider to ``t`` [s] (another browser scrubbed).
+
+        Quiet if this folder's browser has just left (:func:`app.ui.scoped.quietly`).
+        """
+        with quietly(self._owner):
+            self.replay.value = min(t, self.replay.max)
 
     def _plot(self) -> None:
         data = self._run.recent_rates(self._window)

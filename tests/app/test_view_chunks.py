@@ -324,3 +324,38 @@ def test_a_live_robot_drawn_after_its_browser_left_goes_nowhere_quietly():
         if run is not None:
             run.close()
         server.stop()
+
+
+def test_a_replay_slider_moved_after_its_browser_left_goes_nowhere_quietly():
+    """Two presenter browsers: one scrubs the replay while the other leaves. The slider
+    of the one that left is moved without viser's warning of messages it will never
+    deliver."""
+    import warnings
+
+    from app.live import LivePanels, LiveRun
+    from app.ui.scoped import left
+    from tests.app.app_helpers import wait_until
+    from tests.viser_client import ViserClient
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    run = None
+    try:
+        browsers = [ViserClient(server.get_port()) for _ in range(2)]
+        assert wait_until(lambda: len(server.get_clients()) == 2, 30)
+        staying, leaving = server.get_clients().values()
+        scene = planners.load_scene(student_layout(4, layout="apart"))
+        run = LiveRun(lambda: scene, server, [], speed=20.0)
+        panels = LivePanels(run)
+        kept, gone = panels.add(staying), panels.add(leaving)
+        gone.replay.max = 1.0  # a run of a second to replay
+        browsers[1].close()
+        assert wait_until(lambda: left(leaving), 30)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            panels._show_replay(kept, 0.5)  # as from the staying browser's slider
+        assert gone.replay.value == 0.5
+        assert not [w for w in caught if "closed connection" in str(w.message)]
+    finally:
+        if run is not None:
+            run.close()
+        server.stop()

@@ -183,7 +183,8 @@ FETCH_LABEL = "Download the presenter's scene (.json)"
 """The button beside a refusal: the scene to open in one's own planner."""
 
 LOAD_SECONDS = 2.0
-"""How often the lecturer's banner shows the class's load again."""
+"""How often the lecturer's banner shows the class's load again, and how long the
+class must have been gone before what it freed is given back."""
 
 SLOW_BYTES = 256 * 1024
 """A browser with this much waiting in its socket is on a slow connection."""
@@ -662,8 +663,10 @@ class Classroom:
             tools.close()
         _close_copy(private, explain, live)
         self._refresh_banners()
-        if not seat.presenter and self._class_left():
-            self._emptied_at = time.monotonic()
+        if not seat.presenter:
+            with self._lock:
+                if self._class_left_locked():
+                    self._emptied_at = time.monotonic()
 
     def set_open(self, value: bool) -> None:
         """Let every follower edit the presenter's scene (a lab session), or take it back.
@@ -1028,29 +1031,31 @@ class Classroom:
                 logger.exception("could not show the class's load")
             self._give_back_memory()
 
-    def _class_left(self) -> bool:
-        """Whether no one but presenters is seated."""
-        with self._lock:
-            return all(s.presenter for s in self._seats.values())
+    def _class_left_locked(self) -> bool:
+        """Whether no one but presenters is seated (the caller holds the lock)."""
+        return all(s.presenter for s in self._seats.values())
 
     def _give_back_memory(self) -> None:
         """Give back what the class freed, once it has been gone a whole load tick.
 
         Every :data:`LOAD_SECONDS`. A browser's connection leaves a few hundred objects
-        in reference cycles, which only a full collection frees: it runs here, once, when
-        no one is dragging for the class, rather than in a random later edit of the
-        presenter's (it holds the interpreter about 40 ms after 300 watchers, 0.3 s after
-        1,200). Then :func:`planners.allocator.give_back_freed_memory` returns the
-        memory to the system. Not at the last student's disconnect: viser drops a
-        connection's buffers after that callback.
+        in reference cycles, which only a full collection frees: it runs here, once per
+        class that leaves, rather than at a random later moment (it holds the
+        interpreter for tens of milliseconds after a hall of 300, and the presenter may
+        be dragging then as at any other time). Then
+        :func:`planners.allocator.give_back_freed_memory` returns the memory to the
+        system. Not at the last student's disconnect: viser drops a connection's
+        buffers after that callback.
         """
-        emptied = self._emptied_at
-        if emptied is None or time.monotonic() - emptied < LOAD_SECONDS:
-            return
-        self._emptied_at = None
-        if self._class_left():
-            gc.collect()
-            give_back_freed_memory()
+        with self._lock:
+            emptied = self._emptied_at
+            if emptied is None or time.monotonic() - emptied < LOAD_SECONDS:
+                return
+            self._emptied_at = None
+            if not self._class_left_locked():
+                return
+        gc.collect()
+        give_back_freed_memory()
 
     # ------------------------------------------------------------------ the seat's GUI
 

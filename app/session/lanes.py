@@ -53,6 +53,7 @@ __all__ = [
 
 import atexit
 import contextlib
+import errno
 import logging
 import os
 import pickle
@@ -259,15 +260,19 @@ _MAX_REQUEST = 1 << 20
 _TEMPLATE = "from app.session.lanes import serve; serve({fd}, {linger!r})"
 
 
-def readable(fd: int, timeout: float | None) -> bool:
-    """Whether ``fd`` becomes readable within ``timeout`` seconds (None: wait for it).
+def _readable(fd: int, timeout: float | None) -> bool:
+    """Whether ``fd`` becomes readable (or its peer hangs up) within ``timeout`` seconds.
 
-    ``poll``, not ``select``: a server with a hall's websockets open holds more than
-    ``select``'s 1024 file descriptors, and a worker started then gets a number above it.
+    None waits for it. ``poll``, not ``select``: a server with a hall's websockets open
+    holds more than ``select``'s 1024 file descriptors, and a worker started then gets a
+    number above it. OSError (EBADF) for a descriptor that is not open.
     """
     poller = select.poll()
     poller.register(fd, select.POLLIN)
-    return bool(poller.poll(None if timeout is None else max(0, round(timeout * 1e3))))
+    events = poller.poll(None if timeout is None else max(0.0, timeout * 1e3))
+    if any(mask & select.POLLNVAL for _, mask in events):
+        raise OSError(errno.EBADF, f"file descriptor {fd} is not open")
+    return bool(events)
 
 
 class Forked:
@@ -316,7 +321,7 @@ class Forked:
     def wait(self, timeout: float | None = None, *, raising: bool = True) -> int | None:
         """Wait until the process ended; ``subprocess.TimeoutExpired`` if it did not."""
         if self.pid is not None and self.returncode is None and self._pidfd is not None:
-            if readable(self._pidfd, timeout):
+            if _readable(self._pidfd, timeout):
                 self.returncode = 0
                 os.close(self._pidfd)
                 self._pidfd = None
@@ -367,6 +372,8 @@ class Template:
                     # It lingered out or died. Asked anyway, it might not refuse: a
                     # worker it forked an instant before holds its end of the socket
                     # until that worker closes it, and the request would get no pid.
+                    # (One that dies after this check still takes the request and
+                    # answers nothing: its Forked has no pid and counts as ended.)
                     self._stop()
                 if self._sock is None:
                     self._start()
@@ -522,7 +529,7 @@ def serve(fd: int, linger: float = LINGER_S) -> None:
     sock = socket.socket(fileno=fd)
     idle_since: float | None = None
     while True:
-        if readable(sock.fileno(), 1.0):
+        if _readable(sock.fileno(), 1.0):
             try:
                 message, fds, _, _ = socket.recv_fds(sock, _MAX_REQUEST, 2)
             except OSError:
@@ -540,7 +547,7 @@ def serve(fd: int, linger: float = LINGER_S) -> None:
         elif idle_since is None:
             idle_since = time.monotonic()
         elif time.monotonic() - idle_since > linger:
-            if not readable(sock.fileno(), 0.0):
+            if not _readable(sock.fileno(), 0.0):
                 return  # (a request that arrives after this finds the socket closed)
 
 

@@ -18,14 +18,19 @@ from __future__ import annotations
 
 __all__ = [
     "COPIES_PER_CORE",
+    "OPEN_FILES_RESERVE",
     "SEATS_PER_CORE",
     "Capacity",
     "Load",
+    "fit_open_files",
     "full_html",
     "load_text",
     "no_copy_html",
+    "open_files_for",
+    "raise_open_files",
 ]
 
+import contextlib
 import dataclasses
 import os
 
@@ -34,6 +39,10 @@ SEATS_PER_CORE = 150
 
 COPIES_PER_CORE = 5
 """Students' copies one core serves while the presenter drags (each still updates)."""
+
+OPEN_FILES_RESERVE = 512
+"""Open files the app holds besides its browsers' sockets: its own files, libraries,
+and the pipes of its planner processes and of the copies' workers."""
 
 RUN_AT_HOME = (
     "To try your own ideas now, run the planner on your own laptop: "
@@ -64,6 +73,57 @@ class Capacity:
         """
         n = max(1, cores if cores is not None else (os.cpu_count() or 1))
         return cls(seats=SEATS_PER_CORE * n, copies=COPIES_PER_CORE * n)
+
+
+def open_files_for(capacity: Capacity) -> int:
+    """Return how many files a server with ``capacity`` may have open.
+
+    A socket per seat, as many again for browsers that come while the class is full
+    (each is told so over its own connection), and :data:`OPEN_FILES_RESERVE`.
+
+    Examples
+    --------
+    >>> open_files_for(Capacity(300, 10))
+    1112
+    """
+    return 2 * capacity.seats + OPEN_FILES_RESERVE
+
+
+def fit_open_files(capacity: Capacity, limit: int) -> Capacity:
+    """Return ``capacity`` with no more seats than ``limit`` open files serve.
+
+    Examples
+    --------
+    >>> fit_open_files(Capacity(1200, 40), 1024)
+    Capacity(seats=256, copies=40)
+    >>> fit_open_files(Capacity(300, 10), 4096)
+    Capacity(seats=300, copies=10)
+    """
+    seats = max(1, (limit - OPEN_FILES_RESERVE) // 2)
+    if capacity.seats <= seats:
+        return capacity
+    return dataclasses.replace(capacity, seats=seats)
+
+
+def raise_open_files(needed: int) -> int:
+    """Raise this process's limit of open files to ``needed`` where the system lets it.
+
+    Never lowers it and never goes past the hard limit (a lecturer's laptop often
+    starts programs with a soft limit of 1024, or 256 on macOS, under a far higher
+    hard one). Returns the limit now; ``needed`` where there is no such limit
+    (Windows).
+    """
+    try:
+        import resource  # noqa: PLC0415 - Unix only
+    except ImportError:
+        return needed
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft == resource.RLIM_INFINITY or soft >= needed:
+        return needed if soft == resource.RLIM_INFINITY else soft
+    want = needed if hard == resource.RLIM_INFINITY else min(needed, hard)
+    with contextlib.suppress(ValueError, OSError):  # (macOS caps it lower still)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (want, hard))
+    return resource.getrlimit(resource.RLIMIT_NOFILE)[0]
 
 
 @dataclasses.dataclass(frozen=True)

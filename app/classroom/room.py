@@ -103,7 +103,16 @@ from typing import Any, cast
 import viser
 
 from app.classroom.audience import Audience
-from app.classroom.capacity import Capacity, Load, full_html, load_text, no_copy_html
+from app.classroom.capacity import (
+    Capacity,
+    Load,
+    fit_open_files,
+    full_html,
+    load_text,
+    no_copy_html,
+    open_files_for,
+    raise_open_files,
+)
 from app.classroom.watch import WatchPanel
 from app.classroom.wire import class_rate, mute, share_encoding, stop_sharing
 from app.explain.panel import ExplainPanel
@@ -493,7 +502,7 @@ class Classroom:
         capacity: Capacity | None = None,
     ) -> None:
         self.server = server
-        self.capacity = capacity or Capacity.of_machine()
+        self.capacity = _fit_open_files(capacity or Capacity.of_machine())
         """Most browsers and copies the classroom takes."""
         self.controller = controller
         """The presenter's session."""
@@ -1238,6 +1247,28 @@ class _LoadMeter:
         if wall > 0:
             self.cpu = (now[1] - self._at[1]) / wall / (os.cpu_count() or 1)
         self._at = now
+
+
+def _fit_open_files(capacity: Capacity) -> Capacity:
+    """Raise the limit of open files to what ``capacity`` needs, or fit it to the limit.
+
+    A server past its limit would refuse connections without a word to anyone; the
+    lecturer reads in the terminal how many seats the limit allows instead.
+    """
+    needed = open_files_for(capacity)
+    limit = raise_open_files(needed)
+    if limit >= needed:
+        return capacity
+    fitted = fit_open_files(capacity, limit)
+    logger.warning(
+        "this process may open %d files (ulimit -n), enough for %d seats, not %d: "
+        "the class takes %d (raise the limit for more)",
+        limit,
+        fitted.seats,
+        capacity.seats,
+        fitted.seats,
+    )
+    return fitted
 
 
 def _fast_fn(controller: Controller) -> Any:

@@ -118,8 +118,10 @@ def raise_open_files(needed: int) -> int:
     except ImportError:
         return needed
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
-    if soft == resource.RLIM_INFINITY or soft >= needed:
-        return needed if soft == resource.RLIM_INFINITY else soft
+    if soft == resource.RLIM_INFINITY:
+        return needed
+    if soft >= needed:
+        return soft
     want = needed if hard == resource.RLIM_INFINITY else min(needed, hard)
     with contextlib.suppress(ValueError, OSError):  # (macOS caps it lower still)
         resource.setrlimit(resource.RLIMIT_NOFILE, (want, hard))

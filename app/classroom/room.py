@@ -674,7 +674,7 @@ class Classroom:
         self._refresh_banners()
         if not seat.presenter:
             with self._lock:
-                if self._class_left_locked():
+                if self._class_left():
                     self._emptied_at = time.monotonic()
 
     def set_open(self, value: bool) -> None:
@@ -1040,8 +1040,8 @@ class Classroom:
                 logger.exception("could not show the class's load")
             self._give_back_memory()
 
-    def _class_left_locked(self) -> bool:
-        """Whether no one but presenters is seated (the caller holds the lock)."""
+    def _class_left(self) -> bool:
+        """Whether no one but presenters is seated (under the lock)."""
         return all(s.presenter for s in self._seats.values())
 
     def _give_back_memory(self) -> None:
@@ -1061,7 +1061,7 @@ class Classroom:
             if emptied is None or time.monotonic() - emptied < LOAD_SECONDS:
                 return
             self._emptied_at = None
-            if not self._class_left_locked():
+            if not self._class_left():
                 return
         gc.collect()
         give_back_freed_memory()
